@@ -1,0 +1,46 @@
+# fsph: the README's two commands.
+#   make run   set up what is missing, build, run the default Taylor-rod case
+#   make test  set up what is missing, build, run the test suite (CI)
+# Other targets: make bench (performance figures), make docs (deck reference),
+# make test-slow (long studies), make clean.
+
+PYTHON ?= python3
+VENV ?= .venv
+VPY := $(VENV)/bin/python
+STAMP := $(VENV)/.fsph-installed
+SOURCES := $(wildcard src_f90/*.f90 src_f90/.f2py_f2cmap fsph/*.py) meson.build meson.options pyproject.toml
+DECK ?= cases/taylor_armco_fem.nml
+OUT ?= out/$(basename $(notdir $(DECK)))
+
+.PHONY: run test test-slow bench docs toolchain clean
+
+toolchain:
+	@PYTHON=$(PYTHON) ./scripts/bootstrap.sh
+
+$(VPY): | toolchain
+	$(PYTHON) -m venv $(VENV)
+	$(VPY) -m pip install -q --upgrade pip
+
+# regular (non-editable) install with pip's build isolation: the build
+# environment lives outside the source tree, which meson requires
+$(STAMP): $(SOURCES) | $(VPY)
+	$(VPY) -m pip install -q '.[test]'
+	touch $@
+
+run: toolchain $(STAMP)
+	$(VENV)/bin/fsph run $(DECK) -o $(OUT)
+
+test: toolchain $(STAMP)
+	$(VENV)/bin/pytest -m "not slow"
+
+test-slow: toolchain $(STAMP)
+	$(VENV)/bin/pytest -m slow
+
+bench: toolchain $(STAMP)
+	$(VPY) benchmarks/bench_fem.py --json docs/performance.json
+
+docs: toolchain $(STAMP)
+	$(VENV)/bin/fsph decks-reference -o docs/decks.md
+
+clean:
+	rm -rf $(VENV) build out .pytest_cache

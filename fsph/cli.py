@@ -1,0 +1,58 @@
+"""Command line: `fsph run DECK [-o DIR]`, `fsph decks-reference`, `fsph info`.
+
+Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
+to the last good snapshot are kept); 1 any other fsph error.
+"""
+
+import argparse
+import sys
+
+from .errors import DeckError, FsphError
+
+EXIT_OK, EXIT_ERROR, EXIT_DECK, EXIT_RUN_FAILED = 0, 1, 2, 3
+
+
+def _parser():
+    p = argparse.ArgumentParser(prog="fsph", description="Axisymmetric FEM-SPH impact hydrocode")
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a namelist deck")
+    r.add_argument("deck", help="namelist deck (.nml)")
+    r.add_argument("-o", "--output", help="output folder (default out/<deck name>)")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    d = sub.add_parser("decks-reference", help="print the deck reference (markdown)")
+    d.add_argument("-o", "--output", help="write to this file instead")
+    sub.add_parser("info", help="version and OpenMP threads")
+    return p
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "run":
+            from .driver import run
+            summary = run(args.deck, args.output, quiet=args.quiet)
+            return EXIT_RUN_FAILED if summary["status"] == "failed" else EXIT_OK
+        if args.command == "decks-reference":
+            from .deck import reference_markdown
+            text = reference_markdown()
+            if args.output:
+                with open(args.output, "w") as fh:
+                    fh.write(text)
+            else:
+                sys.stdout.write(text)
+            return EXIT_OK
+        if args.command == "info":
+            from . import __version__, threads
+            print(f"fsph {__version__}, OpenMP threads: {threads()}")
+            return EXIT_OK
+    except DeckError as err:
+        print(f"fsph: error: {err}", file=sys.stderr)
+        return EXIT_DECK
+    except FsphError as err:
+        print(f"fsph: error: {err}", file=sys.stderr)
+        return EXIT_ERROR
+    return EXIT_ERROR
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,483 @@
+"""Input decks: legacy-style Fortran namelists read with f90nml.
+
+One group per concern. ``load(path)`` returns a validated plain dict with
+every documented default filled in, or raises ``DeckError`` naming the file,
+the group, the key and what was expected. The schema below is the single
+source of the deck reference (``docs/decks.md`` is generated from it by
+``python -m fsph decks-reference``).
+"""
+
+import copy
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import f90nml
+
+from .errors import DeckError
+from .materials import EOS_MODELS, LIBRARY, STRENGTH_MODELS
+
+REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Key:
+    """One namelist key: type, default, unit, meaning and admissible values."""
+
+    kind: str                 # 'float', 'int', 'str', 'bool', 'float2'
+    default: object
+    unit: str
+    doc: str
+    choices: tuple = ()
+    lower: float = None       # admissible range; None = unbounded
+    upper: float = None
+    lower_open: bool = False  # True: value must be > lower (not >=)
+    upper_open: bool = False
+    implemented: tuple = ()   # subset of choices available in this version
+
+
+@dataclass(frozen=True)
+class Group:
+    doc: str
+    keys: dict
+    repeatable: bool = False
+    required: bool = False
+    min_count: int = 0
+
+
+def _pos(doc, unit, default=REQUIRED):
+    return Key("float", default, unit, doc, lower=0.0, lower_open=True)
+
+
+SCHEMA = {
+    "control": Group(
+        "Run control and numerical parameters of the cycle.",
+        {
+            "title": Key("str", "", "-", "Free text naming the case (copied to summary.json)."),
+            "mode": Key("str", "fem", "-",
+                        "Discretisation mode: fem (elements only), sph (particles only), "
+                        "fixed (FEM-SPH coupling as declared), adaptive (elements converted "
+                        "to particles where they distort).",
+                        choices=("fem", "sph", "fixed", "adaptive"), implemented=("fem",)),
+            "end_time": _pos("Physical time at which the run stops.", "s"),
+            "dt_safety": Key("float", 0.6, "-",
+                             "Time-step safety factor s: dt = s * min_e L_min/(Q + sqrt(Q^2 + c^2)). "
+                             "0.6 leaves margin for the axisymmetric hoop stiffness of elements "
+                             "next to the axis.", lower=0.0, upper=1.0, lower_open=True),
+            "c_q": Key("float", 1.5, "-",
+                       "Quadratic artificial-viscosity coefficient C_Q in "
+                       "q = rho (C_Q L tr d)^2 + C_L rho c L |tr d| (compression only, L = sqrt(A)). "
+                       "1.5 is the customary von Neumann-Richtmyer value.", lower=0.0),
+            "c_l": Key("float", 0.06, "-",
+                       "Linear artificial-viscosity coefficient C_L (see c_q). 0.06 is the "
+                       "customary value of explicit Lagrangian codes.", lower=0.0),
+            "dt_floor_ratio": Key("float", 1.0e-3, "-",
+                                  "The run stops with a diagnostic when the stable step falls "
+                                  "below this fraction of the initial step.",
+                                  lower=0.0, upper=1.0, lower_open=True, upper_open=True),
+            "max_cycles": Key("int", 50_000_000, "-", "Hard limit on the number of cycles.",
+                              lower=1),
+        },
+        required=True,
+    ),
+    "material": Group(
+        "A material, referred to by name from &body. Repeatable. Start from a library "
+        "entry with `library = '...'` and override any key; or give every key needed by "
+        "the chosen models. Elasticity: either youngs_modulus + poisson_ratio, or "
+        "shear_modulus (+ bulk_modulus for the linear EOS; the Mie-Grueneisen bulk "
+        "modulus is rho0 c0^2).",
+        {
+            "name": Key("str", REQUIRED, "-", "Name used by &body material."),
+            "library": Key("str", None, "-", "Library entry to start from.",
+                           choices=tuple(LIBRARY)),
+            "strength": Key("str", REQUIRED, "-", "Strength model.",
+                            choices=tuple(STRENGTH_MODELS)),
+            "eos": Key("str", REQUIRED, "-", "Equation of state.", choices=tuple(EOS_MODELS)),
+            "density": _pos("Reference density rho0.", "kg/m^3"),
+            "youngs_modulus": _pos("Young's modulus E.", "Pa", None),
+            "poisson_ratio": Key("float", None, "-", "Poisson's ratio nu.",
+                                 lower=0.0, upper=0.5, upper_open=True),
+            "shear_modulus": _pos("Shear modulus G.", "Pa", None),
+            "bulk_modulus": _pos("Bulk modulus K (linear EOS p = K (rho/rho0 - 1)).", "Pa", None),
+            "yield_stress": _pos("Initial yield stress Y0 (epp, bilinear).", "Pa", None),
+            "tangent_modulus": Key("float", None, "Pa",
+                                   "Tangent modulus E_T of the bilinear model (0 <= E_T < E).",
+                                   lower=0.0),
+            "jc_a": Key("float", None, "Pa", "Johnson-Cook A.", lower=0.0),
+            "jc_b": Key("float", None, "Pa", "Johnson-Cook B.", lower=0.0),
+            "jc_n": _pos("Johnson-Cook hardening exponent n.", "-", None),
+            "jc_c": Key("float", None, "-", "Johnson-Cook strain-rate coefficient C.", lower=0.0),
+            "jc_m": _pos("Johnson-Cook thermal-softening exponent m.", "-", None),
+            "jc_ref_strain_rate": _pos("Johnson-Cook reference strain rate.", "1/s", 1.0),
+            "melt_temperature": _pos("Melting temperature T_melt (Johnson-Cook).", "K", None),
+            "room_temperature": _pos("Room and initial temperature.", "K", 293.15),
+            "specific_heat": _pos("Specific heat c_v for adiabatic heating (Johnson-Cook).",
+                                  "J/(kg K)", None),
+            "taylor_quinney": Key("float", 0.9, "-",
+                                  "Fraction of plastic work turned into heat (Taylor-Quinney).",
+                                  lower=0.0, upper=1.0),
+            "c0": _pos("Mie-Grueneisen bulk sound speed c0 (Us = c0 + s up).", "m/s", None),
+            "s": _pos("Mie-Grueneisen Us-up slope s.", "-", None),
+            "gamma0": Key("float", None, "-", "Grueneisen coefficient Gamma0.", lower=0.0),
+            "p_min": Key("float", None, "Pa",
+                         "Pressure cut-off (spall): pressure never falls below p_min (<= 0). "
+                         "Unset: no cut-off.", upper=0.0),
+        },
+        repeatable=True, required=True, min_count=1,
+    ),
+    "body": Group(
+        "A body: a geometry generator, its resolution, its material and initial velocity. "
+        "Repeatable. The rod generator meshes the rectangle 0 <= r <= radius, "
+        "z_base <= z <= z_base + length into n_radial x n_axial quadrilaterals, each split "
+        "into 4 crossed triangles through a centre node.",
+        {
+            "name": Key("str", REQUIRED, "-", "Body name."),
+            "material": Key("str", REQUIRED, "-", "Name of a &material."),
+            "geometry": Key("str", "rod", "-", "Geometry generator.", choices=("rod",)),
+            "discretisation": Key("str", "elements", "-", "elements or particles.",
+                                  choices=("elements", "particles"), implemented=("elements",)),
+            "radius": _pos("Rod radius.", "m"),
+            "length": _pos("Rod length.", "m"),
+            "z_base": Key("float", 0.0, "m", "Axial position of the lower end face."),
+            "n_radial": Key("int", REQUIRED, "-", "Quadrilaterals across the radius.", lower=1),
+            "n_axial": Key("int", REQUIRED, "-", "Quadrilaterals along the length.", lower=1),
+            "velocity_z": Key("float", 0.0, "m/s", "Initial axial velocity (negative: towards -z)."),
+        },
+        repeatable=True, required=True, min_count=1,
+    ),
+    "boundary": Group(
+        "A rigid, fixed, frictionless plane (e.g. the Taylor anvil). Repeatable. Bodies stay "
+        "on the side the normal points to.",
+        {
+            "type": Key("str", "rigid_plane", "-", "Boundary type.", choices=("rigid_plane",)),
+            "point": Key("float2", (0.0, 0.0), "m", "A point (r, z) of the plane."),
+            "normal": Key("float2", (0.0, 1.0), "-", "Normal (r, z) towards the bodies "
+                          "(normalised by fsph; must not be zero)."),
+        },
+        repeatable=True,
+    ),
+    "output": Group(
+        "What is written and how often.",
+        {
+            "n_snapshots": Key("int", 10, "-",
+                               "Snapshots at equal intervals of end_time (plus t = 0).", lower=1),
+            "n_progress": Key("int", 20, "-", "Progress lines printed over the run.", lower=1),
+            "history_every": Key("int", 10, "-", "Cycles between time-history records.", lower=1),
+            "vtu": Key("bool", True, "-", "Write a ParaView series (.pvd + .vtu)."),
+            "reference": Key("str", None, "-",
+                             "JSON file of reference (experimental or analytic) values, "
+                             "relative to the deck's folder."),
+        },
+    ),
+    "metrics": Group(
+        "Case metrics written to summary.json.",
+        {
+            "kind": Key("str", "none", "-",
+                        "taylor: final length L, maximum diameter D and width W at "
+                        "w_height above the impact face; bar_wave: stress plateau and wave "
+                        "front along a line r = probe_radius.",
+                        choices=("none", "taylor", "bar_wave")),
+            "body": Key("str", None, "-", "Body measured (default: the first body)."),
+            "w_height": _pos("Height above the impact face at which W is measured "
+                             "(default 0.2 L0 of the body).", "m", None),
+            "probe_radius": _pos("Radius of the bar_wave sampling line.", "m", None),
+            "plateau_from": Key("float", None, "m",
+                                "bar_wave: start of the plateau window, distance from the "
+                                "impact face in the initial configuration.", lower=0.0),
+            "plateau_to": _pos("bar_wave: end of the plateau window (see plateau_from).", "m", None),
+        },
+    ),
+}
+
+
+# --------------------------------------------------------------------------
+def _type_name(kind):
+    return {"float": "a real number", "int": "an integer", "str": "a quoted string",
+            "bool": "a logical (.true. or .false.)", "float2": "two real numbers"}[kind]
+
+
+def _coerce(path, gname, kname, key, value):
+    """Check the type of one raw value and return it in Python form."""
+    expected = _type_name(key.kind)
+    if key.kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise DeckError(path, gname, kname, expected, value)
+        value = float(value)
+        if not math.isfinite(value):
+            raise DeckError(path, gname, kname, "a finite real number", value)
+    elif key.kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise DeckError(path, gname, kname, expected, value)
+    elif key.kind == "str":
+        if not isinstance(value, str):
+            raise DeckError(path, gname, kname, expected, value)
+        value = value.strip()
+    elif key.kind == "bool":
+        if not isinstance(value, bool):
+            raise DeckError(path, gname, kname, expected, value)
+    elif key.kind == "float2":
+        if (not isinstance(value, list) or len(value) != 2
+                or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value)):
+            raise DeckError(path, gname, kname, expected, value)
+        value = tuple(float(v) for v in value)
+        if not all(math.isfinite(v) for v in value):
+            raise DeckError(path, gname, kname, "two finite real numbers", list(value))
+    return value
+
+
+def _check_range(path, gname, kname, key, value):
+    if key.choices and value not in key.choices:
+        raise DeckError(path, gname, kname, "one of " + ", ".join(key.choices), value)
+    if key.implemented and value not in key.implemented:
+        raise DeckError(path, gname, kname,
+                        "one of " + ", ".join(key.implemented)
+                        + f" ('{value}' is not available in this version)", value)
+    if key.kind in ("float", "int"):
+        lo, hi = key.lower, key.upper
+        bad = ((lo is not None and (value <= lo if key.lower_open else value < lo))
+               or (hi is not None and (value >= hi if key.upper_open else value > hi)))
+        if bad:
+            raise DeckError(path, gname, kname, f"a value in {_range_text(key)} [{key.unit}]",
+                            value)
+
+
+def _range_text(key):
+    lo = "(-inf" if key.lower is None else ("(" if key.lower_open else "[") + f"{key.lower:g}"
+    hi = "inf)" if key.upper is None else f"{key.upper:g}" + (")" if key.upper_open else "]")
+    return f"{lo}, {hi}"
+
+
+def _group_label(gname, group, index):
+    return f"{gname} #{index + 1}" if group.repeatable else gname
+
+
+def _read_group(path, gname, group, raw, index, base=None):
+    """Validate one group instance; `base` gives defaults (library entry)."""
+    label = _group_label(gname, group, index)
+    out = {}
+    for kname, value in raw.items():
+        if kname not in group.keys:
+            raise DeckError(path, label, kname, "one of the keys of &" + gname + ": "
+                            + ", ".join(group.keys), "unknown key")
+        key = group.keys[kname]
+        if value is None:
+            raise DeckError(path, label, kname, _type_name(key.kind), "an empty value")
+        value = _coerce(path, label, kname, key, value)
+        _check_range(path, label, kname, key, value)
+        out[kname] = value
+    for kname, key in group.keys.items():
+        if kname in out:
+            continue
+        if base is not None and kname in base:
+            out[kname] = base[kname]
+        elif key.default is REQUIRED:
+            raise DeckError(path, label, kname, f"a value ({key.doc.rstrip('.')})", "missing key")
+        else:
+            out[kname] = copy.deepcopy(key.default)
+    return out
+
+
+def _groups(nml):
+    """Group name -> list of raw dicts, in file order."""
+    out = {}
+    for gname, value in nml.items():
+        items = list(value) if isinstance(value, list) else [value]
+        out.setdefault(gname.lower(), []).extend(dict(v) for v in items)
+    return out
+
+
+def _parse(path):
+    path = Path(path)
+    if not path.is_file():
+        raise DeckError(path, None, None, "an existing deck file", "no such file")
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DeckError(path, None, None, "a readable text file", str(exc)) from None
+    if "&" not in text:
+        raise DeckError(path, None, None, "at least one namelist group (&control ... /)",
+                        "no namelist group")
+    try:
+        parser = f90nml.Parser()
+        nml = parser.reads(text)
+    except Exception as exc:  # f90nml raises several types on broken syntax
+        raise DeckError(path, None, None, "valid Fortran namelist syntax",
+                        f"{type(exc).__name__}: {exc}") from None
+    return _groups(nml)
+
+
+# --------------------------------------------------------------------------
+def _validate_material(path, label, m):
+    need = {
+        "epp": ("yield_stress",),
+        "bilinear": ("yield_stress", "tangent_modulus"),
+        "johnson_cook": ("jc_a", "jc_b", "jc_n", "jc_c", "jc_m", "melt_temperature"),
+        "elastic": (),
+    }[m["strength"]]
+    if m["eos"] == "mie_gruneisen":
+        need += ("c0", "s", "gamma0")
+    for k in need:
+        if m.get(k) is None:
+            raise DeckError(path, label, k,
+                            f"a value (needed by strength '{m['strength']}' / eos '{m['eos']}')",
+                            "missing key")
+    has_e = m.get("youngs_modulus") is not None or m.get("poisson_ratio") is not None
+    has_g = m.get("shear_modulus") is not None
+    if has_e and has_g:
+        raise DeckError(path, label, "shear_modulus",
+                        "either youngs_modulus + poisson_ratio or shear_modulus, not both",
+                        m["shear_modulus"])
+    if has_e:
+        for k in ("youngs_modulus", "poisson_ratio"):
+            if m.get(k) is None:
+                raise DeckError(path, label, k, "a value (youngs_modulus and poisson_ratio "
+                                "go together)", "missing key")
+    elif not has_g:
+        raise DeckError(path, label, "shear_modulus",
+                        "elastic constants: youngs_modulus + poisson_ratio, or shear_modulus",
+                        "missing key")
+    elif m["eos"] == "linear" and m.get("bulk_modulus") is None:
+        raise DeckError(path, label, "bulk_modulus",
+                        "a value (the linear EOS with shear_modulus needs bulk_modulus)",
+                        "missing key")
+    if m["strength"] == "bilinear":
+        from .materials import elastic_moduli
+        _, _, e = elastic_moduli(m)
+        if not m["tangent_modulus"] < e:
+            raise DeckError(path, label, "tangent_modulus",
+                            f"a value below Young's modulus E = {e:.4g} Pa", m["tangent_modulus"])
+    if m["strength"] == "johnson_cook":
+        if m["specific_heat"] is None:
+            raise DeckError(path, label, "specific_heat",
+                            "a value (Johnson-Cook adiabatic heating needs c_v)", "missing key")
+        if not m["melt_temperature"] > m["room_temperature"]:
+            raise DeckError(path, label, "melt_temperature",
+                            f"a value above room_temperature = {m['room_temperature']} K",
+                            m["melt_temperature"])
+
+
+def load(path):
+    """Read and validate a deck; returns a dict of groups (lists for the
+    repeatable ones) with defaults filled in."""
+    path = Path(path)
+    raw = _parse(path)
+    for gname in raw:
+        if gname not in SCHEMA:
+            raise DeckError(path, gname, None, "one of the groups "
+                            + ", ".join("&" + g for g in SCHEMA), "unknown group")
+    deck = {"path": str(path), "dir": str(path.resolve().parent)}
+    for gname, group in SCHEMA.items():
+        items = raw.get(gname, [])
+        if group.required and not items:
+            raise DeckError(path, gname, None, f"a &{gname} group", "none found")
+        if not group.repeatable and len(items) > 1:
+            raise DeckError(path, gname, None, f"a single &{gname} group", f"{len(items)} groups")
+        if group.repeatable:
+            parsed = []
+            for i, item in enumerate(items):
+                base = None
+                if gname == "material" and "library" in item:
+                    lib = item["library"]
+                    if not isinstance(lib, str) or lib.strip() not in LIBRARY:
+                        raise DeckError(path, _group_label(gname, group, i), "library",
+                                        "one of " + ", ".join(LIBRARY), lib)
+                    base = {k: v for k, v in LIBRARY[lib.strip()].items() if k != "source"}
+                parsed.append(_read_group(path, gname, group, item, i, base))
+            deck[gname] = parsed
+        else:
+            deck[gname] = _read_group(path, gname, group, items[0] if items else {}, 0)
+
+    _cross_check(path, deck)
+    return deck
+
+
+def _unique_names(path, gname, items):
+    seen = set()
+    for i, item in enumerate(items):
+        if item["name"] in seen:
+            raise DeckError(path, f"{gname} #{i + 1}", "name", "a name not used by another "
+                            f"&{gname}", item["name"])
+        seen.add(item["name"])
+
+
+def _cross_check(path, deck):
+    _unique_names(path, "material", deck["material"])
+    _unique_names(path, "body", deck["body"])
+    for i, m in enumerate(deck["material"]):
+        _validate_material(path, f"material #{i + 1}", m)
+    names = [m["name"] for m in deck["material"]]
+    for i, b in enumerate(deck["body"]):
+        if b["material"] not in names:
+            raise DeckError(path, f"body #{i + 1}", "material",
+                            "the name of a &material: " + ", ".join(names), b["material"])
+    for i, bc in enumerate(deck["boundary"]):
+        if bc["normal"][0] == 0.0 and bc["normal"][1] == 0.0:
+            raise DeckError(path, f"boundary #{i + 1}", "normal", "a non-zero vector",
+                            list(bc["normal"]))
+    met = deck["metrics"]
+    bodies = [b["name"] for b in deck["body"]]
+    if met["body"] is not None and met["body"] not in bodies:
+        raise DeckError(path, "metrics", "body", "the name of a &body: " + ", ".join(bodies),
+                        met["body"])
+    if met["kind"] == "bar_wave":
+        for k in ("probe_radius", "plateau_from", "plateau_to"):
+            if met[k] is None:
+                raise DeckError(path, "metrics", k, "a value (needed by kind 'bar_wave')",
+                                "missing key")
+        if not met["plateau_to"] > met["plateau_from"]:
+            raise DeckError(path, "metrics", "plateau_to",
+                            f"a value above plateau_from = {met['plateau_from']} m",
+                            met["plateau_to"])
+    ref = deck["output"]["reference"]
+    if ref is not None and not (Path(deck["dir"]) / ref).is_file():
+        raise DeckError(path, "output", "reference", "an existing JSON file relative to the "
+                        "deck's folder", ref)
+
+
+# --------------------------------------------------------------------------
+def reference_markdown():
+    """The deck reference (docs/decks.md), generated from SCHEMA."""
+    lines = [
+        "# Deck reference",
+        "",
+        "Decks are Fortran namelist files (`&group key = value ... /`), read with f90nml.",
+        "Units are SI. Keys are case-insensitive. An unknown group or key, a value of the",
+        "wrong type or outside its range stops `fsph run` with a one-line message naming",
+        "the file, the group, the key and what was expected (exit code 2).",
+        "",
+        "This page is generated from `fsph/deck.py` (`python -m fsph decks-reference`);",
+        "a test keeps it in step.",
+        "",
+    ]
+    for gname, group in SCHEMA.items():
+        flags = []
+        if group.required:
+            flags.append("required")
+        if group.repeatable:
+            flags.append("repeatable")
+        lines += [f"## &{gname}" + (f" ({', '.join(flags)})" if flags else ""), "",
+                  group.doc, "",
+                  "| key | type | unit | default | meaning |", "|---|---|---|---|---|"]
+        for kname, key in group.keys.items():
+            if key.default is REQUIRED:
+                default = "**required**"
+            elif key.default is None:
+                default = "unset"
+            else:
+                default = f"`{key.default!r}`" if key.kind != "str" else f"`'{key.default}'`"
+            doc = key.doc
+            if key.choices:
+                doc += " Values: " + ", ".join(f"`{c}`" for c in key.choices) + "."
+            if key.implemented:
+                doc += " Available now: " + ", ".join(f"`{c}`" for c in key.implemented) + "."
+            if key.kind in ("float", "int") and (key.lower is not None or key.upper is not None):
+                doc += f" Range {_range_text(key)}."
+            lines.append(f"| `{kname}` | {key.kind} | {key.unit} | {default} | {doc} |")
+        lines.append("")
+    lines += ["## Material library", "",
+              "`library = 'NAME'` in a &material starts from these values:", "",
+              "| name | models | source |", "|---|---|---|"]
+    for name, entry in LIBRARY.items():
+        lines.append(f"| `{name}` | {entry['strength']} + {entry['eos']} | {entry['source']} |")
+    lines.append("")
+    return "\n".join(lines)

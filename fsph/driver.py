@@ -1,0 +1,126 @@
+"""Run a deck from start to end: set up, advance output interval by output
+interval, write history, snapshots and summary, report metrics."""
+
+import json
+import sys
+import time as wallclock
+from pathlib import Path
+
+import numpy as np
+
+from . import deck as deck_module
+from . import metrics as metrics_module
+from .errors import SimulationError
+from .output import RunWriter, write_summary
+from .simulation import Simulation, drain_history, threads
+
+
+def _targets(t_end, n_snapshots, n_progress):
+    """Merged output times: (time, write_snapshot, print_progress)."""
+    snaps = {round(k * 10**9 / n_snapshots): True for k in range(1, n_snapshots + 1)}
+    progs = {round(k * 10**9 / n_progress): True for k in range(1, n_progress + 1)}
+    keys = sorted(set(snaps) | set(progs))
+    return [(t_end * k / 10**9, k in snaps, k in progs) for k in keys]
+
+
+def _load_reference(deck):
+    ref = deck["output"]["reference"]
+    if ref is None:
+        return None
+    return json.loads((Path(deck["dir"]) / ref).read_text())
+
+
+def _format_metrics(comparison, metrics):
+    lines = []
+    for group, values in metrics.items():
+        for key, val in values.items():
+            if not isinstance(val, float):
+                continue
+            cmp = comparison.get(group, {}).get(key)
+            text = f"  {group}.{key:<14s} {val:10.4g}"
+            if cmp:
+                text += f"   reference {cmp['reference']:.4g}   error {cmp['error_percent']:+.1f} %"
+            lines.append(text)
+    return lines
+
+
+def run(deck_path, outdir=None, quiet=False, stream=None):
+    """Run one deck; returns the summary dict (its 'status' says whether the
+    run completed or failed). Raises DeckError for a bad deck."""
+    stream = stream or sys.stdout
+
+    def say(text):
+        if not quiet:
+            print(text, file=stream, flush=True)
+
+    t_wall0 = wallclock.perf_counter()
+    deck_path = Path(deck_path)
+    deck = deck_module.load(deck_path)
+    reference = _load_reference(deck)
+    outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
+    sim = Simulation(deck)
+    ctrl, out = deck["control"], deck["output"]
+    writer = RunWriter(outdir, deck_path.read_text(), ctrl["title"], vtu=out["vtu"])
+    say(f"fsph: {ctrl['title'] or deck_path.stem}: mode {ctrl['mode']}, {sim.n_elements} elements, "
+        f"{sim.n_nodes} nodes, {threads()} thread(s), end time {ctrl['end_time'] * 1e6:g} us")
+    say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s}")
+
+    last_good = sim.snapshot()
+    writer.write_snapshot(last_good)
+    writer.append_history(drain_history())
+    failure = None
+    try:
+        for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
+                                                  out["n_progress"]):
+            sim.advance(t)
+            writer.append_history(drain_history())
+            if snap_due:
+                last_good = sim.snapshot()
+                writer.write_snapshot(last_good)
+            if progress_due:
+                say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
+                    f"{sim.energies()['relative_error']:+11.3e} "
+                    f"{wallclock.perf_counter() - t_wall0:9.2f}")
+    except SimulationError as err:
+        failure = err
+        writer.append_history(drain_history())
+        writer.mark_failure(str(err))
+        say(f"fsph: run failed: {err}")
+        say(f"fsph: last good snapshot t = {last_good['time'] * 1e6:.4g} us kept in {writer.h5_path}")
+    writer.close()
+
+    energies = sim.energies()
+    case_metrics = metrics_module.case_metrics(last_good, deck)
+    comparison = metrics_module.compare(case_metrics, reference) if reference else {}
+    summary = {
+        "case": deck_path.stem,
+        "title": ctrl["title"],
+        "mode": ctrl["mode"],
+        "status": "failed" if failure else "completed",
+        "end_time_s": sim.time,
+        "requested_end_time_s": ctrl["end_time"],
+        "metrics_time_s": last_good["time"],
+        "cycles": sim.cycle,
+        "wall_time_s": wallclock.perf_counter() - t_wall0,
+        "threads": threads(),
+        "n_elements": sim.n_elements,
+        "n_nodes": sim.n_nodes,
+        "energy": {"initial_J": sim.initial_energy, "final_J": energies["total"],
+                   "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
+                   "relative_error": energies["relative_error"]},
+        "metrics": case_metrics,
+    }
+    if reference:
+        summary["reference"] = {"source": reference.get("source", ""), "comparison": comparison}
+    if failure:
+        summary["failure"] = {"message": str(failure), "code": failure.code,
+                              "index": failure.index, "time_s": failure.time,
+                              "cycle": failure.cycle}
+    write_summary(outdir, summary)
+
+    say(f"fsph: {summary['status']} at t = {sim.time * 1e6:.4g} us after {sim.cycle} cycles, "
+        f"{summary['wall_time_s']:.2f} s wall; energy error {energies['relative_error']:+.3e}")
+    for line in _format_metrics(comparison, case_metrics):
+        say(line)
+    say(f"fsph: outputs in {outdir}/ (fsph.h5, fsph.pvd, summary.json)")
+    return summary

@@ -1,0 +1,44 @@
+"""Exceptions that carry a message meant for the user, not a traceback."""
+
+
+class FsphError(Exception):
+    """Base class of every error fsph reports to the user."""
+
+
+class DeckError(FsphError):
+    """An input deck is unreadable or holds a value fsph cannot accept.
+
+    The message names the file, the namelist group, the key and what was
+    expected, on one line.
+    """
+
+    def __init__(self, path, group, key, expected, got=None):
+        self.path = str(path)
+        self.group = group
+        self.key = key
+        self.expected = expected
+        self.got = got
+        where = self.path
+        if group:
+            where += f": &{group}"
+        if key:
+            where += f" key '{key}'"
+        msg = f"{where}: expected {expected}"
+        if got is not None:
+            msg += f", got {got!r}"
+        super().__init__(msg)
+
+
+class SimulationError(FsphError):
+    """A run went bad (tangled mesh, NaN, collapsing time step...).
+
+    Attributes name what failed, which element or node, where and when.
+    """
+
+    def __init__(self, message, *, code, index=0, time=0.0, cycle=0, location=None):
+        self.code = code
+        self.index = index
+        self.time = time
+        self.cycle = cycle
+        self.location = location
+        super().__init__(message)

@@ -1,0 +1,130 @@
+"""Named material library and the packing of material constants into the
+property table the Fortran models read (layout of ``fsph_material``).
+
+Every library entry states where its numbers come from. Values are SI.
+"""
+
+import math
+
+import numpy as np
+
+# Property table layout: must match the prop_* indices of fsph_material.f90
+# (checked against the compiled layout at set-up).
+PROPERTY_NAMES = (
+    "rho0", "shear", "bulk", "yield", "hard",
+    "jc_a", "jc_b", "jc_n", "jc_c", "jc_m",
+    "t_melt", "t_room", "cv", "chi", "eps0",
+    "c0", "s", "gamma0", "pmin",
+)
+STRENGTH_MODELS = {"elastic": 1, "epp": 2, "bilinear": 3, "johnson_cook": 4}
+EOS_MODELS = {"linear": 1, "mie_gruneisen": 2}
+
+#: Pressure cut-off used when a material declares none [Pa]: no cut-off.
+NO_PRESSURE_CUTOFF = -1.0e300
+
+LIBRARY = {
+    "steel_elastic_bar": {
+        "source": "seed 000 section 3.1 (elastic bar): rho 7850 kg/m^3, E 206 GPa, nu 0.3",
+        "strength": "elastic", "eos": "linear",
+        "density": 7850.0, "youngs_modulus": 206.0e9, "poisson_ratio": 0.3,
+    },
+    "armco_iron": {
+        "source": ("Libersky et al. 1993 (J. Comput. Phys. 109:67) as used by seed 000 "
+                   "section 3.2: EPP + Mie-Grueneisen; values as read in a public SPH "
+                   "Taylor-bar example of the same geometry (s printed there as 1800, "
+                   "a typo for 1.8)"),
+        "strength": "epp", "eos": "mie_gruneisen",
+        "density": 7850.0, "shear_modulus": 80.0e9, "yield_stress": 0.6e9,
+        "c0": 3630.0, "s": 1.8, "gamma0": 1.81,
+    },
+    "armco_iron_jc": {
+        "source": ("Johnson & Cook 1983 Armco iron constants (read second-hand), "
+                   "with the Mie-Grueneisen EOS of armco_iron"),
+        "strength": "johnson_cook", "eos": "mie_gruneisen",
+        "density": 7850.0, "shear_modulus": 80.0e9,
+        "jc_a": 175.0e6, "jc_b": 380.0e6, "jc_n": 0.32, "jc_c": 0.06, "jc_m": 0.55,
+        "melt_temperature": 1811.0, "specific_heat": 452.0,
+        "c0": 3630.0, "s": 1.8, "gamma0": 1.81,
+    },
+    "steel_4340_epp": {
+        "source": "seed 000 section 3.3 projectile: EPP, rho 7830, E 206 GPa, nu 0.3, Y0 1.43 GPa",
+        "strength": "epp", "eos": "linear",
+        "density": 7830.0, "youngs_modulus": 206.0e9, "poisson_ratio": 0.3,
+        "yield_stress": 1.43e9,
+    },
+    "al_6061_t651": {
+        "source": "seed 000 table 1 (6061-T651 target): Johnson-Cook + Mie-Grueneisen",
+        "strength": "johnson_cook", "eos": "mie_gruneisen",
+        "density": 2710.0, "youngs_modulus": 69.0e9, "poisson_ratio": 0.33,
+        "c0": 5380.0, "s": 1.337, "gamma0": 2.1, "specific_heat": 880.0,
+        "jc_a": 0.262e9, "jc_b": 0.161e9, "jc_c": 0.0, "jc_n": 0.3156,
+        "melt_temperature": 920.0, "jc_m": 1.0, "p_min": -0.5e9,
+    },
+    "projectile_bilinear_concrete": {
+        "source": ("seed 000 section 3.4 projectile: bilinear hardening rho 8300, "
+                   "E 200 GPa, nu 0.3, Y0 1.72 GPa, E_T 15 GPa"),
+        "strength": "bilinear", "eos": "linear",
+        "density": 8300.0, "youngs_modulus": 200.0e9, "poisson_ratio": 0.3,
+        "yield_stress": 1.72e9, "tangent_modulus": 15.0e9,
+    },
+    "ofhc_copper": {
+        "source": ("Johnson & Cook 1983 OFHC copper (A 90 MPa, B 292 MPa, n 0.31, "
+                   "C 0.025, m 1.09, T_melt 1356 K); Mie-Grueneisen c0 3940 m/s, "
+                   "s 1.489, Gamma0 2.02 (Steinberg 1996 tables)"),
+        "strength": "johnson_cook", "eos": "mie_gruneisen",
+        "density": 8960.0, "shear_modulus": 46.0e9,
+        "jc_a": 90.0e6, "jc_b": 292.0e6, "jc_n": 0.31, "jc_c": 0.025, "jc_m": 1.09,
+        "melt_temperature": 1356.0, "specific_heat": 383.0,
+        "c0": 3940.0, "s": 1.489, "gamma0": 2.02,
+    },
+}
+
+
+def elastic_moduli(m):
+    """Shear and bulk moduli [Pa] and Young's modulus of a validated material
+    dict. Bulk is from (E, nu), or given, or rho0 c0^2 for Mie-Grueneisen."""
+    if m.get("youngs_modulus") is not None:
+        e, nu = m["youngs_modulus"], m["poisson_ratio"]
+        g = e / (2.0 * (1.0 + nu))
+        k = e / (3.0 * (1.0 - 2.0 * nu))
+    else:
+        g = m["shear_modulus"]
+        k = m.get("bulk_modulus")
+        if k is None:
+            k = m["density"] * m["c0"] ** 2
+        e = 9.0 * k * g / (3.0 * k + g)
+    if m["eos"] == "linear" and m.get("bulk_modulus") is not None:
+        k = m["bulk_modulus"]
+    return g, k, e
+
+
+def property_row(m):
+    """Pack one validated material dict into the Fortran property layout."""
+    g, k, e = elastic_moduli(m)
+    hard = 0.0
+    if m["strength"] == "bilinear":
+        et = m["tangent_modulus"]
+        hard = e * et / (e - et)
+    row = {
+        "rho0": m["density"], "shear": g, "bulk": k,
+        "yield": m.get("yield_stress") or 0.0, "hard": hard,
+        "jc_a": m.get("jc_a") or 0.0, "jc_b": m.get("jc_b") or 0.0,
+        "jc_n": m.get("jc_n") or 1.0, "jc_c": m.get("jc_c") or 0.0,
+        "jc_m": m.get("jc_m") or 1.0,
+        "t_melt": m.get("melt_temperature") or math.inf,
+        "t_room": m["room_temperature"], "cv": m.get("specific_heat") or 0.0,
+        "chi": m["taylor_quinney"], "eps0": m["jc_ref_strain_rate"],
+        "c0": m.get("c0") or 0.0, "s": m.get("s") or 0.0, "gamma0": m.get("gamma0") or 0.0,
+        "pmin": NO_PRESSURE_CUTOFF if m.get("p_min") is None else m["p_min"],
+    }
+    if not math.isfinite(row["t_melt"]):
+        row["t_melt"] = 1.0e300
+    return np.array([row[name] for name in PROPERTY_NAMES], dtype=np.float64)
+
+
+def property_table(materials):
+    """Property table (n_props, n_materials), strength and EOS ids."""
+    props = np.asfortranarray(np.stack([property_row(m) for m in materials], axis=1))
+    strength = np.array([STRENGTH_MODELS[m["strength"]] for m in materials], dtype=np.int32)
+    eos = np.array([EOS_MODELS[m["eos"]] for m in materials], dtype=np.int32)
+    return props, strength, eos

@@ -1,0 +1,82 @@
+"""Mesh generators: bodies as crossed-triangle T3 meshes (arrays only).
+
+Each quadrilateral is split into four triangles through a centre node: the
+pattern that keeps constant-strain triangles from locking in nearly
+incompressible plastic flow (ALGORITHMS.md section 1).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Mesh:
+    """Nodes x (n, 2) as (r, z) [m]; triangles conn (m, 3), 0-based,
+    counter-clockwise in the (r, z) plane."""
+
+    x: np.ndarray
+    conn: np.ndarray
+
+    @property
+    def n_nodes(self):
+        return len(self.x)
+
+    @property
+    def n_elements(self):
+        return len(self.conn)
+
+
+def crossed_quads(r_edges, z_edges):
+    """Crossed-triangle mesh of the tensor grid r_edges x z_edges."""
+    r_edges = np.asarray(r_edges, dtype=float)
+    z_edges = np.asarray(z_edges, dtype=float)
+    nr, nz = len(r_edges) - 1, len(z_edges) - 1
+    rr, zz = np.meshgrid(r_edges, z_edges)                   # (nz+1, nr+1)
+    corners = np.column_stack([rr.ravel(), zz.ravel()])
+    rc = 0.5 * (r_edges[:-1] + r_edges[1:])
+    zc = 0.5 * (z_edges[:-1] + z_edges[1:])
+    rcc, zcc = np.meshgrid(rc, zc)                            # (nz, nr)
+    centres = np.column_stack([rcc.ravel(), zcc.ravel()])
+    x = np.vstack([corners, centres])
+
+    j, i = np.meshgrid(np.arange(nz), np.arange(nr), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    c00 = j * (nr + 1) + i
+    c10 = c00 + 1
+    c01 = c00 + (nr + 1)
+    c11 = c01 + 1
+    m = len(corners) + j * nr + i
+    conn = np.concatenate([
+        np.column_stack([c00, c10, m]),   # bottom
+        np.column_stack([c10, c11, m]),   # right
+        np.column_stack([c11, c01, m]),   # top
+        np.column_stack([c01, c00, m]),   # left
+    ])
+    # order elements quad by quad (the four triangles of a quad together)
+    order = np.arange(len(conn)).reshape(4, -1).T.ravel()
+    return Mesh(x=x, conn=conn[order].astype(np.int64))
+
+
+def rod(radius, length, n_radial, n_axial, z_base=0.0):
+    """Solid rod 0 <= r <= radius, z_base <= z <= z_base + length."""
+    return crossed_quads(np.linspace(0.0, radius, n_radial + 1),
+                         np.linspace(z_base, z_base + length, n_axial + 1))
+
+
+GENERATORS = {"rod": lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
+                                   b["z_base"])}
+
+
+def body_mesh(body):
+    """Mesh of one validated &body."""
+    return GENERATORS[body["geometry"]](body)
+
+
+def boundary_edges(conn):
+    """Edges (k, 2) used by exactly one triangle, oriented as in their
+    triangle (the body lies to their left)."""
+    edges = np.concatenate([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]])
+    key = np.sort(edges, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return edges[counts[inverse.ravel()] == 1]

@@ -1,0 +1,107 @@
+"""Run outputs: HDF5 time history and snapshots (h5py), a ParaView series
+(.pvd + .vtu through meshio) and summary.json."""
+
+import json
+import os
+from pathlib import Path
+
+import h5py
+import meshio
+import numpy as np
+
+HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal")
+SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
+                        "internal_energy", "temperature", "material", "body")
+STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
+
+
+def _atomic_write_text(path, text):
+    """Write to a temporary name then rename: a crash never leaves a torn file."""
+    tmp = Path(str(path) + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+class RunWriter:
+    """Writes one run's outputs into a folder.
+
+    fsph.h5: /history/<field> (time [s], cycle, dt [s], kinetic [J],
+    internal [J], total [J]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
+    [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
+    fields; attributes time [s] and cycle. The deck text is stored in
+    /deck. vtu/ and fsph.pvd: the same snapshots for ParaView (points at
+    (r, z, 0)).
+    """
+
+    def __init__(self, outdir, deck_text, title, vtu=True):
+        self.outdir = Path(outdir)
+        self.outdir.mkdir(parents=True, exist_ok=True)
+        self.h5_path = self.outdir / "fsph.h5"
+        self.h5 = h5py.File(self.h5_path, "w")
+        self.h5.attrs["title"] = title
+        self.h5["deck"] = deck_text
+        hist = self.h5.create_group("history")
+        for name in HISTORY_FIELDS + ("total",):
+            hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
+        self.snapshots = self.h5.create_group("snapshots")
+        self.n_snapshots = 0
+        self.vtu = vtu
+        self.pvd_entries = []
+        if vtu:
+            (self.outdir / "vtu").mkdir(exist_ok=True)
+
+    def append_history(self, records):
+        """records: (k, 5) rows of HISTORY_FIELDS."""
+        if len(records) == 0:
+            return
+        hist = self.h5["history"]
+        n0 = hist["time"].shape[0]
+        n1 = n0 + len(records)
+        for j, name in enumerate(HISTORY_FIELDS):
+            hist[name].resize((n1,))
+            hist[name][n0:n1] = records[:, j]
+        hist["total"].resize((n1,))
+        hist["total"][n0:n1] = records[:, 3] + records[:, 4]
+
+    def write_snapshot(self, snap):
+        g = self.snapshots.create_group(f"{self.n_snapshots:05d}")
+        g.attrs["time"] = snap["time"]
+        g.attrs["cycle"] = snap["cycle"]
+        g["nodes"] = snap["x"]
+        g["nodes_initial"] = snap["x0"]
+        g["velocity"] = snap["velocity"]
+        g["connectivity"] = snap["conn"]
+        for name in SNAPSHOT_CELL_FIELDS:
+            g[name] = snap[name]
+        g["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
+        self.h5.flush()
+        if self.vtu:
+            self._write_vtu(snap)
+        self.n_snapshots += 1
+
+    def _write_vtu(self, snap):
+        name = f"vtu/snap_{self.n_snapshots:05d}.vtu"
+        points = np.column_stack([snap["x"], np.zeros(len(snap["x"]))])
+        cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
+        for j, comp in enumerate(STRESS_COMPONENTS):
+            cell_data[f"stress_{comp}"] = [snap["stress"][:, j]]
+        velocity = np.column_stack([snap["velocity"], np.zeros(len(snap["x"]))])
+        mesh = meshio.Mesh(points, [("triangle", snap["conn"])],
+                           point_data={"velocity": velocity}, cell_data=cell_data)
+        meshio.write(self.outdir / name, mesh)
+        self.pvd_entries.append((snap["time"], name))
+        rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="0" file="{f}"/>'
+                         for t, f in self.pvd_entries)
+        _atomic_write_text(self.outdir / "fsph.pvd",
+                           '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                           f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
+
+    def mark_failure(self, message):
+        self.h5.attrs["failure"] = message
+
+    def close(self):
+        self.h5.close()
+
+
+def write_summary(outdir, summary):
+    _atomic_write_text(Path(outdir) / "summary.json", json.dumps(summary, indent=2) + "\n")

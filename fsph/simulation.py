@@ -1,0 +1,214 @@
+"""`Simulation`: set up the Fortran state from a validated deck, advance it,
+take snapshots. The Fortran side is reached only through ``fsph._core``."""
+
+import numpy as np
+
+from . import deck as deck_module
+from . import mesh as mesh_module
+from .errors import FsphError, SimulationError
+from .materials import PROPERTY_NAMES, property_table
+from ._core import fsph_api as _api
+
+# fsph_status codes (src_f90/fsph_status.f90)
+STATUS_OK = 0
+STATUS_TEXT = {
+    1: "inverted element (area <= 0): the mesh has tangled",
+    2: "non-finite stress or energy (NaN/Inf) in an element",
+    3: "non-finite position or velocity (NaN/Inf) at a node",
+    4: "time step collapsed below the floor (dt_floor_ratio x initial step)",
+    5: "compression beyond the range of the equation of state",
+    6: "invalid set-up input",
+    7: "state not initialised",
+    8: "cycle limit (max_cycles) reached",
+}
+ELEMENT_FAULTS = {1, 2, 4, 5}
+NODE_FAULTS = {3}
+
+
+def threads():
+    """Number of OpenMP threads the solver uses (honours OMP_NUM_THREADS)."""
+    return int(_api.threads())
+
+
+def _check_layout():
+    nprop, _, _ = _api.layout()
+    if nprop != len(PROPERTY_NAMES):
+        raise FsphError(f"fsph._core expects {nprop} material properties, the Python "
+                        f"package packs {len(PROPERTY_NAMES)}: rebuild the package")
+
+
+class Simulation:
+    """One run. Build with `Simulation.from_deck(path)` or `Simulation(deck_dict)`."""
+
+    def __init__(self, deck):
+        _check_layout()
+        self.deck = deck
+        self.control = deck["control"]
+        materials = deck["material"]
+        self.material_names = [m["name"] for m in materials]
+        self.body_names = [b["name"] for b in deck["body"]]
+
+        xs, conns, mats, bodies, vels = [], [], [], [], []
+        offset = 0
+        self.body_meshes = []
+        for ib, b in enumerate(deck["body"]):
+            m = mesh_module.body_mesh(b)
+            self.body_meshes.append(m)
+            xs.append(m.x)
+            conns.append(m.conn + offset)
+            vel = np.zeros_like(m.x)
+            vel[:, 1] = b["velocity_z"]
+            vels.append(vel)
+            mats.append(np.full(m.n_elements, self.material_names.index(b["material"]) + 1))
+            bodies.append(np.full(m.n_elements, ib + 1))
+            offset += m.n_nodes
+        x = np.vstack(xs)
+        conn = np.vstack(conns)
+        self.node_body = np.concatenate([np.full(m.n_nodes, ib) for ib, m in
+                                         enumerate(self.body_meshes)])
+
+        _api.reset()
+        c = self.control
+        _api.set_control(c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"],
+                         deck["output"]["history_every"])
+        props, strength, eos = property_table(materials)
+        self._call(_api.set_materials(props, strength, eos), "material table")
+        self._call(_api.set_mesh(np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
+                                 np.asfortranarray(conn.T + 1, dtype=np.int32),
+                                 np.concatenate(mats).astype(np.int32),
+                                 np.concatenate(bodies).astype(np.int32)), "mesh")
+        for bc in deck["boundary"]:
+            self._call(_api.add_rigid_plane(np.array(bc["point"]), np.array(bc["normal"])),
+                       "rigid plane")
+        ierr, ifault = _api.initialise()
+        if ierr != STATUS_OK:
+            raise self._failure(ierr, ifault, during="set-up")
+        self.n_nodes, self.n_elements = (int(v) for v in _api.get_sizes())
+        ke, ie = _api.get_energies()
+        self.initial_energy = ke + ie
+
+    @classmethod
+    def from_deck(cls, path):
+        return cls(deck_module.load(path))
+
+    # ------------------------------------------------------------------
+    @staticmethod
+    def _call(ierr, what):
+        if ierr != STATUS_OK:
+            raise FsphError(f"set-up of the {what} rejected by the solver: "
+                            f"{STATUS_TEXT.get(ierr, ierr)}")
+
+    def _failure(self, ierr, ifault, during="run"):
+        time, _, dt_last, _, cycle, _ = _api.get_clock()
+        text = STATUS_TEXT.get(int(ierr), f"status {ierr}")
+        where, location = "", None
+        if ifault > 0 and ierr in ELEMENT_FAULTS:
+            nn, ne = _api.get_sizes()
+            x, _, _, _ = _api.get_nodes(nn)
+            conn, _, body = _api.get_elements(ne)
+            centroid = x[:, conn[:, ifault - 1] - 1].mean(axis=1)
+            location = centroid
+            where = (f"; element {ifault} of body '{self.body_names[body[ifault - 1] - 1]}' "
+                     f"at r = {centroid[0] * 1e3:.4g} mm, z = {centroid[1] * 1e3:.4g} mm")
+        elif ifault > 0 and ierr in NODE_FAULTS:
+            nn, _ = _api.get_sizes()
+            x, x0, _, _ = _api.get_nodes(nn)
+            location = x0[:, ifault - 1]
+            where = (f"; node {ifault} (initially at r = {location[0] * 1e3:.4g} mm, "
+                     f"z = {location[1] * 1e3:.4g} mm)")
+        elif ifault > 0:
+            where = f"; index {ifault}"
+        msg = f"{during} stopped at t = {time * 1e6:.6g} us, cycle {cycle}: {text}{where}"
+        return SimulationError(msg, code=int(ierr), index=int(ifault), time=float(time),
+                               cycle=int(cycle), location=location)
+
+    # ------------------------------------------------------------------
+    def advance(self, t, max_cycles=None):
+        """Advance the state to time t [s]; raises SimulationError on failure."""
+        if max_cycles is None:
+            max_cycles = self.control["max_cycles"] - self.cycle
+        ierr, ifault = _api.advance(float(t), int(max(max_cycles, 0)))
+        if ierr != STATUS_OK:
+            raise self._failure(ierr, ifault)
+
+    @property
+    def time(self):
+        return float(_api.get_clock()[0])
+
+    @property
+    def cycle(self):
+        return int(_api.get_clock()[4])
+
+    @property
+    def dt(self):
+        """Stable step of the next cycle [s]."""
+        return float(_api.get_clock()[1])
+
+    def energies(self):
+        """Kinetic, internal and total energy [J] and the relative error of
+        the total against the initial energy. Rigid planes are fixed and do
+        no work, so the total is conserved by the continuum problem."""
+        ke, ie = _api.get_energies()
+        total = ke + ie
+        return {"kinetic": float(ke), "internal": float(ie), "total": float(total),
+                "relative_error": float((total - self.initial_energy) / self.initial_energy)
+                if self.initial_energy else 0.0}
+
+    def snapshot(self):
+        """Current state as plain arrays: nodes (n, 2), elements (m, 3) 0-based,
+        element fields; stress is the total Cauchy stress (rr, zz, rz, tt)."""
+        nn, ne = _api.get_sizes()
+        x, x0, v, mass = _api.get_nodes(nn)
+        conn, mat, body = _api.get_elements(ne)
+        s, p, q, eps_p, rho, e, temp, c, area, emass = _api.get_element_fields(ne)
+        stress = s.T.copy()
+        stress[:, [0, 1, 3]] -= (p + q)[:, None]
+        return {
+            "time": self.time, "cycle": self.cycle,
+            "x": x.T.copy(), "x0": x0.T.copy(), "velocity": v.T.copy(), "node_mass": mass,
+            "conn": conn.T - 1, "material": mat - 1, "body": body - 1,
+            "stress": stress, "pressure": p.copy(), "q": q.copy(),
+            "plastic_strain": eps_p.copy(), "density": rho.copy(),
+            "internal_energy": e.copy(), "temperature": temp.copy(), "sound_speed": c.copy(),
+            "area": area.copy(), "element_mass": emass.copy(),
+        }
+
+    # ---- verification hooks (used by tests) ----------------------------
+    def set_velocities(self, v):
+        """Overwrite nodal velocities (n, 2) [m/s]."""
+        ierr = _api.set_node_velocities(np.asfortranarray(np.asarray(v, float).T))
+        if ierr != STATUS_OK:
+            raise FsphError("set_velocities: wrong number of nodes")
+
+    def strain_rates(self):
+        """Element strain rates (m, 4) (rr, zz, rz, tt) and spin (m,) for the
+        current positions and velocities [1/s]."""
+        d, spin, ierr = _api.get_strain_rates(self.n_elements)
+        if ierr != STATUS_OK:
+            raise FsphError("strain_rates: state not set up")
+        return d.T.copy(), spin.copy()
+
+
+def drain_history():
+    """Time-history records (k, 5) recorded by the cycle since the last
+    call: time [s], cycle, dt [s], kinetic [J], internal [J]."""
+    n = int(_api.history_count())
+    if n == 0:
+        return np.zeros((0, 5))
+    return _api.drain_history(n).T.copy()
+
+
+def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
+    """One constitutive step of a single point of a validated material dict.
+    `state` holds s (4,), p, eps_p, e, temp; returns the new state and c."""
+    props, strength, eos = property_table([material])
+    s = np.array(state["s"], dtype=float)
+    p = np.array(state["p"], dtype=float)
+    eps_p = np.array(state["eps_p"], dtype=float)
+    e = np.array(state["e"], dtype=float)
+    temp = np.array(state["temp"], dtype=float)
+    c, ierr = _api.material_point(props[:, 0], int(strength[0]), int(eos[0]), dt,
+                                  np.asarray(d, float), spin, rho_old, rho_new, q,
+                                  s, p, eps_p, e, temp)
+    return {"s": s, "p": float(p), "eps_p": float(eps_p), "e": float(e),
+            "temp": float(temp), "c": float(c), "ierr": int(ierr)}

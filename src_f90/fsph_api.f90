@@ -1,0 +1,262 @@
+!> The only module exposed to Python (through numpy.f2py). Plain arrays and
+!> scalars in and out; the state stays inside Fortran. Every routine that can
+!> fail returns ierr (a fsph_status code) and, where useful, ifault (the
+!> 1-based index of the element or node at fault). Nothing here stops the
+!> process.
+module fsph_api
+  use fsph_kinds, only: wp
+  implicit none
+  private
+  public :: reset, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
+  public :: initialise, advance, get_sizes, get_clock, get_nodes, get_elements
+  public :: get_element_fields, get_energies, set_node_velocities, get_strain_rates
+  public :: material_point, history_count, drain_history
+
+contains
+
+  !> Forget the whole state.
+  subroutine reset()
+    use fsph_state, only: state_reset
+    call state_reset()
+  end subroutine reset
+
+  !> Sizes of the tables Python must match: number of material properties
+  !> and of strength and EOS models.
+  subroutine layout(nprop, n_strength, n_eos)
+    use fsph_material, only: n_props, strength_johnson_cook, eos_mie_gruneisen
+    integer, intent(out) :: nprop, n_strength, n_eos
+    nprop = n_props
+    n_strength = strength_johnson_cook
+    n_eos = eos_mie_gruneisen
+  end subroutine layout
+
+  !> Number of OpenMP threads a parallel region will use (1 without OpenMP).
+  subroutine threads(n)
+    !$ use omp_lib, only: omp_get_max_threads
+    integer, intent(out) :: n
+    n = 1
+    !$ n = omp_get_max_threads()
+  end subroutine threads
+
+  !> Numerical parameters of the cycle (see fsph_state control_t).
+  subroutine set_control(dt_safety, c_q, c_l, dt_floor_ratio, history_every)
+    use fsph_state, only: sim
+    real(wp), intent(in) :: dt_safety, c_q, c_l, dt_floor_ratio
+    integer, intent(in) :: history_every
+    sim%control%history_every = max(history_every, 1)
+    sim%control%dt_safety = dt_safety
+    sim%control%c_q = c_q
+    sim%control%c_l = c_l
+    sim%control%dt_floor_ratio = dt_floor_ratio
+  end subroutine set_control
+
+  !> Material table: props(nprop, nmat) in the fsph_material layout and the
+  !> strength and EOS model ids of each material.
+  subroutine set_materials(nprop, nmat, props, istrength, ieos, ierr)
+    use fsph_state, only: sim
+    use fsph_material, only: n_props
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: nprop, nmat
+    real(wp), intent(in) :: props(nprop, nmat)
+    integer, intent(in) :: istrength(nmat), ieos(nmat)
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (nprop /= n_props .or. nmat < 1) return
+    sim%n_materials = nmat
+    sim%props = props
+    sim%istrength = istrength
+    sim%ieos = ieos
+    ierr = status_ok
+  end subroutine set_materials
+
+  !> Element mesh: node positions (r, z) and initial velocities, element
+  !> connectivity (1-based, counter-clockwise), material and body index.
+  subroutine set_mesh(nn, ne, x, v, conn, mat, body, ierr)
+    use fsph_state, only: sim, state_allocate
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: nn, ne
+    real(wp), intent(in) :: x(2, nn), v(2, nn)
+    integer, intent(in) :: conn(3, ne), mat(ne), body(ne)
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (nn < 3 .or. ne < 1) return
+    call state_allocate(nn, ne)
+    sim%nodes%x = x
+    sim%nodes%v = v
+    sim%elements%conn = conn
+    sim%elements%mat = mat
+    sim%elements%body = body
+    ierr = status_ok
+  end subroutine set_mesh
+
+  !> Add a rigid, fixed, frictionless plane through point with unit normal
+  !> pointing towards the bodies.
+  subroutine add_rigid_plane(point, normal, ierr)
+    use fsph_state, only: sim, rigid_plane_t
+    use fsph_status, only: status_ok, status_bad_input
+    real(wp), intent(in) :: point(2), normal(2)
+    integer, intent(out) :: ierr
+    type(rigid_plane_t) :: plane
+    real(wp) :: length
+    ierr = status_bad_input
+    length = norm2(normal)
+    if (.not. (length > 0.0_wp)) return
+    plane%point = point
+    plane%normal = normal/length
+    if (.not. allocated(sim%planes)) allocate (sim%planes(0))
+    sim%planes = [sim%planes, plane]
+    sim%n_planes = size(sim%planes)
+    ierr = status_ok
+  end subroutine add_rigid_plane
+
+  !> Derived set-up (masses, densities, maps, first time step).
+  subroutine initialise(ierr, ifault)
+    use fsph_solver, only: solver_initialise
+    integer, intent(out) :: ierr, ifault
+    call solver_initialise(ierr, ifault)
+  end subroutine initialise
+
+  !> Advance to t_target [s], at most max_cycles cycles.
+  subroutine advance(t_target, max_cycles, ierr, ifault)
+    use fsph_solver, only: solver_advance
+    real(wp), intent(in) :: t_target
+    integer, intent(in) :: max_cycles
+    integer, intent(out) :: ierr, ifault
+    call solver_advance(t_target, max_cycles, ierr, ifault)
+  end subroutine advance
+
+  subroutine get_sizes(nn, ne)
+    use fsph_state, only: sim
+    integer, intent(out) :: nn, ne
+    nn = sim%nodes%n
+    ne = sim%elements%n
+  end subroutine get_sizes
+
+  !> Clock: time [s], stable step for the next cycle [s], last step [s],
+  !> initial stable step [s], cycle count, element controlling the step.
+  subroutine get_clock(time, dt, dt_last, dt_initial, cycle, dt_element)
+    use fsph_state, only: sim
+    real(wp), intent(out) :: time, dt, dt_last, dt_initial
+    integer, intent(out) :: cycle, dt_element
+    time = sim%time
+    dt = sim%dt
+    dt_last = sim%dt_last
+    dt_initial = sim%dt_initial
+    cycle = sim%cycle
+    dt_element = sim%dt_element
+  end subroutine get_clock
+
+  !> Node positions, initial positions [m], velocities [m/s], masses [kg].
+  subroutine get_nodes(nn, x, x0, v, mass)
+    use fsph_state, only: sim
+    integer, intent(in) :: nn
+    real(wp), intent(out) :: x(2, nn), x0(2, nn), v(2, nn), mass(nn)
+    x = sim%nodes%x
+    x0 = sim%nodes%x0
+    v = sim%nodes%v
+    mass = sim%nodes%mass
+  end subroutine get_nodes
+
+  subroutine get_elements(ne, conn, mat, body)
+    use fsph_state, only: sim
+    integer, intent(in) :: ne
+    integer, intent(out) :: conn(3, ne), mat(ne), body(ne)
+    conn = sim%elements%conn
+    mat = sim%elements%mat
+    body = sim%elements%body
+  end subroutine get_elements
+
+  !> Element fields: deviator s (rr, zz, rz, tt) [Pa], pressure p and viscous
+  !> pressure q [Pa], plastic strain [-], density [kg/m^3], specific internal
+  !> energy [J/kg], temperature [K], sound speed [m/s], area [m^2], mass [kg].
+  subroutine get_element_fields(ne, s, p, q, eps_p, rho, e, temp, c, area, mass)
+    use fsph_state, only: sim
+    integer, intent(in) :: ne
+    real(wp), intent(out) :: s(4, ne), p(ne), q(ne), eps_p(ne), rho(ne), e(ne), temp(ne)
+    real(wp), intent(out) :: c(ne), area(ne), mass(ne)
+    associate (el => sim%elements)
+      s = el%s; p = el%p; q = el%q; eps_p = el%eps_p; rho = el%rho; e = el%e
+      temp = el%temp; c = el%c; area = el%area; mass = el%mass
+    end associate
+  end subroutine get_element_fields
+
+  !> Kinetic energy (half-step velocities) and internal energy [J].
+  subroutine get_energies(kinetic, internal)
+    use fsph_solver, only: solver_energies
+    real(wp), intent(out) :: kinetic, internal
+    call solver_energies(kinetic, internal)
+  end subroutine get_energies
+
+  !> Number of time-history records waiting to be drained.
+  subroutine history_count(n)
+    use fsph_state, only: sim
+    integer, intent(out) :: n
+    n = sim%n_history
+  end subroutine history_count
+
+  !> Take the n waiting records (time [s], cycle, dt [s], kinetic [J],
+  !> internal [J]) and empty the buffer.
+  subroutine drain_history(n, records)
+    use fsph_state, only: sim, history_columns
+    integer, intent(in) :: n
+    ! literal 5 = history_columns: f2py cannot size arrays by module constants
+    real(wp), intent(out) :: records(5, n)
+    integer :: k
+    k = min(n, sim%n_history)
+    if (history_columns /= size(records, 1)) k = 0
+    records = 0.0_wp
+    if (k > 0) records(:, 1:k) = sim%history(:, 1:k)
+    sim%n_history = 0
+  end subroutine drain_history
+
+  !> Overwrite nodal velocities [m/s] (verification tests and restarts).
+  subroutine set_node_velocities(nn, v, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: nn
+    real(wp), intent(in) :: v(2, nn)
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (nn /= sim%nodes%n) return
+    sim%nodes%v = v
+    ierr = status_ok
+  end subroutine set_node_velocities
+
+  !> Strain rates (rr, zz, rz, tt) [1/s] and spin [1/s] of every element for
+  !> the current positions and velocities (the kernel the cycle uses).
+  subroutine get_strain_rates(ne, d, spin, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_element, only: element_strain_rates
+    integer, intent(in) :: ne
+    real(wp), intent(out) :: d(4, ne), spin(ne)
+    integer, intent(out) :: ierr
+    d = 0.0_wp
+    spin = 0.0_wp
+    ierr = status_bad_input
+    if (ne /= sim%elements%n) return
+    call element_strain_rates(ne, sim%nodes%n, sim%elements%conn, sim%nodes%x, sim%nodes%v, d, spin)
+    ierr = status_ok
+  end subroutine get_strain_rates
+
+  !> One constitutive step of a single material point (unit tests of the
+  !> material models; see fsph_material material_update).
+  subroutine material_point(nprop, props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
+                            s, p, eps_p, e, temp, c, ierr)
+    use fsph_material, only: n_props, material_update
+    use fsph_status, only: status_bad_input
+    integer, intent(in) :: nprop
+    real(wp), intent(in) :: props(nprop)
+    integer, intent(in) :: istrength, ieos
+    real(wp), intent(in) :: dt, d(4), spin, rho_old, rho_new, q
+    real(wp), intent(inout) :: s(4), p, eps_p, e, temp
+    real(wp), intent(out) :: c
+    integer, intent(out) :: ierr
+    c = 0.0_wp
+    ierr = status_bad_input
+    if (nprop /= n_props) return
+    call material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
+                         s, p, eps_p, e, temp, c, ierr)
+  end subroutine material_point
+
+end module fsph_api

@@ -1,0 +1,50 @@
+!> Kinematic boundary conditions on nodes: the symmetry axis and rigid,
+!> fixed, frictionless planes (the Taylor anvil). Applied to the half-step
+!> velocities before positions are updated.
+module fsph_boundary
+  use fsph_kinds, only: wp
+  implicit none
+  private
+
+  public :: apply_axis, apply_rigid_plane
+
+contains
+
+  !> Nodes on the axis keep v_r = 0 (and so r = 0).
+  subroutine apply_axis(nn, on_axis, v)
+    integer, intent(in) :: nn
+    logical, intent(in) :: on_axis(nn)
+    real(wp), intent(inout) :: v(2, nn)
+    integer :: a
+    !$omp parallel do default(none) shared(nn, on_axis, v) private(a)
+    do a = 1, nn
+      if (on_axis(a)) v(1, a) = 0.0_wp
+    end do
+    !$omp end parallel do
+  end subroutine apply_axis
+
+  !> A node whose predicted position x + dt v would fall behind the plane has
+  !> its normal velocity replaced by the one that brings it exactly onto the
+  !> plane; tangential velocity is untouched (frictionless). The plane is
+  !> rigid and fixed: it takes the normal momentum and does no work.
+  subroutine apply_rigid_plane(nn, point, normal, dt, x, v)
+    integer, intent(in) :: nn
+    real(wp), intent(in) :: point(2), normal(2) !< plane point [m], unit normal [-]
+    real(wp), intent(in) :: dt                  !< step [s]
+    real(wp), intent(in) :: x(2, nn)
+    real(wp), intent(inout) :: v(2, nn)
+    real(wp) :: gap, vn, vn_new
+    integer :: a
+    !$omp parallel do default(none) shared(nn, point, normal, dt, x, v) private(a, gap, vn, vn_new)
+    do a = 1, nn
+      gap = dot_product(x(:, a) - point, normal)
+      vn = dot_product(v(:, a), normal)
+      if (gap + dt*vn < 0.0_wp) then
+        vn_new = -gap/dt
+        v(:, a) = v(:, a) + (vn_new - vn)*normal
+      end if
+    end do
+    !$omp end parallel do
+  end subroutine apply_rigid_plane
+
+end module fsph_boundary

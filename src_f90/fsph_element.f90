@@ -1,0 +1,242 @@
+!> Axisymmetric constant-strain triangles (T3): geometry, strain rates, nodal
+!> forces, artificial viscosity, stress update driver and stable time step
+!> (ALGORITHMS.md section 1). Kernels take sizes first, then explicit-shape
+!> arrays; they hold no module state and are threaded over elements.
+!>
+!> Coordinates x(1,:) = r (radius), x(2,:) = z (axis) [m]; nodes of each
+!> element counter-clockwise in the (r, z) plane.
+module fsph_element
+  use fsph_kinds, only: wp, two_pi
+  use fsph_status, only: status_ok, status_inverted_element, status_nonfinite_element, &
+                         status_eos_range
+  use fsph_material, only: n_props, material_update
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  implicit none
+  private
+
+  public :: tri_geometry, element_geometry, element_strain_rates, element_corner_forces
+  public :: gather_corner_forces, element_stress_update, element_time_step
+
+contains
+
+  !> Geometry of one triangle: area, shape-function gradients, centroid
+  !> radius and smallest altitude.
+  pure subroutine tri_geometry(xe, area, dndr, dndz, rbar, lmin)
+    real(wp), intent(in) :: xe(2, 3)       !< nodal (r, z) [m]
+    real(wp), intent(out) :: area          !< signed area [m^2]
+    real(wp), intent(out) :: dndr(3), dndz(3) !< dN_a/dr, dN_a/dz [1/m]
+    real(wp), intent(out) :: rbar          !< centroid radius [m]
+    real(wp), intent(out) :: lmin          !< smallest altitude 2A/longest edge [m]
+    real(wp) :: r1, z1, r2, z2, r3, z3, two_a, lmax2
+    r1 = xe(1, 1); z1 = xe(2, 1)
+    r2 = xe(1, 2); z2 = xe(2, 2)
+    r3 = xe(1, 3); z3 = xe(2, 3)
+    two_a = (r2 - r1)*(z3 - z1) - (r3 - r1)*(z2 - z1)
+    area = 0.5_wp*two_a
+    rbar = (r1 + r2 + r3)/3.0_wp
+    lmax2 = max((r2 - r1)**2 + (z2 - z1)**2, (r3 - r2)**2 + (z3 - z2)**2, (r1 - r3)**2 + (z1 - z3)**2)
+    lmin = two_a/sqrt(lmax2)
+    if (two_a <= 0.0_wp) then
+      dndr = 0.0_wp; dndz = 0.0_wp
+      return
+    end if
+    dndr(1) = (z2 - z3)/two_a; dndz(1) = (r3 - r2)/two_a
+    dndr(2) = (z3 - z1)/two_a; dndz(2) = (r1 - r3)/two_a
+    dndr(3) = (z1 - z2)/two_a; dndz(3) = (r2 - r1)/two_a
+  end subroutine tri_geometry
+
+  !> Area, centroid radius, ring volume and smallest altitude of all
+  !> elements. ierr = status_inverted_element with ifault the first element
+  !> (lowest index) whose area is not positive.
+  subroutine element_geometry(ne, nn, conn, x, area, rbar, volume, lmin, ierr, ifault)
+    integer, intent(in) :: ne, nn
+    integer, intent(in) :: conn(3, ne)
+    real(wp), intent(in) :: x(2, nn)
+    real(wp), intent(out) :: area(ne), rbar(ne), volume(ne), lmin(ne)
+    integer, intent(out) :: ierr, ifault
+    real(wp) :: xe(2, 3), dndr(3), dndz(3)
+    integer :: ie
+    ifault = ne + 1
+    !$omp parallel do default(none) shared(ne, conn, x, area, rbar, volume, lmin) &
+    !$omp private(ie, xe, dndr, dndz) reduction(min:ifault)
+    do ie = 1, ne
+      xe = x(:, conn(:, ie))
+      call tri_geometry(xe, area(ie), dndr, dndz, rbar(ie), lmin(ie))
+      volume(ie) = two_pi*rbar(ie)*area(ie)
+      if (.not. (area(ie) > 0.0_wp)) ifault = min(ifault, ie)
+    end do
+    !$omp end parallel do
+    ierr = status_ok
+    if (ifault <= ne) then
+      ierr = status_inverted_element
+    else
+      ifault = 0
+    end if
+  end subroutine element_geometry
+
+  !> Strain rates (rr, zz, rz, tt; tensor components) and in-plane spin of
+  !> every element from nodal velocities, at the geometry x:
+  !>   d_rr = sum dN/dr v_r, d_zz = sum dN/dz v_z,
+  !>   d_rz = 1/2 sum (dN/dz v_r + dN/dr v_z), d_tt = mean(v_r)/rbar,
+  !>   spin = 1/2 sum (dN/dz v_r - dN/dr v_z).
+  subroutine element_strain_rates(ne, nn, conn, x, v, d, spin)
+    integer, intent(in) :: ne, nn
+    integer, intent(in) :: conn(3, ne)
+    real(wp), intent(in) :: x(2, nn)       !< nodal positions [m]
+    real(wp), intent(in) :: v(2, nn)       !< nodal velocities [m/s]
+    real(wp), intent(out) :: d(4, ne)      !< strain rates [1/s]
+    real(wp), intent(out) :: spin(ne)      !< spin [1/s]
+    real(wp) :: xe(2, 3), ve(2, 3), dndr(3), dndz(3), area, rbar, lmin, dvrdz, dvzdr
+    integer :: ie
+    !$omp parallel do default(none) shared(ne, conn, x, v, d, spin) &
+    !$omp private(ie, xe, ve, dndr, dndz, area, rbar, lmin, dvrdz, dvzdr)
+    do ie = 1, ne
+      xe = x(:, conn(:, ie))
+      ve = v(:, conn(:, ie))
+      call tri_geometry(xe, area, dndr, dndz, rbar, lmin)
+      dvrdz = sum(dndz*ve(1, :))
+      dvzdr = sum(dndr*ve(2, :))
+      d(1, ie) = sum(dndr*ve(1, :))
+      d(2, ie) = sum(dndz*ve(2, :))
+      d(3, ie) = 0.5_wp*(dvrdz + dvzdr)
+      if (rbar > 0.0_wp) then
+        d(4, ie) = sum(ve(1, :))/(3.0_wp*rbar)
+      else
+        d(4, ie) = 0.0_wp
+      end if
+      spin(ie) = 0.5_wp*(dvrdz - dvzdr)
+    end do
+    !$omp end parallel do
+  end subroutine element_strain_rates
+
+  !> Internal nodal forces -int B^T sigma dV of every element, written per
+  !> corner (no shared writes):
+  !>   f_a^r = -2 pi rbar A (s_rr dN_a/dr + s_rz dN_a/dz) - 2 pi A s_tt / 3
+  !>   f_a^z = -2 pi rbar A (s_rz dN_a/dr + s_zz dN_a/dz)
+  !> with sigma = s - (p + q) I the total Cauchy stress.
+  subroutine element_corner_forces(ne, nn, conn, x, s, p, q, fc)
+    integer, intent(in) :: ne, nn
+    integer, intent(in) :: conn(3, ne)
+    real(wp), intent(in) :: x(2, nn)
+    real(wp), intent(in) :: s(4, ne)       !< deviatoric stress [Pa]
+    real(wp), intent(in) :: p(ne), q(ne)   !< pressure, viscous pressure [Pa]
+    real(wp), intent(out) :: fc(2, 3, ne)  !< corner forces [N]
+    real(wp) :: xe(2, 3), dndr(3), dndz(3), area, rbar, lmin, srr, szz, srz, stt, vol
+    integer :: ie
+    !$omp parallel do default(none) shared(ne, conn, x, s, p, q, fc) &
+    !$omp private(ie, xe, dndr, dndz, area, rbar, lmin, srr, szz, srz, stt, vol)
+    do ie = 1, ne
+      xe = x(:, conn(:, ie))
+      call tri_geometry(xe, area, dndr, dndz, rbar, lmin)
+      srr = s(1, ie) - p(ie) - q(ie)
+      szz = s(2, ie) - p(ie) - q(ie)
+      srz = s(3, ie)
+      stt = s(4, ie) - p(ie) - q(ie)
+      vol = two_pi*rbar*area
+      fc(1, :, ie) = -vol*(srr*dndr + srz*dndz) - two_pi*area*stt/3.0_wp
+      fc(2, :, ie) = -vol*(srz*dndr + szz*dndz)
+    end do
+    !$omp end parallel do
+  end subroutine element_corner_forces
+
+  !> Nodal forces as the sum of corner forces, through the node-to-corner
+  !> map (CSR: corners of node a are corner_list(corner_ptr(a):corner_ptr(a+1)-1),
+  !> each encoded as 3*(element-1) + local corner). The summation order is
+  !> fixed, so the result does not depend on the thread count.
+  subroutine gather_corner_forces(nn, ne, ncorner, corner_ptr, corner_list, fc, f)
+    integer, intent(in) :: nn, ne, ncorner
+    integer, intent(in) :: corner_ptr(nn + 1), corner_list(ncorner)
+    real(wp), intent(in) :: fc(2, 3*ne)
+    real(wp), intent(out) :: f(2, nn)      !< nodal forces [N]
+    integer :: a, k
+    !$omp parallel do default(none) shared(nn, corner_ptr, corner_list, fc, f) private(a, k)
+    do a = 1, nn
+      f(:, a) = 0.0_wp
+      do k = corner_ptr(a), corner_ptr(a + 1) - 1
+        f(:, a) = f(:, a) + fc(:, corner_list(k))
+      end do
+    end do
+    !$omp end parallel do
+  end subroutine gather_corner_forces
+
+  !> Artificial viscosity, density and constitutive update of every element
+  !> over one step. q = rho (C_Q L tr d)^2 + C_L rho c L |tr d| in compression
+  !> (tr d < 0), 0 otherwise, L = sqrt(A) [m].
+  subroutine element_stress_update(ne, nmat, props, istrength, ieos, mat, dt, c_q, c_l, &
+                                   d, spin, mass, volume, area, rho, q, s, p, eps_p, e, temp, c, &
+                                   ierr, ifault)
+    integer, intent(in) :: ne, nmat
+    real(wp), intent(in) :: props(n_props, nmat)
+    integer, intent(in) :: istrength(nmat), ieos(nmat), mat(ne)
+    real(wp), intent(in) :: dt, c_q, c_l   !< step [s]; quadratic and linear viscosity coefficients [-]
+    real(wp), intent(in) :: d(4, ne), spin(ne)
+    real(wp), intent(in) :: mass(ne)       !< element ring mass [kg]
+    real(wp), intent(in) :: volume(ne)     !< ring volume at the end of the step [m^3]
+    real(wp), intent(in) :: area(ne)       !< area at the end of the step [m^2]
+    real(wp), intent(inout) :: rho(ne)     !< density [kg/m^3]: start of step in, end out
+    real(wp), intent(out) :: q(ne)
+    real(wp), intent(inout) :: s(4, ne), p(ne), eps_p(ne), e(ne), temp(ne), c(ne)
+    integer, intent(out) :: ierr, ifault
+    real(wp) :: rho_new, trace, len, qe
+    integer :: ie, im, ierr_e, ifault_eos, ifault_nan
+    ifault_eos = ne + 1
+    ifault_nan = ne + 1
+    !$omp parallel do default(none) &
+    !$omp shared(ne, props, istrength, ieos, mat, dt, c_q, c_l, d, spin, mass, volume, area) &
+    !$omp shared(rho, q, s, p, eps_p, e, temp, c) &
+    !$omp private(ie, im, rho_new, trace, len, qe, ierr_e) reduction(min:ifault_eos, ifault_nan)
+    do ie = 1, ne
+      im = mat(ie)
+      rho_new = mass(ie)/volume(ie)
+      trace = d(1, ie) + d(2, ie) + d(4, ie)
+      qe = 0.0_wp
+      if (trace < 0.0_wp) then
+        len = sqrt(area(ie))
+        qe = rho_new*(c_q*len*trace)**2 + c_l*rho_new*c(ie)*len*abs(trace)
+      end if
+      q(ie) = qe
+      call material_update(props(:, im), istrength(im), ieos(im), dt, d(:, ie), spin(ie), &
+                           rho(ie), rho_new, qe, s(:, ie), p(ie), eps_p(ie), e(ie), temp(ie), &
+                           c(ie), ierr_e)
+      rho(ie) = rho_new
+      if (ierr_e /= status_ok) ifault_eos = min(ifault_eos, ie)
+      if (.not. (ieee_is_finite(p(ie)) .and. ieee_is_finite(e(ie)) .and. &
+                 all(ieee_is_finite(s(:, ie))))) ifault_nan = min(ifault_nan, ie)
+    end do
+    !$omp end parallel do
+    ierr = status_ok
+    ifault = 0
+    if (ifault_nan <= ne) then
+      ierr = status_nonfinite_element; ifault = ifault_nan
+    else if (ifault_eos <= ne) then
+      ierr = status_eos_range; ifault = ifault_eos
+    end if
+  end subroutine element_stress_update
+
+  !> Stable time step over all elements, dt_e = L_min/(Q + sqrt(Q^2 + c^2)),
+  !> Q = C_L c + C_Q^2 sqrt(A) |tr d| in compression; returns the smallest
+  !> dt_e [s] (before the safety factor) and the element that sets it.
+  subroutine element_time_step(ne, lmin, area, c, d, c_q, c_l, dt_min, icontrol)
+    integer, intent(in) :: ne
+    real(wp), intent(in) :: lmin(ne), area(ne), c(ne), d(4, ne), c_q, c_l
+    real(wp), intent(out) :: dt_min
+    integer, intent(out) :: icontrol
+    real(wp) :: trace, qv, dte
+    integer :: ie
+    dt_min = huge(1.0_wp)
+    icontrol = 0
+    ! serial minimum keeps the controlling index deterministic; cheap next to
+    ! the force and stress loops
+    do ie = 1, ne
+      trace = d(1, ie) + d(2, ie) + d(4, ie)
+      qv = 0.0_wp
+      if (trace < 0.0_wp) qv = c_l*c(ie) + c_q**2*sqrt(area(ie))*abs(trace)
+      dte = lmin(ie)/(qv + sqrt(qv*qv + c(ie)**2))
+      if (dte < dt_min) then
+        dt_min = dte
+        icontrol = ie
+      end if
+    end do
+  end subroutine element_time_step
+
+end module fsph_element

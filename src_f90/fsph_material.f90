@@ -1,0 +1,308 @@
+!> Constitutive models shared by elements and (later) particles: equations of
+!> state, strength models with radial return, the Jaumann rotation and the
+!> energy update. Every routine is pure and works on one material point, so a
+!> caller threads over points (ALGORITHMS.md section 6).
+!>
+!> Conventions: Cauchy stress, tension positive; the stress of a point is
+!> sigma = s - (p + q) I with s the deviator (rr, zz, rz, tt), p the EOS
+!> pressure (compression positive) and q the artificial viscous pressure.
+!> Strain rates d(4) = (d_rr, d_zz, d_rz, d_tt) are tensor components
+!> (d_rz = gamma_rz / 2).
+module fsph_material
+  use fsph_kinds, only: wp
+  use fsph_status, only: status_ok, status_eos_range
+  implicit none
+  private
+
+  ! ---- property table layout: props(n_props) per material -------------
+  integer, parameter, public :: prop_rho0 = 1    !< reference density [kg/m^3]
+  integer, parameter, public :: prop_shear = 2   !< shear modulus G [Pa]
+  integer, parameter, public :: prop_bulk = 3    !< bulk modulus K, linear EOS [Pa]
+  integer, parameter, public :: prop_yield = 4   !< initial yield stress Y0 [Pa]
+  integer, parameter, public :: prop_hard = 5    !< plastic modulus H = E E_T/(E - E_T) [Pa]
+  integer, parameter, public :: prop_jc_a = 6    !< Johnson-Cook A [Pa]
+  integer, parameter, public :: prop_jc_b = 7    !< Johnson-Cook B [Pa]
+  integer, parameter, public :: prop_jc_n = 8    !< Johnson-Cook n [-]
+  integer, parameter, public :: prop_jc_c = 9    !< Johnson-Cook C [-]
+  integer, parameter, public :: prop_jc_m = 10   !< Johnson-Cook m [-]
+  integer, parameter, public :: prop_t_melt = 11 !< melting temperature [K]
+  integer, parameter, public :: prop_t_room = 12 !< room (initial) temperature [K]
+  integer, parameter, public :: prop_cv = 13     !< specific heat [J/(kg K)]
+  integer, parameter, public :: prop_chi = 14    !< Taylor-Quinney coefficient [-]
+  integer, parameter, public :: prop_eps0 = 15   !< Johnson-Cook reference strain rate [1/s]
+  integer, parameter, public :: prop_c0 = 16     !< Mie-Grueneisen bulk sound speed c0 [m/s]
+  integer, parameter, public :: prop_s = 17      !< Mie-Grueneisen Us-up slope s [-]
+  integer, parameter, public :: prop_gamma0 = 18 !< Grueneisen coefficient Gamma0 [-]
+  integer, parameter, public :: prop_pmin = 19   !< pressure cut-off p_min (<= 0) [Pa]
+  integer, parameter, public :: n_props = 19
+
+  ! ---- model identifiers ----------------------------------------------
+  integer, parameter, public :: strength_elastic = 1
+  integer, parameter, public :: strength_epp = 2          !< elastic-perfectly-plastic
+  integer, parameter, public :: strength_bilinear = 3     !< linear isotropic hardening
+  integer, parameter, public :: strength_johnson_cook = 4
+  integer, parameter, public :: eos_linear = 1
+  integer, parameter, public :: eos_mie_gruneisen = 2
+
+  !> Smallest admissible value of the Mie-Grueneisen denominator
+  !> 1 - (s - 1) mu before the state is declared out of range [-].
+  real(wp), parameter :: mg_denominator_floor = 1.0e-3_wp
+  !> Relative tolerance of the Johnson-Cook return-mapping iteration [-].
+  real(wp), parameter :: return_tolerance = 1.0e-12_wp
+  integer, parameter :: return_max_iterations = 60
+
+  public :: material_update, rotate_deviator, equivalent_stress, eos_pressure
+  public :: deviator_double_contraction, sound_speed
+
+contains
+
+  !> s:t for two symmetric axisymmetric tensors stored as (rr, zz, rz, tt).
+  pure function deviator_double_contraction(s, t) result(st)
+    real(wp), intent(in) :: s(4), t(4)
+    real(wp) :: st
+    st = s(1)*t(1) + s(2)*t(2) + 2.0_wp*s(3)*t(3) + s(4)*t(4)
+  end function deviator_double_contraction
+
+  !> von Mises equivalent stress sqrt(3/2 s:s) of a deviator [Pa].
+  pure function equivalent_stress(s) result(seq)
+    real(wp), intent(in) :: s(4)
+    real(wp) :: seq
+    seq = sqrt(1.5_wp*deviator_double_contraction(s, s))
+  end function equivalent_stress
+
+  !> Jaumann objective rotation of the in-plane block of a deviator over a
+  !> step: the solution of ds/dt = W s - s W for constant spin omega,
+  !> s <- R s R^T with R = exp(W dt), a rotation by omega*dt. Exact, so the
+  !> invariants of s are preserved to round-off. The hoop component is a
+  !> principal direction and does not rotate.
+  pure subroutine rotate_deviator(omega_dt, s)
+    real(wp), intent(in) :: omega_dt   !< spin times step [rad]
+    real(wp), intent(inout) :: s(4)
+    real(wp) :: cs, sn, srr, szz, srz
+    cs = cos(omega_dt)
+    sn = sin(omega_dt)
+    srr = s(1); szz = s(2); srz = s(3)
+    s(1) = cs*cs*srr + 2.0_wp*cs*sn*srz + sn*sn*szz
+    s(2) = sn*sn*srr - 2.0_wp*cs*sn*srz + cs*cs*szz
+    s(3) = (cs*cs - sn*sn)*srz + cs*sn*(szz - srr)
+  end subroutine rotate_deviator
+
+  !> Equation of state written as p = a + b e (e specific internal energy),
+  !> which holds for both models here; also the derivative da/drho used for
+  !> the sound speed. Mie-Grueneisen with a linear Us-up Hugoniot reference
+  !> (Steinberg/LS-DYNA form, no volume-dependent Gamma correction):
+  !>   mu > 0: p = rho0 c0^2 mu [1 + (1 - Gamma0/2) mu] / [1 - (s-1) mu]^2 + Gamma0 rho0 e
+  !>   mu <= 0: p = rho0 c0^2 mu + Gamma0 rho0 e,     mu = rho/rho0 - 1.
+  !> Linear: p = K mu.
+  pure subroutine eos_pressure(props, ieos, rho, a, b, dadrho, ierr)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: ieos
+    real(wp), intent(in) :: rho           !< density [kg/m^3]
+    real(wp), intent(out) :: a            !< energy-independent part [Pa]
+    real(wp), intent(out) :: b            !< dp/de at constant rho [kg/m^3]
+    real(wp), intent(out) :: dadrho       !< da/drho [m^2/s^2]
+    integer, intent(out) :: ierr
+    real(wp) :: rho0, mu, k0, den, num, dnum
+    ierr = status_ok
+    rho0 = props(prop_rho0)
+    mu = rho/rho0 - 1.0_wp
+    select case (ieos)
+    case (eos_mie_gruneisen)
+      k0 = rho0*props(prop_c0)**2
+      b = props(prop_gamma0)*rho0
+      if (mu > 0.0_wp) then
+        den = 1.0_wp - (props(prop_s) - 1.0_wp)*mu
+        if (den < mg_denominator_floor) then
+          ierr = status_eos_range
+          a = 0.0_wp; dadrho = 0.0_wp
+          return
+        end if
+        num = mu*(1.0_wp + (1.0_wp - 0.5_wp*props(prop_gamma0))*mu)
+        dnum = 1.0_wp + 2.0_wp*(1.0_wp - 0.5_wp*props(prop_gamma0))*mu
+        a = k0*num/den**2
+        dadrho = k0*(dnum*den + 2.0_wp*(props(prop_s) - 1.0_wp)*num)/den**3/rho0
+      else
+        a = k0*mu
+        dadrho = k0/rho0
+      end if
+    case default ! eos_linear
+      a = props(prop_bulk)*mu
+      b = 0.0_wp
+      dadrho = props(prop_bulk)/rho0
+    end select
+  end subroutine eos_pressure
+
+  !> Current flow stress of the strength model [Pa] and its slope with
+  !> respect to the equivalent plastic strain [Pa].
+  pure subroutine flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, sy, dsy)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: istrength
+    real(wp), intent(in) :: eps_p, rate_factor, thermal_factor
+    real(wp), intent(out) :: sy, dsy
+    !> Plastic strain below which the Johnson-Cook slope is evaluated at this
+    !> value (the slope of eps^n is unbounded at zero for n < 1) [-].
+    real(wp), parameter :: eps_slope_floor = 1.0e-9_wp
+    real(wp) :: f
+    select case (istrength)
+    case (strength_epp)
+      sy = props(prop_yield); dsy = 0.0_wp
+    case (strength_bilinear)
+      sy = props(prop_yield) + props(prop_hard)*eps_p; dsy = props(prop_hard)
+    case (strength_johnson_cook)
+      f = rate_factor*thermal_factor
+      sy = (props(prop_jc_a) + props(prop_jc_b)*eps_p**props(prop_jc_n))*f
+      dsy = props(prop_jc_b)*props(prop_jc_n)* &
+            max(eps_p, eps_slope_floor)**(props(prop_jc_n) - 1.0_wp)*f
+    case default
+      sy = huge(1.0_wp); dsy = 0.0_wp
+    end select
+  end subroutine flow_stress
+
+  !> Radial return to the von Mises surface. On entry s is the elastic trial
+  !> deviator; on exit it lies on (or inside) the yield surface. Returns the
+  !> plastic strain increment and the flow stress at the end of the step.
+  pure subroutine radial_return(props, istrength, rate_factor, thermal_factor, eps_p, s, deps_p, sy)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: istrength
+    real(wp), intent(in) :: rate_factor, thermal_factor, eps_p
+    real(wp), intent(inout) :: s(4)
+    real(wp), intent(out) :: deps_p, sy
+    real(wp) :: seq_trial, g3, dsy, lo, hi, f, df, x, dx
+    integer :: it
+    deps_p = 0.0_wp
+    call flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, sy, dsy)
+    seq_trial = equivalent_stress(s)
+    if (seq_trial <= sy) return
+    g3 = 3.0_wp*props(prop_shear)
+    select case (istrength)
+    case (strength_epp, strength_bilinear)
+      ! closed form: seq_trial - 3G dl = Y0 + H (eps_p + dl)
+      deps_p = (seq_trial - sy)/(g3 + dsy)
+    case default
+      ! safeguarded Newton on f(x) = seq_trial - 3G x - sy(eps_p + x), x in [0, seq_trial/3G]
+      lo = 0.0_wp
+      hi = seq_trial/g3
+      x = min((seq_trial - sy)/(g3 + dsy), hi)
+      do it = 1, return_max_iterations
+        call flow_stress(props, istrength, eps_p + x, rate_factor, thermal_factor, sy, dsy)
+        f = seq_trial - g3*x - sy
+        df = -(g3 + dsy)
+        if (f > 0.0_wp) then
+          lo = x
+        else
+          hi = x
+        end if
+        dx = -f/df
+        if (x + dx <= lo .or. x + dx >= hi) dx = 0.5_wp*(lo + hi) - x
+        x = x + dx
+        if (abs(dx) <= return_tolerance*max(x, return_tolerance)) exit
+      end do
+      deps_p = x
+    end select
+    call flow_stress(props, istrength, eps_p + deps_p, rate_factor, thermal_factor, sy, dsy)
+    s = s*(sy/seq_trial)
+  end subroutine radial_return
+
+  !> Johnson-Cook thermal softening factor 1 - T*^m with
+  !> T* = (T - T_room)/(T_melt - T_room); 1 below room temperature, 0 at and
+  !> above melt.
+  pure function thermal_softening(props, temp) result(f)
+    real(wp), intent(in) :: props(n_props), temp
+    real(wp) :: f, tstar
+    tstar = (temp - props(prop_t_room))/(props(prop_t_melt) - props(prop_t_room))
+    if (tstar <= 0.0_wp) then
+      f = 1.0_wp
+    else if (tstar >= 1.0_wp) then
+      f = 0.0_wp
+    else
+      f = 1.0_wp - tstar**props(prop_jc_m)
+    end if
+  end function thermal_softening
+
+  !> One constitutive step of one material point.
+  !> Order: Jaumann rotation of s; elastic trial deviator; radial return;
+  !> adiabatic heating from plastic work (Johnson-Cook); EOS and internal
+  !> energy solved together (p linear in e, trapezoidal p dv work, Wilkins);
+  !> pressure cut-off; sound speed.
+  pure subroutine material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
+                                  s, p, eps_p, e, temp, c, ierr)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: istrength, ieos
+    real(wp), intent(in) :: dt              !< time step [s]
+    real(wp), intent(in) :: d(4)            !< strain rate (rr, zz, rz, tt) [1/s]
+    real(wp), intent(in) :: spin            !< in-plane spin 1/2 (dvr/dz - dvz/dr) [1/s]
+    real(wp), intent(in) :: rho_old, rho_new !< density at start and end of step [kg/m^3]
+    real(wp), intent(in) :: q               !< artificial viscous pressure over the step [Pa]
+    real(wp), intent(inout) :: s(4)         !< deviatoric stress [Pa]
+    real(wp), intent(inout) :: p            !< pressure [Pa]
+    real(wp), intent(inout) :: eps_p        !< equivalent plastic strain [-]
+    real(wp), intent(inout) :: e            !< specific internal energy [J/kg]
+    real(wp), intent(inout) :: temp         !< temperature [K]
+    real(wp), intent(out) :: c              !< longitudinal sound speed [m/s]
+    integer, intent(out) :: ierr
+    real(wp) :: s_old(4), d_dev(4), trace, rate_factor, thermal_factor, deps_p, sy
+    real(wp) :: g, dw_dev, dv, a, b, dadrho, e_star, p_new, rate_eq
+
+    ierr = status_ok
+    g = props(prop_shear)
+    call rotate_deviator(spin*dt, s)
+    s_old = s
+
+    trace = d(1) + d(2) + d(4)
+    d_dev = d
+    d_dev(1) = d(1) - trace/3.0_wp
+    d_dev(2) = d(2) - trace/3.0_wp
+    d_dev(4) = d(4) - trace/3.0_wp
+    s = s + 2.0_wp*g*dt*d_dev
+
+    deps_p = 0.0_wp
+    if (istrength /= strength_elastic) then
+      rate_factor = 1.0_wp
+      thermal_factor = 1.0_wp
+      if (istrength == strength_johnson_cook) then
+        ! (1 + C ln eps_dot*) with eps_dot* = eps_dot_eq/eps_dot_0 taken >= 1,
+        ! the usual form of the model below the reference rate.
+        rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
+        rate_factor = 1.0_wp + props(prop_jc_c)*log(max(rate_eq/props(prop_eps0), 1.0_wp))
+        thermal_factor = thermal_softening(props, temp)
+      end if
+      call radial_return(props, istrength, rate_factor, thermal_factor, eps_p, s, deps_p, sy)
+      eps_p = eps_p + deps_p
+      if (istrength == strength_johnson_cook .and. props(prop_cv) > 0.0_wp) then
+        temp = temp + props(prop_chi)*sy*deps_p/(rho_new*props(prop_cv))
+      end if
+    end if
+
+    ! internal energy: deviatoric work with the mid-step deviator, then the
+    ! pressure work -(q + (p_n + p_n+1)/2) dv solved with p_n+1 = a + b e_n+1
+    dw_dev = dt*deviator_double_contraction(0.5_wp*(s_old + s), d_dev)/(0.5_wp*(rho_old + rho_new))
+    dv = 1.0_wp/rho_new - 1.0_wp/rho_old
+    call eos_pressure(props, ieos, rho_new, a, b, dadrho, ierr)
+    if (ierr /= status_ok) return
+    e_star = e + dw_dev - (q + 0.5_wp*p)*dv
+    e = (e_star - 0.5_wp*a*dv)/(1.0_wp + 0.5_wp*b*dv)
+    p_new = a + b*e
+    if (p_new < props(prop_pmin)) then
+      ! spall cut-off: the material carries no more tension than p_min
+      p_new = props(prop_pmin)
+      e = e_star - 0.5_wp*p_new*dv
+    end if
+    p = p_new
+
+    c = sound_speed(g, dadrho, b, rho_new, p)
+  end subroutine material_update
+
+  !> Longitudinal sound speed sqrt(c_b^2 + 4G/(3 rho)) [m/s] with the
+  !> isentropic bulk sound speed c_b^2 = (dp/drho)_e + p/rho^2 (dp/de)_rho,
+  !> taken as zero where that expression is negative (strongly stretched
+  !> states), so that the shear part still bounds the time step.
+  pure function sound_speed(g, dadrho, b, rho, p) result(c)
+    real(wp), intent(in) :: g       !< shear modulus [Pa]
+    real(wp), intent(in) :: dadrho  !< (dp/drho) at constant e [m^2/s^2]
+    real(wp), intent(in) :: b       !< (dp/de) at constant rho [kg/m^3]
+    real(wp), intent(in) :: rho, p  !< density [kg/m^3], pressure [Pa]
+    real(wp) :: c
+    c = sqrt(max(dadrho + p*b/rho**2, 0.0_wp) + 4.0_wp*g/(3.0_wp*rho))
+  end function sound_speed
+
+end module fsph_material
