@@ -97,6 +97,7 @@ contains
     call solver_stable_step()
     sim%dt_initial = sim%dt
     sim%n_history = 0
+    sim%history_cycle = -1
     call record_history()
     sim%ready = .true.
     ierr = status_ok
@@ -134,7 +135,7 @@ contains
       if (remaining <= arrival_fraction*sim%dt) exit
       if (n_done >= max_cycles) then
         ierr = status_max_cycles
-        return
+        exit
       end if
       ! land on t_target without a sliver step: the last one or two steps
       ! share the remainder
@@ -147,9 +148,10 @@ contains
       end if
       call cycle(dt_step, ierr, ifault)
       n_done = n_done + 1
-      if (ierr /= status_ok) return
+      if (ierr /= status_ok) exit
     end do
-    sim%time = max(sim%time, t_target)
+    ! the state at the end of each advance is always in the history
+    if (sim%history_cycle /= sim%cycle) call record_history()
   end subroutine solver_advance
 
   !> One explicit cycle of length dt_step [s], ALGORITHMS.md section 7.
@@ -163,16 +165,17 @@ contains
     call update_velocities(0.5_wp*(sim%dt_last + dt_step))
     ! 3. boundary conditions on the half-step velocities
     call apply_boundaries(dt_step)
-    ! 4. positions to t^(n+1)
+    ! 4. positions to t^(n+1); the clock moves with them, so a failure in
+    !    the rest of the cycle is reported at the time the geometry reached
     call update_positions(dt_step, ierr, ifault)
     if (ierr /= status_ok) return
-    ! 5. element strain rates at mid-step, new geometry, stress update
-    call update_elements(dt_step, ierr, ifault)
-    if (ierr /= status_ok) return
-    ! 6. clock and next stable step
     sim%time = sim%time + dt_step
     sim%cycle = sim%cycle + 1
     sim%dt_last = dt_step
+    ! 5. element strain rates at mid-step, new geometry, stress update
+    call update_elements(dt_step, ierr, ifault)
+    if (ierr /= status_ok) return
+    ! 6. next stable step
     call solver_stable_step()
     if (mod(sim%cycle, sim%control%history_every) == 0) call record_history()
     if (sim%dt < sim%control%dt_floor_ratio*sim%dt_initial) then
@@ -241,6 +244,7 @@ contains
       call move_alloc(grown, sim%history)
     end if
     call solver_energies(kinetic, internal)
+    sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
     sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal]
   end subroutine record_history

@@ -78,6 +78,7 @@ module fsph_state
     real(wp) :: dt_initial = 0.0_wp       !< stable step at set-up [s]
     integer :: dt_element = 0             !< element controlling dt
     integer :: n_history = 0              !< records waiting in history
+    integer :: history_cycle = -1         !< cycle of the last record
     real(wp), allocatable :: history(:, :) !< (history_columns, capacity), drained by the API
   end type simulation_t
 

@@ -1,0 +1,121 @@
+"""Bad decks end in one line naming file, group, key and what was expected,
+with exit code 2 and no traceback; a run that goes bad exits 3 and keeps the
+last good snapshot."""
+
+import json
+import os
+import subprocess
+import sys
+
+import h5py
+import pytest
+
+from conftest import rod_deck
+
+
+def fsph_cli(args, cwd):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    return subprocess.run([sys.executable, "-m", "fsph", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+BAD_DECKS = {
+    "unknown_group": (rod_deck() + "&nonsense x = 1 /\n", ["&nonsense", "unknown group"]),
+    "unknown_key": (rod_deck(body="colour = 'red'"), ["&body #1", "'colour'", "unknown key"]),
+    "wrong_type": (rod_deck(body="n_axial = 'many'"), ["&body #1", "'n_axial'", "an integer"]),
+    "negative_density": (rod_deck(material="name='steel'\n library='steel_elastic_bar'\n density=-7850.0"),
+                         ["&material #1", "'density'", "(0, inf)", "kg/m^3"]),
+    "poisson_half": (rod_deck(material="name='steel'\n library='steel_elastic_bar'\n poisson_ratio=0.5"),
+                     ["&material #1", "'poisson_ratio'", "[0, 0.5)"]),
+    "zero_resolution": (rod_deck(body="n_radial = 0"), ["&body #1", "'n_radial'", "[1, inf)"]),
+    "missing_required": (rod_deck().replace(" end_time = 1.0e-6\n", ""),
+                         ["&control", "'end_time'", "missing key"]),
+    "unknown_material": (rod_deck(body="material = 'unobtainium'"),
+                         ["&body #1", "'material'", "steel"]),
+    "bad_choice": (rod_deck(material="name='steel'\n library='steel_elastic_bar'\n strength='rubber'"),
+                   ["&material #1", "'strength'", "johnson_cook"]),
+    "mode_not_available": (rod_deck(control="mode = 'adaptive'"),
+                           ["&control", "'mode'", "not available in this version"]),
+    "missing_model_constant": (rod_deck(material="name='steel'\n strength='epp'\n eos='linear'\n"
+                                        " density=7850.0\n youngs_modulus=2e11\n poisson_ratio=0.3"),
+                               ["&material #1", "'yield_stress'", "missing key"]),
+    "broken_syntax": ("&control end_time = (1.0e-6, 2 /\n", ["namelist syntax"]),
+    "empty_file": ("", ["namelist group"]),
+    "zero_normal": (rod_deck().replace("normal = 0.0, 1.0", "normal = 0.0, 0.0"),
+                    ["&boundary #1", "'normal'", "non-zero"]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_DECKS))
+def test_bad_deck_one_line_exit_2(name, tmp_path):
+    text, fragments = BAD_DECKS[name]
+    deck = tmp_path / f"{name}.nml"
+    deck.write_text(text)
+    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "out")], tmp_path)
+    assert res.returncode == 2, res.stderr
+    assert "Traceback" not in res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert f"{name}.nml" in lines[0]
+    for frag in fragments:
+        assert frag in lines[0], lines[0]
+
+
+def test_missing_deck_file(tmp_path):
+    res = fsph_cli(["run", str(tmp_path / "nowhere.nml")], tmp_path)
+    assert res.returncode == 2
+    assert "nowhere.nml" in res.stderr and "no such file" in res.stderr
+
+
+def test_collapsing_time_step_stops_cleanly(tmp_path):
+    """A floor the shrinking impact step must cross: the run stops with a
+    diagnostic naming the element, keeps its last good snapshot and exits 3."""
+    deck = tmp_path / "floor.nml"
+    deck.write_text(rod_deck(control="end_time = 3.0e-6\n dt_floor_ratio = 0.9",
+                             material="name='armco'\n library='armco_iron'",
+                             body="velocity_z = -400.0").replace("'steel'", "'armco'"))
+    out = tmp_path / "out"
+    res = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
+    assert res.returncode == 3, res.stdout + res.stderr
+    assert "Traceback" not in res.stderr
+    assert "time step collapsed" in res.stdout
+    assert "element" in res.stdout and "body 'rod'" in res.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    assert summary["failure"]["index"] > 0
+    assert summary["failure"]["time_s"] > 0
+    with h5py.File(out / "fsph.h5") as h5:
+        assert "failure" in h5.attrs
+        assert len(h5["snapshots"]) >= 1
+
+
+def test_tangled_mesh_stops_cleanly(tmp_path):
+    """An unstable step (safety 1, no viscosity, elastic rod at 5 km/s)
+    tangles the mesh: the run stops with exit 3 naming the inverted element,
+    where it is and when, and keeps the t = 0 snapshot."""
+    deck = tmp_path / "tangle.nml"
+    deck.write_text(rod_deck(control="end_time = 3.0e-6\n dt_safety = 1.0\n c_q = 0.0\n c_l = 0.0",
+                             body="velocity_z = -5000.0"))
+    out = tmp_path / "out"
+    res = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
+    assert res.returncode == 3, res.stdout + res.stderr
+    assert "Traceback" not in res.stderr
+    assert "inverted element" in res.stdout
+    assert "stopped at t =" in res.stdout and "r = " in res.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    assert summary["failure"]["code"] == 1
+    with h5py.File(out / "fsph.h5") as h5:
+        assert h5["snapshots"]["00000"].attrs["time"] == 0.0
+
+
+def test_eos_range_stops_cleanly(tmp_path):
+    """Mie-Grueneisen iron crushed in one oversized step: out of EOS range,
+    clean stop with exit 3."""
+    deck = tmp_path / "crush.nml"
+    deck.write_text(rod_deck(control="end_time = 3.0e-6\n dt_safety = 1.0\n c_q = 0.0\n c_l = 0.0",
+                             material="name='steel'\n library='armco_iron'",
+                             body="velocity_z = -3000.0"))
+    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "out")], tmp_path)
+    assert res.returncode == 3, res.stdout + res.stderr
+    assert "equation of state" in res.stdout

@@ -1,0 +1,69 @@
+"""Verification: the elastic bar of seed 000 section 3.1 against 1D bar theory."""
+
+import json
+
+import h5py
+import pytest
+
+from fsph.driver import run
+from conftest import CASES, reference
+
+
+@pytest.fixture(scope="module")
+def bar_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("elastic_bar")
+    summary = run(CASES / "elastic_bar.nml", out, quiet=True)
+    return summary, out
+
+
+def test_bar_completes(bar_run):
+    summary, _ = bar_run
+    assert summary["status"] == "completed"
+    assert summary["end_time_s"] == pytest.approx(3.0e-6, rel=1e-12)
+    assert summary["n_elements"] == 2000
+
+
+def test_bar_stress_plateau(bar_run):
+    """Plateau mean along r = 0.5 mm, 3-12 mm from the face, at 3 us within
+    3 % of rho c0 v = 2.011 GPa."""
+    summary, _ = bar_run
+    ref = reference("elastic_bar")["bar_wave"]["plateau_GPa"]
+    got = summary["metrics"]["bar_wave"]["plateau_GPa"]
+    assert abs(got - ref) / ref < 0.03
+
+
+def test_bar_wave_front(bar_run):
+    """Front within 0.5 mm of c0 t = 15.37 mm at 3 us."""
+    summary, _ = bar_run
+    ref = reference("elastic_bar")["bar_wave"]["front_mm"]
+    got = summary["metrics"]["bar_wave"]["front_mm"]
+    assert abs(got - ref) < 0.5
+
+
+def test_bar_energy_drift(bar_run):
+    summary, _ = bar_run
+    assert abs(summary["energy"]["relative_error"]) < 0.01
+
+
+def test_bar_outputs(bar_run):
+    summary, out = bar_run
+    on_disk = json.loads((out / "summary.json").read_text())
+    for key in ("case", "mode", "end_time_s", "cycles", "wall_time_s", "n_elements",
+                "n_nodes", "energy", "metrics"):
+        assert key in on_disk
+    assert set(on_disk["energy"]) >= {"initial_J", "final_J", "relative_error"}
+    with h5py.File(out / "fsph.h5") as h5:
+        hist = h5["history"]
+        assert hist["time"].shape[0] > 10
+        assert hist["time"][-1] == pytest.approx(3.0e-6, rel=1e-12)
+        assert hist["cycle"][-1] == summary["cycles"]
+        snaps = h5["snapshots"]
+        assert len(snaps) == 7      # t = 0 and 6 snapshots
+        last = snaps[sorted(snaps)[-1]]
+        assert last.attrs["time"] == pytest.approx(3.0e-6)
+        for name in ("nodes", "connectivity", "stress", "pressure", "plastic_strain",
+                     "density", "velocity"):
+            assert name in last
+        assert last["connectivity"].shape == (2000, 3)
+    assert (out / "fsph.pvd").is_file()
+    assert len(list((out / "vtu").glob("*.vtu"))) == 7
