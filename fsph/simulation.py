@@ -7,7 +7,13 @@ from . import deck as deck_module
 from . import mesh as mesh_module
 from .errors import FsphError, SimulationError
 from .materials import PROPERTY_NAMES, property_table
-from ._core import fsph_api as _api
+try:
+    from ._core import fsph_api as _api
+except ImportError as exc:  # importing the source folder instead of the installed package
+    raise ImportError(
+        "fsph._core (the compiled solver) is not importable from "
+        f"{__file__.rsplit('/', 2)[0]}: run `make test`/`make run` (they build and install "
+        "fsph into .venv) and use .venv/bin/python from outside the source folder") from exc
 
 # fsph_status codes (src_f90/fsph_status.f90)
 STATUS_OK = 0
