@@ -67,55 +67,54 @@ def test_missing_deck_file(tmp_path):
     assert "nowhere.nml" in res.stderr and "no such file" in res.stderr
 
 
-def test_collapsing_time_step_stops_cleanly(tmp_path):
-    """A floor the shrinking impact step must cross: the run stops with a
-    diagnostic naming the element, keeps its last good snapshot and exits 3."""
-    deck = tmp_path / "floor.nml"
-    deck.write_text(rod_deck(control="end_time = 3.0e-6\n dt_floor_ratio = 0.9",
-                             material="name='armco'\n library='armco_iron'",
-                             body="velocity_z = -400.0").replace("'steel'", "'armco'"))
+def run_failing(tmp_path, deck_text, code, what):
+    """Run a deck that must go bad: exit 3, no traceback, the diagnostic in
+    the output, a failed summary with the status code, the failure recorded
+    in the HDF5 file beside the t = 0 snapshot."""
+    deck = tmp_path / "bad_run.nml"
+    deck.write_text(deck_text)
     out = tmp_path / "out"
     res = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
     assert res.returncode == 3, res.stdout + res.stderr
     assert "Traceback" not in res.stderr
-    assert "time step collapsed" in res.stdout
-    assert "element" in res.stdout and "body 'rod'" in res.stdout
+    assert what in res.stdout
+    assert "stopped at t =" in res.stdout
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "failed"
-    assert summary["failure"]["index"] > 0
+    assert summary["failure"]["code"] == code
     assert summary["failure"]["time_s"] > 0
     with h5py.File(out / "fsph.h5") as h5:
         assert "failure" in h5.attrs
-        assert len(h5["snapshots"]) >= 1
+        assert h5["snapshots"]["00000"].attrs["time"] == 0.0
+    return res.stdout, summary
+
+
+def test_collapsing_time_step_stops_cleanly(tmp_path):
+    """A floor the shrinking impact step must cross: the diagnostic names
+    the element controlling the step."""
+    stdout, summary = run_failing(
+        tmp_path, rod_deck(control="end_time = 3.0e-6\n dt_floor_ratio = 0.9",
+                           material="name='steel'\n library='armco_iron'",
+                           body="velocity_z = -400.0"),
+        code=4, what="time step collapsed")
+    assert "element" in stdout and "body 'rod'" in stdout
+    assert summary["failure"]["index"] > 0
 
 
 def test_tangled_mesh_stops_cleanly(tmp_path):
     """An unstable step (safety 1, no viscosity, elastic rod at 5 km/s)
-    tangles the mesh: the run stops with exit 3 naming the inverted element,
-    where it is and when, and keeps the t = 0 snapshot."""
-    deck = tmp_path / "tangle.nml"
-    deck.write_text(rod_deck(control="end_time = 3.0e-6\n dt_safety = 1.0\n c_q = 0.0\n c_l = 0.0",
-                             body="velocity_z = -5000.0"))
-    out = tmp_path / "out"
-    res = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
-    assert res.returncode == 3, res.stdout + res.stderr
-    assert "Traceback" not in res.stderr
-    assert "inverted element" in res.stdout
-    assert "stopped at t =" in res.stdout and "r = " in res.stdout
-    summary = json.loads((out / "summary.json").read_text())
-    assert summary["status"] == "failed"
-    assert summary["failure"]["code"] == 1
-    with h5py.File(out / "fsph.h5") as h5:
-        assert h5["snapshots"]["00000"].attrs["time"] == 0.0
+    tangles the mesh: the diagnostic names the inverted element and where."""
+    stdout, _ = run_failing(
+        tmp_path, rod_deck(control="end_time = 3.0e-6\n dt_safety = 1.0\n c_q = 0.0\n c_l = 0.0",
+                           body="velocity_z = -5000.0"),
+        code=1, what="inverted element")
+    assert "r = " in stdout and "z = " in stdout
 
 
 def test_eos_range_stops_cleanly(tmp_path):
-    """Mie-Grueneisen iron crushed in one oversized step: out of EOS range,
-    clean stop with exit 3."""
-    deck = tmp_path / "crush.nml"
-    deck.write_text(rod_deck(control="end_time = 3.0e-6\n dt_safety = 1.0\n c_q = 0.0\n c_l = 0.0",
-                             material="name='steel'\n library='armco_iron'",
-                             body="velocity_z = -3000.0"))
-    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "out")], tmp_path)
-    assert res.returncode == 3, res.stdout + res.stderr
-    assert "equation of state" in res.stdout
+    """Mie-Grueneisen iron crushed in one oversized step: out of EOS range."""
+    run_failing(
+        tmp_path, rod_deck(control="end_time = 3.0e-6\n dt_safety = 1.0\n c_q = 0.0\n c_l = 0.0",
+                           material="name='steel'\n library='armco_iron'",
+                           body="velocity_z = -3000.0"),
+        code=5, what="equation of state")
