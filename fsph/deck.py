@@ -15,7 +15,7 @@ from pathlib import Path
 import f90nml
 
 from .errors import DeckError
-from .materials import EOS_MODELS, LIBRARY, STRENGTH_MODELS
+from .materials import EOS_MODELS, LIBRARY, STRENGTH_MODELS, elastic_moduli
 
 REQUIRED = object()
 
@@ -341,7 +341,6 @@ def _validate_material(path, label, m):
                         "a value (the linear EOS with shear_modulus needs bulk_modulus)",
                         "missing key")
     if m["strength"] == "bilinear":
-        from .materials import elastic_moduli
         _, _, e = elastic_moduli(m)
         if not m["tangent_modulus"] < e:
             raise DeckError(path, label, "tangent_modulus",

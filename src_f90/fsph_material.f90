@@ -51,7 +51,7 @@ module fsph_material
   real(wp), parameter :: return_tolerance = 1.0e-12_wp
   integer, parameter :: return_max_iterations = 60
 
-  public :: material_update, rotate_deviator, equivalent_stress, eos_pressure
+  public :: material_update, particle_material_update, strength_update, rotate_deviator, equivalent_stress, eos_pressure
   public :: deviator_double_contraction, sound_speed
 
 contains
@@ -219,11 +219,54 @@ contains
     end if
   end function thermal_softening
 
-  !> One constitutive step of one material point.
-  !> Order: Jaumann rotation of s; elastic trial deviator; radial return;
-  !> adiabatic heating from plastic work (Johnson-Cook); EOS and internal
-  !> energy solved together (p linear in e, trapezoidal p dv work, Wilkins);
-  !> pressure cut-off; sound speed.
+  !> Deviatoric part of a constitutive step, shared by elements and
+  !> particles: Jaumann rotation of s by the exact angle spin*dt, elastic
+  !> trial deviator, radial return, adiabatic heating from plastic work
+  !> (Johnson-Cook). Returns the rotated start-of-step deviator s_old and the
+  !> deviatoric strain rate d_dev for the caller's work integral.
+  pure subroutine strength_update(props, istrength, dt, d, spin, rho, s, eps_p, temp, s_old, d_dev)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: istrength
+    real(wp), intent(in) :: dt              !< time step [s]
+    real(wp), intent(in) :: d(4)            !< strain rate (rr, zz, rz, tt) [1/s]
+    real(wp), intent(in) :: spin            !< in-plane spin 1/2 (dvr/dz - dvz/dr) [1/s]
+    real(wp), intent(in) :: rho             !< density at the end of the step [kg/m^3]
+    real(wp), intent(inout) :: s(4)         !< deviatoric stress [Pa]
+    real(wp), intent(inout) :: eps_p        !< equivalent plastic strain [-]
+    real(wp), intent(inout) :: temp         !< temperature [K]
+    real(wp), intent(out) :: s_old(4)       !< rotated start-of-step deviator [Pa]
+    real(wp), intent(out) :: d_dev(4)       !< deviatoric strain rate [1/s]
+    real(wp) :: trace, rate_factor, thermal_factor, deps_p, sy, rate_eq
+
+    call rotate_deviator(spin*dt, s)
+    s_old = s
+    trace = d(1) + d(2) + d(4)
+    d_dev = d
+    d_dev(1) = d(1) - trace/3.0_wp
+    d_dev(2) = d(2) - trace/3.0_wp
+    d_dev(4) = d(4) - trace/3.0_wp
+    s = s + 2.0_wp*props(prop_shear)*dt*d_dev
+    if (istrength == strength_elastic) return
+
+    rate_factor = 1.0_wp
+    thermal_factor = 1.0_wp
+    if (istrength == strength_johnson_cook) then
+      ! (1 + C ln eps_dot*) with eps_dot* = eps_dot_eq/eps_dot_0 taken >= 1,
+      ! the usual form of the model below the reference rate.
+      rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
+      rate_factor = 1.0_wp + props(prop_jc_c)*log(max(rate_eq/props(prop_eps0), 1.0_wp))
+      thermal_factor = thermal_softening(props, temp)
+    end if
+    call radial_return(props, istrength, rate_factor, thermal_factor, eps_p, s, deps_p, sy)
+    eps_p = eps_p + deps_p
+    if (istrength == strength_johnson_cook .and. props(prop_cv) > 0.0_wp) then
+      temp = temp + props(prop_chi)*sy*deps_p/(rho*props(prop_cv))
+    end if
+  end subroutine strength_update
+
+  !> One constitutive step of one element material point: strength update,
+  !> then EOS and internal energy solved together (p linear in e,
+  !> trapezoidal p dv work, Wilkins), pressure cut-off, sound speed.
   pure subroutine material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
                                   s, p, eps_p, e, temp, c, ierr)
     real(wp), intent(in) :: props(n_props)
@@ -240,38 +283,9 @@ contains
     real(wp), intent(inout) :: temp         !< temperature [K]
     real(wp), intent(out) :: c              !< longitudinal sound speed [m/s]
     integer, intent(out) :: ierr
-    real(wp) :: s_old(4), d_dev(4), trace, rate_factor, thermal_factor, deps_p, sy
-    real(wp) :: g, dw_dev, dv, a, b, dadrho, e_star, p_new, rate_eq
+    real(wp) :: s_old(4), d_dev(4), dw_dev, dv, a, b, dadrho, e_star, p_new
 
-    ierr = status_ok
-    g = props(prop_shear)
-    call rotate_deviator(spin*dt, s)
-    s_old = s
-
-    trace = d(1) + d(2) + d(4)
-    d_dev = d
-    d_dev(1) = d(1) - trace/3.0_wp
-    d_dev(2) = d(2) - trace/3.0_wp
-    d_dev(4) = d(4) - trace/3.0_wp
-    s = s + 2.0_wp*g*dt*d_dev
-
-    deps_p = 0.0_wp
-    if (istrength /= strength_elastic) then
-      rate_factor = 1.0_wp
-      thermal_factor = 1.0_wp
-      if (istrength == strength_johnson_cook) then
-        ! (1 + C ln eps_dot*) with eps_dot* = eps_dot_eq/eps_dot_0 taken >= 1,
-        ! the usual form of the model below the reference rate.
-        rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
-        rate_factor = 1.0_wp + props(prop_jc_c)*log(max(rate_eq/props(prop_eps0), 1.0_wp))
-        thermal_factor = thermal_softening(props, temp)
-      end if
-      call radial_return(props, istrength, rate_factor, thermal_factor, eps_p, s, deps_p, sy)
-      eps_p = eps_p + deps_p
-      if (istrength == strength_johnson_cook .and. props(prop_cv) > 0.0_wp) then
-        temp = temp + props(prop_chi)*sy*deps_p/(rho_new*props(prop_cv))
-      end if
-    end if
+    call strength_update(props, istrength, dt, d, spin, rho_new, s, eps_p, temp, s_old, d_dev)
 
     ! internal energy: deviatoric work with the mid-step deviator, then the
     ! pressure work -(q + (p_n + p_n+1)/2) dv solved with p_n+1 = a + b e_n+1
@@ -288,9 +302,30 @@ contains
       e = e_star - 0.5_wp*p_new*dv
     end if
     p = p_new
-
-    c = sound_speed(g, dadrho, b, rho_new, p)
+    c = sound_speed(props(prop_shear), dadrho, b, rho_new, p)
   end subroutine material_update
+
+  !> One constitutive step of one particle: the internal energy e has been
+  !> advanced by the SPH energy equation, so the pressure follows explicitly
+  !> from the EOS at (rho, e), with the cut-off; the deviator as for
+  !> elements.
+  pure subroutine particle_material_update(props, istrength, ieos, dt, d, spin, rho, e, &
+                                           s, p, eps_p, temp, c, ierr)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: istrength, ieos
+    real(wp), intent(in) :: dt, d(4), spin   !< [s], [1/s], [1/s]
+    real(wp), intent(in) :: rho              !< density at the end of the step [kg/m^3]
+    real(wp), intent(in) :: e                !< specific internal energy at the end of the step [J/kg]
+    real(wp), intent(inout) :: s(4), p, eps_p, temp
+    real(wp), intent(out) :: c
+    integer, intent(out) :: ierr
+    real(wp) :: s_old(4), d_dev(4), a, b, dadrho
+    call strength_update(props, istrength, dt, d, spin, rho, s, eps_p, temp, s_old, d_dev)
+    call eos_pressure(props, ieos, rho, a, b, dadrho, ierr)
+    if (ierr /= status_ok) return
+    p = max(a + b*e, props(prop_pmin))   ! spall cut-off, as for elements
+    c = sound_speed(props(prop_shear), dadrho, b, rho, p)
+  end subroutine particle_material_update
 
   !> Longitudinal sound speed sqrt(c_b^2 + 4G/(3 rho)) [m/s] with the
   !> isentropic bulk sound speed c_b^2 = (dp/drho)_e + p/rho^2 (dp/de)_rho,

@@ -2,7 +2,8 @@
 !> set-up of derived quantities and `solver_advance`, one call per phase.
 module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
-  use fsph_status
+  use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
+                         status_dt_floor
   use fsph_state, only: sim, history_columns
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
                            strength_elastic, strength_johnson_cook, eos_linear, eos_mie_gruneisen
