@@ -58,12 +58,13 @@ SCHEMA = {
                         "Discretisation mode: fem (elements only), sph (particles only), "
                         "fixed (FEM-SPH coupling as declared), adaptive (elements converted "
                         "to particles where they distort).",
-                        choices=("fem", "sph", "fixed", "adaptive"), implemented=("fem",)),
+                        choices=("fem", "sph", "fixed", "adaptive"), implemented=("fem", "sph")),
             "end_time": _pos("Physical time at which the run stops.", "s"),
             "dt_safety": Key("float", 0.6, "-",
-                             "Time-step safety factor s: dt = s * min_e L_min/(Q + sqrt(Q^2 + c^2)). "
-                             "0.6 leaves margin for the axisymmetric hoop stiffness of elements "
-                             "next to the axis.", lower=0.0, upper=1.0, lower_open=True),
+                             "Time-step safety factor s: dt = s * min(min_e L_min/(Q + sqrt(Q^2 + c^2)), "
+                             "min_p h/(c + |v|)). 0.6 leaves margin for the axisymmetric hoop "
+                             "stiffness of elements next to the axis.",
+                             lower=0.0, upper=1.0, lower_open=True),
             "c_q": Key("float", 1.5, "-",
                        "Quadratic artificial-viscosity coefficient C_Q in "
                        "q = rho (C_Q L tr d)^2 + C_L rho c L |tr d| (compression only, L = sqrt(A)). "
@@ -134,16 +135,43 @@ SCHEMA = {
             "name": Key("str", REQUIRED, "-", "Body name."),
             "material": Key("str", REQUIRED, "-", "Name of a &material."),
             "geometry": Key("str", "rod", "-", "Geometry generator.", choices=("rod",)),
-            "discretisation": Key("str", "elements", "-", "elements or particles.",
-                                  choices=("elements", "particles"), implemented=("elements",)),
+            "discretisation": Key("str", None, "-",
+                                  "elements or particles. Unset: elements in mode fem, particles "
+                                  "in mode sph. Particles sit at the centres of the n_radial x "
+                                  "n_axial lattice cells, each carrying the ring mass of its cell.",
+                                  choices=("elements", "particles")),
             "radius": _pos("Rod radius.", "m"),
             "length": _pos("Rod length.", "m"),
             "z_base": Key("float", 0.0, "m", "Axial position of the lower end face."),
-            "n_radial": Key("int", REQUIRED, "-", "Quadrilaterals across the radius.", lower=1),
-            "n_axial": Key("int", REQUIRED, "-", "Quadrilaterals along the length.", lower=1),
+            "n_radial": Key("int", REQUIRED, "-",
+                            "Quadrilaterals (or particle lattice cells) across the radius.", lower=1),
+            "n_axial": Key("int", REQUIRED, "-",
+                           "Quadrilaterals (or particle lattice cells) along the length.", lower=1),
             "velocity_z": Key("float", 0.0, "m/s", "Initial axial velocity (negative: towards -z)."),
         },
         repeatable=True, required=True, min_count=1,
+    ),
+    "sph": Group(
+        "Particle (SPH) parameters.",
+        {
+            "alpha_h": Key("float", 1.3, "-",
+                           "Smoothing length h = alpha_h * Delta, Delta the particle spacing "
+                           "(sqrt of the lattice cell area). 1.3 gives about 21 neighbours within "
+                           "the 2h support of the cubic B-spline on a square lattice.",
+                           lower=0.5, upper=3.0),
+            "c_q": Key("float", 1.0, "-",
+                       "Quadratic coefficient of the pairwise (Johnson 'combined') viscosity "
+                       "q_ij = rho (C_Q h eps_ij)^2 + C_L rho c h |eps_ij|, eps_ij the normal "
+                       "strain rate of the pair (Monaghan beta = C_Q^2). 1.0 and 0.2 (c_l) are "
+                       "the customary quadratic and linear coefficients of commercial "
+                       "hydrocodes for solids.", lower=0.0),
+            "c_l": Key("float", 0.2, "-", "Linear coefficient of the pairwise viscosity "
+                       "(Monaghan alpha = C_L).", lower=0.0),
+            "contact_penalty": Key("float", 0.1, "-",
+                                   "Particle-particle contact between bodies: fraction of an "
+                                   "overlap of the particle radii removed per step by the "
+                                   "penalty force.", lower=0.0, upper=1.0, lower_open=True),
+        },
     ),
     "boundary": Group(
         "A rigid, fixed, frictionless plane (e.g. the Taylor anvil). Repeatable. Bodies stay "
@@ -400,6 +428,15 @@ def _unique_names(path, gname, items):
 
 
 def _cross_check(path, deck):
+    mode = deck["control"]["mode"]
+    default_disc = {"fem": "elements", "sph": "particles"}[mode]
+    for i, b in enumerate(deck["body"]):
+        if b["discretisation"] is None:
+            b["discretisation"] = default_disc
+        elif b["discretisation"] != default_disc:
+            raise DeckError(path, f"body #{i + 1}", "discretisation",
+                            f"'{default_disc}' in mode '{mode}' (mixed bodies need mode 'fixed')",
+                            b["discretisation"])
     _unique_names(path, "material", deck["material"])
     _unique_names(path, "body", deck["body"])
     for i, m in enumerate(deck["material"]):

@@ -62,7 +62,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
     ctrl, out = deck["control"], deck["output"]
     writer = RunWriter(outdir, deck_path.read_text(), ctrl["title"], vtu=out["vtu"])
     say(f"fsph: {ctrl['title'] or deck_path.stem}: mode {ctrl['mode']}, {sim.n_elements} elements, "
-        f"{sim.n_nodes} nodes, {threads()} thread(s), end time {ctrl['end_time'] * 1e6:g} us")
+        f"{sim.n_nodes} nodes, {sim.n_particles} particles, {threads()} thread(s), "
+        f"end time {ctrl['end_time'] * 1e6:g} us")
     say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s}")
 
     last_good = sim.snapshot()
@@ -105,6 +106,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
         "threads": threads(),
         "n_elements": sim.n_elements,
         "n_nodes": sim.n_nodes,
+        "n_particles": sim.n_particles,
         "energy": {"initial_J": sim.initial_energy, "final_J": energies["total"],
                    "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
                    "relative_error": energies["relative_error"]},
@@ -122,5 +124,5 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
         f"{summary['wall_time_s']:.2f} s wall; energy error {energies['relative_error']:+.3e}")
     for line in _format_metrics(comparison, case_metrics):
         say(line)
-    say(f"fsph: outputs in {outdir}/ (fsph.h5, fsph.pvd, summary.json)")
+    say(f"fsph: outputs in {outdir}/ (fsph.h5, ParaView .pvd series, summary.json)")
     return summary

@@ -64,13 +64,58 @@ def rod(radius, length, n_radial, n_axial, z_base=0.0):
                          np.linspace(z_base, z_base + length, n_axial + 1))
 
 
-GENERATORS = {"rod": lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
-                                   b["z_base"])}
+@dataclass
+class ParticleLattice:
+    """Particles at the centres of lattice cells: positions x (n, 2) (r, z)
+    [m], planar cell areas (n,) [m^2] and spacings (n,) sqrt(area) [m]. The
+    ring volume a particle stands for is 2 pi r area (exact for a
+    rectangular cell centred at r)."""
+
+    x: np.ndarray
+    area: np.ndarray
+
+    @property
+    def spacing(self):
+        return np.sqrt(self.area)
+
+    @property
+    def ring_volume(self):
+        return 2.0 * np.pi * self.x[:, 0] * self.area
+
+    @property
+    def n_particles(self):
+        return len(self.x)
 
 
-def body_mesh(body):
-    """Mesh of one validated &body."""
-    return GENERATORS[body["geometry"]](body)
+def lattice(r_edges, z_edges):
+    """Particles at the centres of the tensor-grid cells r_edges x z_edges."""
+    r_edges = np.asarray(r_edges, dtype=float)
+    z_edges = np.asarray(z_edges, dtype=float)
+    rc = 0.5 * (r_edges[:-1] + r_edges[1:])
+    zc = 0.5 * (z_edges[:-1] + z_edges[1:])
+    rr, zz = np.meshgrid(rc, zc)
+    dr, dz = np.meshgrid(np.diff(r_edges), np.diff(z_edges))
+    return ParticleLattice(x=np.column_stack([rr.ravel(), zz.ravel()]),
+                           area=(dr * dz).ravel())
+
+
+def rod_particles(radius, length, n_radial, n_axial, z_base=0.0):
+    """Solid rod as an n_radial x n_axial particle lattice."""
+    return lattice(np.linspace(0.0, radius, n_radial + 1),
+                   np.linspace(z_base, z_base + length, n_axial + 1))
+
+
+GENERATORS = {
+    ("rod", "elements"): lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
+                                       b["z_base"]),
+    ("rod", "particles"): lambda b: rod_particles(b["radius"], b["length"], b["n_radial"],
+                                                  b["n_axial"], b["z_base"]),
+}
+
+
+def body_discretisation(body):
+    """Mesh (elements) or ParticleLattice (particles) of one validated &body."""
+    return GENERATORS[(body["geometry"], body["discretisation"])](body)
 
 
 def boundary_edges(conn):

@@ -12,6 +12,26 @@ def _body_elements(snap, body_index):
     return conn, keep
 
 
+def taylor_particles(part, body, body_index, w_height=None):
+    """Taylor L, D, W [mm] of a particle body, each particle counted as a
+    square of half-side its radius: L spans the lowest and highest particle
+    edges, D is twice the largest r + radius, W twice the largest r + radius
+    among particles whose axial extent covers the level w_height above the
+    impact face."""
+    keep = part["body"] == body_index
+    x, rad = part["x"][keep], part["radius"][keep]
+    z_face = (x[:, 1] - rad).min()
+    length = (x[:, 1] + rad).max() - z_face
+    diameter = 2.0 * (x[:, 0] + rad).max()
+    if w_height is None:
+        w_height = 0.2 * body["length"]
+    level = z_face + w_height
+    at_level = (x[:, 1] - rad <= level) & (x[:, 1] + rad >= level)
+    width = 2.0 * (x[at_level, 0] + rad[at_level]).max() if at_level.any() else float("nan")
+    return {"L_mm": length * 1e3, "D_mm": diameter * 1e3, "W_mm": width * 1e3,
+            "w_height_mm": w_height * 1e3}
+
+
 def taylor(snap, body, body_index, w_height=None):
     """Final length L, maximum diameter D and width W at w_height (default
     0.2 L0) above the impact face, in mm. The impact face is the lowest
@@ -69,11 +89,27 @@ def stress_profile(snap, body_index, probe_radius, n_samples=801):
     return z[ok] - z_lo, szz
 
 
+def particle_stress_profile(part, body_index, probe_radius):
+    """Axial stress [Pa] of the particle column whose initial radius is
+    nearest probe_radius, against the initial distance from the impact face
+    (lowest initial particle edge) [m]."""
+    keep = part["body"] == body_index
+    x0, rad0, szz = part["x0"][keep], part["radius0"][keep], part["stress"][keep, 1]
+    r_col = x0[np.argmin(np.abs(x0[:, 0] - probe_radius)), 0]
+    col = np.isclose(x0[:, 0], r_col, rtol=1e-9, atol=0.0)
+    order = np.argsort(x0[col, 1])
+    face = (x0[:, 1] - rad0).min()
+    return x0[col, 1][order] - face, szz[col][order]
+
+
 def bar_wave(snap, body_index, probe_radius, plateau_from, plateau_to):
     """Mean compressive stress of the plateau window [GPa] and wave front
     [mm]: the farthest initial distance from the face where the compressive
     stress still reaches half the plateau (linear interpolation)."""
-    dist, szz = stress_profile(snap, body_index, probe_radius)
+    if "particles" in snap and "conn" not in snap:
+        dist, szz = particle_stress_profile(snap["particles"], body_index, probe_radius)
+    else:
+        dist, szz = stress_profile(snap, body_index, probe_radius)
     comp = -szz
     window = (dist >= plateau_from) & (dist <= plateau_to)
     plateau = comp[window].mean()
@@ -94,6 +130,9 @@ def case_metrics(snap, deck):
     names = [b["name"] for b in deck["body"]]
     ib = names.index(met["body"]) if met["body"] else 0
     if met["kind"] == "taylor":
+        if deck["body"][ib]["discretisation"] == "particles":
+            return {"taylor": taylor_particles(snap["particles"], deck["body"][ib], ib,
+                                               met["w_height"])}
         return {"taylor": taylor(snap, deck["body"][ib], ib, met["w_height"])}
     if met["kind"] == "bar_wave":
         return {"bar_wave": bar_wave(snap, ib, met["probe_radius"], met["plateau_from"],

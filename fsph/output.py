@@ -15,6 +15,11 @@ SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
 
 
+def _points3(xy):
+    """(n, 2) (r, z) -> (n, 3) (r, z, 0) for ParaView."""
+    return np.column_stack([xy, np.zeros(len(xy))])
+
+
 def _atomic_write_text(path, text):
     """Write to a temporary name then rename: a crash never leaves a torn file."""
     tmp = Path(str(path) + ".tmp")
@@ -28,9 +33,11 @@ class RunWriter:
     fsph.h5: /history/<field> (time [s], cycle, dt [s], kinetic [J],
     internal [J], total [J]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
-    fields; attributes time [s] and cycle. The deck text is stored in
-    /deck. vtu/ and fsph.pvd: the same snapshots for ParaView (points at
-    (r, z, 0)).
+    fields; attributes time [s] and cycle; particles, if any, in
+    /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
+    pressure, ...). The deck text is stored in /deck. vtu/ with fsph.pvd
+    (elements) and fsph_particles.pvd (particles as vertices): the same
+    snapshots for ParaView (points at (r, z, 0)).
     """
 
     def __init__(self, outdir, deck_text, title, vtu=True):
@@ -46,7 +53,7 @@ class RunWriter:
         self.snapshots = self.h5.create_group("snapshots")
         self.n_snapshots = 0
         self.vtu = vtu
-        self.pvd_entries = []
+        self.pvd_entries = {}
         if vtu:
             (self.outdir / "vtu").mkdir(exist_ok=True)
 
@@ -67,32 +74,55 @@ class RunWriter:
         g = self.snapshots.create_group(f"{self.n_snapshots:05d}")
         g.attrs["time"] = snap["time"]
         g.attrs["cycle"] = snap["cycle"]
-        g["nodes"] = snap["x"]
-        g["nodes_initial"] = snap["x0"]
-        g["velocity"] = snap["velocity"]
-        g["connectivity"] = snap["conn"]
-        for name in SNAPSHOT_CELL_FIELDS:
-            g[name] = snap[name]
-        g["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
+        if "conn" in snap:
+            g["nodes"] = snap["x"]
+            g["nodes_initial"] = snap["x0"]
+            g["velocity"] = snap["velocity"]
+            g["connectivity"] = snap["conn"]
+            for name in SNAPSHOT_CELL_FIELDS:
+                g[name] = snap[name]
+            g["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
+        if "particles" in snap:
+            pg = g.create_group("particles")
+            for name, values in snap["particles"].items():
+                pg[name] = values
+            pg["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
         self.h5.flush()
         if self.vtu:
             self._write_vtu(snap)
         self.n_snapshots += 1
 
     def _write_vtu(self, snap):
-        name = f"vtu/snap_{self.n_snapshots:05d}.vtu"
-        points = np.column_stack([snap["x"], np.zeros(len(snap["x"]))])
-        cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
-        for j, comp in enumerate(STRESS_COMPONENTS):
-            cell_data[f"stress_{comp}"] = [snap["stress"][:, j]]
-        velocity = np.column_stack([snap["velocity"], np.zeros(len(snap["x"]))])
-        mesh = meshio.Mesh(points, [("triangle", snap["conn"])],
-                           point_data={"velocity": velocity}, cell_data=cell_data)
+        if "conn" in snap:
+            cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
+            for j, comp in enumerate(STRESS_COMPONENTS):
+                cell_data[f"stress_{comp}"] = [snap["stress"][:, j]]
+            mesh = meshio.Mesh(_points3(snap["x"]), [("triangle", snap["conn"])],
+                               point_data={"velocity": _points3(snap["velocity"])},
+                               cell_data=cell_data)
+            self._add_series("elements", snap["time"], mesh)
+        if "particles" in snap:
+            part = snap["particles"]
+            n = len(part["x"])
+            point_data = {k: v for k, v in part.items()
+                          if k not in ("x", "x0", "velocity", "stress") and np.ndim(v) == 1}
+            point_data["velocity"] = _points3(part["velocity"])
+            for j, comp in enumerate(STRESS_COMPONENTS):
+                point_data[f"stress_{comp}"] = part["stress"][:, j]
+            mesh = meshio.Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
+                               point_data=point_data)
+            self._add_series("particles", snap["time"], mesh)
+
+    def _add_series(self, kind, time, mesh):
+        """One .vtu per snapshot and kind; the .pvd collection rewritten."""
+        name = f"vtu/{kind}_{self.n_snapshots:05d}.vtu"
         meshio.write(self.outdir / name, mesh)
-        self.pvd_entries.append((snap["time"], name))
+        entries = self.pvd_entries.setdefault(kind, [])
+        entries.append((time, name))
         rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="0" file="{f}"/>'
-                         for t, f in self.pvd_entries)
-        _atomic_write_text(self.outdir / "fsph.pvd",
+                         for t, f in entries)
+        pvd = "fsph.pvd" if kind == "elements" else f"fsph_{kind}.pvd"
+        _atomic_write_text(self.outdir / pvd,
                            '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
                            f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
 

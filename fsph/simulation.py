@@ -26,8 +26,10 @@ STATUS_TEXT = {
     6: "invalid set-up input",
     7: "state not initialised",
     8: "cycle limit (max_cycles) reached",
+    9: "non-finite state (NaN/Inf) or non-positive density in a particle",
+    10: "a particle reached the axis (r <= 0)",
 }
-ELEMENT_FAULTS = {1, 2, 4, 5}
+# index conventions of fsph_solver: > 0 element (node for code 3), < 0 particle
 NODE_FAULTS = {3}
 
 
@@ -53,45 +55,76 @@ class Simulation:
         materials = deck["material"]
         self.material_names = [m["name"] for m in materials]
         self.body_names = [b["name"] for b in deck["body"]]
-
-        xs, conns, mats, bodies, vels = [], [], [], [], []
-        offset = 0
-        self.body_meshes = []
-        for ib, b in enumerate(deck["body"]):
-            m = mesh_module.body_mesh(b)
-            self.body_meshes.append(m)
-            xs.append(m.x)
-            conns.append(m.conn + offset)
-            vel = np.zeros_like(m.x)
-            vel[:, 1] = b["velocity_z"]
-            vels.append(vel)
-            mats.append(np.full(m.n_elements, self.material_names.index(b["material"]) + 1))
-            bodies.append(np.full(m.n_elements, ib + 1))
-            offset += m.n_nodes
-        x = np.vstack(xs)
-        conn = np.vstack(conns)
-        self.node_body = np.concatenate([np.full(m.n_nodes, ib) for ib, m in
-                                         enumerate(self.body_meshes)])
+        rho0 = {m["name"]: m["density"] for m in materials}
 
         _api.reset()
         c = self.control
         _api.set_control(c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"],
                          deck["output"]["history_every"])
+        sph = deck["sph"]
+        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"])
         props, strength, eos = property_table(materials)
         self._call(_api.set_materials(props, strength, eos), "material table")
-        self._call(_api.set_mesh(np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
-                                 np.asfortranarray(conn.T + 1, dtype=np.int32),
-                                 np.concatenate(mats).astype(np.int32),
-                                 np.concatenate(bodies).astype(np.int32)), "mesh")
+
+        elem_bodies, part_bodies = [], []
+        for ib, b in enumerate(deck["body"]):
+            geometry = mesh_module.body_discretisation(b)
+            mat = self.material_names.index(b["material"]) + 1
+            (elem_bodies if b["discretisation"] == "elements" else part_bodies).append(
+                (ib, b, geometry, mat))
+
+        self.n_nodes = self.n_elements = self.n_particles = 0
+        if elem_bodies:
+            self._set_elements(elem_bodies)
+        if part_bodies:
+            self._set_particles(part_bodies, rho0, sph["alpha_h"])
         for bc in deck["boundary"]:
             self._call(_api.add_rigid_plane(np.array(bc["point"]), np.array(bc["normal"])),
                        "rigid plane")
         ierr, ifault = _api.initialise()
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault, during="set-up")
-        self.n_nodes, self.n_elements = (int(v) for v in _api.get_sizes())
         ke, ie = _api.get_energies()
         self.initial_energy = ke + ie
+        self.particle_radius0 = (self._particles()["radius"].copy() if self.n_particles
+                                 else np.zeros(0))
+
+    def _set_elements(self, bodies):
+        xs, conns, mats, body_ids, vels = [], [], [], [], []
+        offset = 0
+        for ib, b, m, mat in bodies:
+            xs.append(m.x)
+            conns.append(m.conn + offset)
+            vel = np.zeros_like(m.x)
+            vel[:, 1] = b["velocity_z"]
+            vels.append(vel)
+            mats.append(np.full(m.n_elements, mat))
+            body_ids.append(np.full(m.n_elements, ib + 1))
+            offset += m.n_nodes
+        x, conn = np.vstack(xs), np.vstack(conns)
+        self._call(_api.set_mesh(np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
+                                 np.asfortranarray(conn.T + 1, dtype=np.int32),
+                                 np.concatenate(mats).astype(np.int32),
+                                 np.concatenate(body_ids).astype(np.int32)), "mesh")
+        self.n_nodes, self.n_elements = len(x), len(conn)
+
+    def _set_particles(self, bodies, rho0, alpha_h):
+        xs, vels, masses, hs, mats, body_ids = [], [], [], [], [], []
+        for ib, b, lat, mat in bodies:
+            xs.append(lat.x)
+            vel = np.zeros_like(lat.x)
+            vel[:, 1] = b["velocity_z"]
+            vels.append(vel)
+            masses.append(rho0[b["material"]] * lat.ring_volume)
+            hs.append(alpha_h * lat.spacing)
+            mats.append(np.full(lat.n_particles, mat))
+            body_ids.append(np.full(lat.n_particles, ib + 1))
+        x = np.vstack(xs)
+        self._call(_api.set_particles(np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
+                                      np.concatenate(masses), np.concatenate(hs),
+                                      np.concatenate(mats).astype(np.int32),
+                                      np.concatenate(body_ids).astype(np.int32)), "particles")
+        self.n_particles = len(x)
 
     @classmethod
     def from_deck(cls, path):
@@ -105,23 +138,28 @@ class Simulation:
                             f"{STATUS_TEXT.get(ierr, ierr)}")
 
     def _failure(self, ierr, ifault, during="run"):
-        time, _, dt_last, _, cycle, _ = _api.get_clock()
+        time, cycle = self.time, self.cycle
         text = STATUS_TEXT.get(int(ierr), f"status {ierr}")
         where, location = "", None
-        if ifault > 0 and ierr in ELEMENT_FAULTS:
-            nn, ne = _api.get_sizes()
-            x, _, _, _ = _api.get_nodes(nn)
-            conn, _, body = _api.get_elements(ne)
-            centroid = x[:, conn[:, ifault - 1] - 1].mean(axis=1)
-            location = centroid
-            where = (f"; element {ifault} of body '{self.body_names[body[ifault - 1] - 1]}' "
-                     f"at r = {centroid[0] * 1e3:.4g} mm, z = {centroid[1] * 1e3:.4g} mm")
+        if ifault < 0:
+            part = self._particles()
+            k = -ifault - 1
+            location = part["x"][k]
+            where = (f"; particle {-ifault} of body '{self.body_names[part['body'][k]]}' "
+                     f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
         elif ifault > 0 and ierr in NODE_FAULTS:
             nn, _ = _api.get_sizes()
             x, x0, _, _ = _api.get_nodes(nn)
             location = x0[:, ifault - 1]
             where = (f"; node {ifault} (initially at r = {location[0] * 1e3:.4g} mm, "
                      f"z = {location[1] * 1e3:.4g} mm)")
+        elif ifault > 0 and ierr != 6:
+            nn, ne = _api.get_sizes()
+            x, _, _, _ = _api.get_nodes(nn)
+            conn, _, body = _api.get_elements(ne)
+            location = x[:, conn[:, ifault - 1] - 1].mean(axis=1)
+            where = (f"; element {ifault} of body '{self.body_names[body[ifault - 1] - 1]}' "
+                     f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
         elif ifault > 0:
             where = f"; index {ifault}"
         msg = f"{during} stopped at t = {time * 1e6:.6g} us, cycle {cycle}: {text}{where}"
@@ -160,28 +198,64 @@ class Simulation:
                 "relative_error": float((total - self.initial_energy) / self.initial_energy)
                 if self.initial_energy else 0.0}
 
+    def _particles(self):
+        """Particle arrays (positions etc.), 0-based material and body."""
+        np_ = int(_api.get_particle_count())
+        x, x0, v, mass, h, radius, mat, body = _api.get_particles(np_)
+        return {"x": x.T.copy(), "x0": x0.T.copy(), "velocity": v.T.copy(), "mass": mass,
+                "h": h, "radius": radius, "material": mat - 1, "body": body - 1}
+
     def snapshot(self):
-        """Current state as plain arrays: nodes (n, 2), elements (m, 3) 0-based,
-        element fields; stress is the total Cauchy stress (rr, zz, rz, tt)."""
-        nn, ne = _api.get_sizes()
-        x, x0, v, mass = _api.get_nodes(nn)
-        conn, mat, body = _api.get_elements(ne)
-        s, p, q, eps_p, rho, e, temp, c, area, emass = _api.get_element_fields(ne)
-        stress = s.T.copy()
-        stress[:, [0, 1, 3]] -= (p + q)[:, None]
-        return {
-            "time": self.time, "cycle": self.cycle,
-            "x": x.T.copy(), "x0": x0.T.copy(), "velocity": v.T.copy(), "node_mass": mass,
-            "conn": conn.T - 1, "material": mat - 1, "body": body - 1,
-            "stress": stress, "pressure": p.copy(), "q": q.copy(),
-            "plastic_strain": eps_p.copy(), "density": rho.copy(),
-            "internal_energy": e.copy(), "temperature": temp.copy(), "sound_speed": c.copy(),
-            "area": area.copy(), "element_mass": emass.copy(),
-        }
+        """Current state as plain arrays. Elements: nodes (n, 2), connectivity
+        (m, 3) 0-based and element fields; particles (if any) under
+        "particles". Stress is the total Cauchy stress (rr, zz, rz, tt)."""
+        snap = {"time": self.time, "cycle": self.cycle}
+        if self.n_elements:
+            nn, ne = _api.get_sizes()
+            x, x0, v, mass = _api.get_nodes(nn)
+            conn, mat, body = _api.get_elements(ne)
+            s, p, q, eps_p, rho, e, temp, c, area, emass = _api.get_element_fields(ne)
+            stress = s.T.copy()
+            stress[:, [0, 1, 3]] -= (p + q)[:, None]
+            snap.update({
+                "x": x.T.copy(), "x0": x0.T.copy(), "velocity": v.T.copy(), "node_mass": mass,
+                "conn": conn.T - 1, "material": mat - 1, "body": body - 1,
+                "stress": stress, "pressure": p.copy(), "q": q.copy(),
+                "plastic_strain": eps_p.copy(), "density": rho.copy(),
+                "internal_energy": e.copy(), "temperature": temp.copy(), "sound_speed": c.copy(),
+                "area": area.copy(), "element_mass": emass.copy(),
+            })
+        if self.n_particles:
+            part = self._particles()
+            s, p, eps_p, rho, e, temp, c = _api.get_particle_fields(self.n_particles)
+            stress = s.T.copy()
+            stress[:, [0, 1, 3]] -= p[:, None]
+            part.update({"stress": stress, "pressure": p.copy(), "plastic_strain": eps_p.copy(),
+                         "density": rho.copy(), "internal_energy": e.copy(),
+                         "temperature": temp.copy(), "sound_speed": c.copy(),
+                         "radius0": self.particle_radius0})
+            snap["particles"] = part
+        return snap
+
+    def particle_rates(self):
+        """SPH rates for the current state (verification): accelerations
+        (n, 2), density rate, energy rate, strain rates (n, 4), spin."""
+        acc, drho, de, d, spin, ierr = _api.get_particle_rates(self.n_particles)
+        if ierr != STATUS_OK:
+            raise FsphError("particle_rates: no particles set up")
+        return {"acc": acc.T.copy(), "drho": drho.copy(), "de": de.copy(), "d": d.T.copy(),
+                "spin": spin.copy()}
+
+    def neighbors(self):
+        """Neighbour lists of the last search: CSR pointer (n+1,) and entries
+        (+j neighbour, -j mirror of j), 1-based as in Fortran."""
+        n_entries = int(_api.get_neighbor_count())
+        ptr, lst = _api.get_neighbors(self.n_particles, n_entries)
+        return ptr.copy(), lst.copy()
 
     # ---- verification hooks (used by tests) ----------------------------
     def set_velocities(self, v):
-        """Overwrite nodal velocities (n, 2) [m/s]."""
+        """Overwrite nodal velocities (n, 2) [m/s] (elements)."""
         ierr = _api.set_node_velocities(np.asfortranarray(np.asarray(v, float).T))
         if ierr != STATUS_OK:
             raise FsphError("set_velocities: wrong number of nodes")

@@ -10,7 +10,9 @@ module fsph_api
   public :: reset, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
   public :: initialise, advance, get_sizes, get_clock, get_nodes, get_elements
   public :: get_element_fields, get_energies, set_node_velocities, get_strain_rates
-  public :: material_point, history_count, drain_history
+  public :: material_point, history_count, drain_history, set_sph_control, set_particles
+  public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
+  public :: get_neighbor_count, get_neighbors
 
 contains
 
@@ -49,6 +51,128 @@ contains
     sim%control%c_l = c_l
     sim%control%dt_floor_ratio = dt_floor_ratio
   end subroutine set_control
+
+  !> SPH parameters: viscosity coefficients [-] and the particle contact
+  !> penalty (fraction of an overlap removed per step) [-].
+  subroutine set_sph_control(c_q, c_l, contact_penalty)
+    use fsph_state, only: sim
+    real(wp), intent(in) :: c_q, c_l, contact_penalty
+    sim%control%sph_c_q = c_q
+    sim%control%sph_c_l = c_l
+    sim%control%contact_penalty = contact_penalty
+  end subroutine set_sph_control
+
+  !> Particles: positions (r, z) [m], velocities [m/s], ring masses [kg],
+  !> smoothing lengths [m], material and body index.
+  subroutine set_particles(np, x, v, mass, h, mat, body, ierr)
+    use fsph_state, only: sim, state_allocate_particles
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: np
+    real(wp), intent(in) :: x(2, np), v(2, np), mass(np), h(np)
+    integer, intent(in) :: mat(np), body(np)
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (np < 1) return
+    call state_allocate_particles(np)
+    sim%particles%x = x
+    sim%particles%v = v
+    sim%particles%mass = mass
+    sim%particles%h = h
+    sim%particles%mat = mat
+    sim%particles%body = body
+    ierr = status_ok
+  end subroutine set_particles
+
+  subroutine get_particle_count(np)
+    use fsph_state, only: sim
+    integer, intent(out) :: np
+    np = sim%particles%n
+  end subroutine get_particle_count
+
+  !> Particle positions, initial positions [m], velocities [m/s], masses
+  !> [kg], smoothing lengths [m], radii [m], material and body index.
+  subroutine get_particles(np, x, x0, v, mass, h, radius, mat, body)
+    use fsph_state, only: sim
+    use fsph_sph, only: particle_radius
+    integer, intent(in) :: np
+    real(wp), intent(out) :: x(2, np), x0(2, np), v(2, np), mass(np), h(np), radius(np)
+    integer, intent(out) :: mat(np), body(np)
+    if (np /= sim%particles%n .or. np == 0) return
+    associate (pt => sim%particles)
+      x = pt%x; x0 = pt%x0; v = pt%v; mass = pt%mass; h = pt%h
+      radius = particle_radius(pt%mass, pt%x(1, :), pt%rho)
+      mat = pt%mat; body = pt%body
+    end associate
+  end subroutine get_particles
+
+  !> Particle fields: deviator s (rr, zz, rz, tt) [Pa], pressure [Pa],
+  !> plastic strain [-], density [kg/m^3], specific internal energy [J/kg],
+  !> temperature [K], sound speed [m/s].
+  subroutine get_particle_fields(np, s, p, eps_p, rho, e, temp, c)
+    use fsph_state, only: sim
+    integer, intent(in) :: np
+    real(wp), intent(out) :: s(4, np), p(np), eps_p(np), rho(np), e(np), temp(np), c(np)
+    if (np /= sim%particles%n .or. np == 0) return
+    associate (pt => sim%particles)
+      s = pt%s; p = pt%p; eps_p = pt%eps_p; rho = pt%rho; e = pt%e; temp = pt%temp; c = pt%c
+    end associate
+  end subroutine get_particle_fields
+
+  !> SPH rates for the current positions and velocities (verification):
+  !> accelerations [m/s^2], density rate [kg/(m^3 s)], energy rate
+  !> [J/(kg s)], strain rates (rr, zz, rz, tt) and spin [1/s]. Builds the
+  !> neighbour lists; does not change the state.
+  subroutine get_particle_rates(np, acc, drho, de, d, spin, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_neighbors, only: build_neighbors
+    use fsph_sph, only: sph_accelerations, sph_rates
+    integer, intent(in) :: np
+    real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
+    integer, intent(out) :: ierr
+    integer :: i
+    real(wp), allocatable :: pair_q(:)
+    ierr = status_bad_input
+    acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
+    if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
+    associate (pt => sim%particles)
+      call build_neighbors(pt%n, pt%x, pt%h, pt%body, pt%cell_of, pt%cell_start, pt%cell_items, &
+                           pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+      do i = 1, np
+        pt%sig(:, i) = pt%s(:, i)
+        pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
+      end do
+      allocate (pair_q(max(size(pt%nbr_list), 1)))
+      call sph_accelerations(np, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
+                             pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q)
+      call sph_rates(np, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
+                     pair_q, drho, de, d, spin)
+    end associate
+    ierr = status_ok
+  end subroutine get_particle_rates
+
+  !> Total number of neighbour entries (ghosts included) of the last search.
+  subroutine get_neighbor_count(nentries)
+    use fsph_state, only: sim
+    integer, intent(out) :: nentries
+    nentries = 0
+    if (sim%particles%n > 0 .and. allocated(sim%particles%nbr_list)) &
+      nentries = sim%particles%nbr_ptr(sim%particles%n + 1) - 1
+  end subroutine get_neighbor_count
+
+  !> Neighbour lists of the last search: CSR pointer (np+1) and entries
+  !> (+j neighbour, -j mirror of j across the axis).
+  subroutine get_neighbors(np, nentries, ptr, list)
+    use fsph_state, only: sim
+    integer, intent(in) :: np, nentries
+    integer, intent(out) :: ptr(np + 1), list(nentries)
+    ptr = 1
+    list = 0
+    if (np /= sim%particles%n .or. np == 0) return
+    if (nentries /= sim%particles%nbr_ptr(np + 1) - 1) return
+    ptr = sim%particles%nbr_ptr(1:np + 1)
+    list = sim%particles%nbr_list(1:nentries)
+  end subroutine get_neighbors
 
   !> Material table: props(nprop, nmat) in the fsph_material layout and the
   !> strength and EOS model ids of each material.
@@ -146,11 +270,13 @@ contains
   end subroutine get_sizes
 
   !> Clock: time [s], stable step for the next cycle [s], last step [s],
-  !> initial stable step [s], cycle count, element controlling the step.
-  subroutine get_clock(time, dt, dt_last, dt_initial, cycle, dt_element)
+  !> initial stable step [s], cycle count, element or particle controlling
+  !> the step (0 for the other kind).
+  subroutine get_clock(time, dt, dt_last, dt_initial, cycle, dt_element, dt_particle)
     use fsph_state, only: sim
     real(wp), intent(out) :: time, dt, dt_last, dt_initial
-    integer, intent(out) :: cycle, dt_element
+    integer, intent(out) :: cycle, dt_element, dt_particle
+    dt_particle = sim%dt_particle
     time = sim%time
     dt = sim%dt
     dt_last = sim%dt_last

@@ -27,17 +27,21 @@ contains
   !> its normal velocity replaced by the one that brings it exactly onto the
   !> plane; tangential velocity is untouched (frictionless). The plane is
   !> rigid and fixed: it takes the normal momentum and does no work.
-  subroutine apply_rigid_plane(nn, point, normal, dt, x, v)
+  !> With `offset` (particles: their radius [m]) the point keeps that
+  !> distance from the plane.
+  subroutine apply_rigid_plane(nn, point, normal, dt, x, v, offset)
     integer, intent(in) :: nn
     real(wp), intent(in) :: point(2), normal(2) !< plane point [m], unit normal [-]
     real(wp), intent(in) :: dt                  !< step [s]
     real(wp), intent(in) :: x(2, nn)
+    real(wp), intent(in), optional :: offset(nn)
     real(wp), intent(inout) :: v(2, nn)
     real(wp) :: gap, vn, vn_new
     integer :: a
-    !$omp parallel do default(none) shared(nn, point, normal, dt, x, v) private(a, gap, vn, vn_new)
+    !$omp parallel do default(none) shared(nn, point, normal, dt, x, v, offset) private(a, gap, vn, vn_new)
     do a = 1, nn
       gap = dot_product(x(:, a) - point, normal)
+      if (present(offset)) gap = gap - offset(a)
       vn = dot_product(v(:, a), normal)
       if (gap + dt*vn < 0.0_wp) then
         vn_new = -gap/dt

@@ -3,7 +3,7 @@
 module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
-                         status_dt_floor
+                         status_dt_floor, status_particle_axis, status_nonfinite_particle
   use fsph_state, only: sim, history_columns
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
                            strength_elastic, strength_johnson_cook, eos_linear, eos_mie_gruneisen
@@ -11,6 +11,10 @@ module fsph_solver
                           gather_corner_forces, element_stress_update, element_time_step
   use fsph_boundary, only: apply_axis, apply_rigid_plane
   use fsph_integrate, only: integrate_velocities, integrate_positions
+  use fsph_neighbors, only: build_neighbors
+  use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius
+  use fsph_particles, only: particle_state_update, particle_energy_update, &
+                            particle_contact_accelerations
   implicit none
   private
 
@@ -24,20 +28,52 @@ contains
   !> node-to-corner map, axis flags, initial material state and time step.
   subroutine solver_initialise(ierr, ifault)
     integer, intent(out) :: ierr, ifault
+
+    ifault = 0
+    ierr = status_bad_input
+    if (sim%elements%n < 1 .and. sim%particles%n < 1) return
+    if (sim%n_materials < 1) return
+    if (any(sim%istrength < strength_elastic) .or. any(sim%istrength > strength_johnson_cook)) return
+    if (any(sim%ieos < eos_linear) .or. any(sim%ieos > eos_mie_gruneisen)) return
+    if (sim%elements%n > 0) then
+      call initialise_elements(ierr, ifault)
+      if (ierr /= status_ok) return
+    end if
+    if (sim%particles%n > 0) then
+      call initialise_particles(ierr, ifault)
+      if (ierr /= status_ok) return
+    end if
+
+    sim%time = 0.0_wp
+    sim%cycle = 0
+    sim%dt_last = 0.0_wp
+    call solver_stable_step()
+    sim%dt_initial = sim%dt
+    sim%n_history = 0
+    sim%history_cycle = -1
+    call record_history()
+    sim%ready = .true.
+    ierr = status_ok
+    ifault = 0
+  end subroutine solver_initialise
+
+  !> Elements: geometry, masses and densities, lumped nodal masses (1/3 of
+  !> each element's ring mass to each of its nodes, EPIC style), the
+  !> node-to-corner map, axis flags, initial material state.
+  subroutine initialise_elements(ierr, ifault)
+    integer, intent(out) :: ierr, ifault
     integer :: ne, nn, ie, k, a, im, ncorner
     integer, allocatable :: fill(:)
-    real(wp) :: r_extent, a_eos, b_eos, dadrho
+    real(wp) :: r_extent
 
     ifault = 0
     ierr = status_bad_input
     ne = sim%elements%n
     nn = sim%nodes%n
-    if (ne < 1 .or. nn < 3 .or. sim%n_materials < 1) return
     associate (el => sim%elements, nd => sim%nodes)
+      if (nn < 3) return
       if (any(el%conn < 1) .or. any(el%conn > nn)) return
       if (any(el%mat < 1) .or. any(el%mat > sim%n_materials)) return
-      if (any(sim%istrength < strength_elastic) .or. any(sim%istrength > strength_johnson_cook)) return
-      if (any(sim%ieos < eos_linear) .or. any(sim%ieos > eos_mie_gruneisen)) return
 
       ! axis: nodes within a tiny fraction of the radial extent of r = 0
       r_extent = maxval(nd%x(1, :)) - minval(nd%x(1, :))
@@ -53,8 +89,7 @@ contains
         el%rho(ie) = sim%props(prop_rho0, im)
         el%mass(ie) = el%rho(ie)*el%volume(ie)
         el%temp(ie) = sim%props(prop_t_room, im)
-        call eos_pressure(sim%props(:, im), sim%ieos(im), el%rho(ie), a_eos, b_eos, dadrho, ierr)
-        el%c(ie) = sound_speed(sim%props(prop_shear, im), dadrho, b_eos, el%rho(ie), 0.0_wp)
+        el%c(ie) = reference_sound_speed(im)
       end do
       el%s = 0.0_wp; el%p = 0.0_wp; el%q = 0.0_wp; el%eps_p = 0.0_wp; el%e = 0.0_wp
       el%d = 0.0_wp; el%spin = 0.0_wp
@@ -91,28 +126,70 @@ contains
         end do
       end do
     end associate
-
-    sim%time = 0.0_wp
-    sim%cycle = 0
-    sim%dt_last = 0.0_wp
-    call solver_stable_step()
-    sim%dt_initial = sim%dt
-    sim%n_history = 0
-    sim%history_cycle = -1
-    call record_history()
-    sim%ready = .true.
     ierr = status_ok
-    ifault = 0
-  end subroutine solver_initialise
+  end subroutine initialise_elements
 
-  !> Stable step for the next cycle: safety factor times the element limit.
-  subroutine solver_stable_step()
-    real(wp) :: dt_e
-    associate (el => sim%elements)
-      call element_time_step(el%n, el%lmin, el%area, el%c, el%d, sim%control%c_q, &
-                             sim%control%c_l, dt_e, sim%dt_element)
+  !> Particles: reference density, temperature, sound speed, radius; all
+  !> particles must start off the axis (r > 0).
+  subroutine initialise_particles(ierr, ifault)
+    integer, intent(out) :: ierr, ifault
+    integer :: i, im
+    ierr = status_bad_input
+    ifault = 0
+    associate (pt => sim%particles)
+      if (any(pt%mat < 1) .or. any(pt%mat > sim%n_materials)) return
+      if (any(.not. (pt%mass > 0.0_wp)) .or. any(.not. (pt%h > 0.0_wp))) return
+      if (any(.not. (pt%x(1, :) > 0.0_wp))) then
+        ierr = status_particle_axis
+        ifault = -findloc(.not. (pt%x(1, :) > 0.0_wp), .true., dim=1)
+        return
+      end if
+      pt%x0 = pt%x
+      do i = 1, pt%n
+        im = pt%mat(i)
+        pt%rho(i) = sim%props(prop_rho0, im)
+        pt%temp(i) = sim%props(prop_t_room, im)
+        pt%c(i) = reference_sound_speed(im)
+      end do
+      pt%s = 0.0_wp; pt%p = 0.0_wp; pt%sig = 0.0_wp; pt%eps_p = 0.0_wp; pt%e = 0.0_wp
+      pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%drho = 0.0_wp; pt%de = 0.0_wp
+      pt%radius = particle_radius(pt%mass, pt%x(1, :), pt%rho)
     end associate
-    sim%dt = sim%control%dt_safety*dt_e
+    ierr = status_ok
+  end subroutine initialise_particles
+
+  !> Sound speed of material im at its reference state [m/s].
+  function reference_sound_speed(im) result(c)
+    integer, intent(in) :: im
+    real(wp) :: c, a_eos, b_eos, dadrho
+    integer :: ierr
+    call eos_pressure(sim%props(:, im), sim%ieos(im), sim%props(prop_rho0, im), a_eos, b_eos, &
+                      dadrho, ierr)
+    c = sound_speed(sim%props(prop_shear, im), dadrho, b_eos, sim%props(prop_rho0, im), 0.0_wp)
+  end function reference_sound_speed
+
+  !> Stable step for the next cycle: safety factor times the smallest of
+  !> the element limit and the particle limit h/(c + |v|).
+  subroutine solver_stable_step()
+    real(wp) :: dt_e, dt_p
+    integer :: i_e, i_p
+    dt_e = huge(1.0_wp)
+    dt_p = huge(1.0_wp)
+    i_e = 0
+    i_p = 0
+    associate (el => sim%elements, pt => sim%particles)
+      if (el%n > 0) call element_time_step(el%n, el%lmin, el%area, el%c, el%d, sim%control%c_q, &
+                                           sim%control%c_l, dt_e, i_e)
+      if (pt%n > 0) call sph_time_step(pt%n, pt%h, pt%c, pt%v, dt_p, i_p)
+    end associate
+    if (dt_e <= dt_p) then
+      sim%dt_element = i_e
+      sim%dt_particle = 0
+    else
+      sim%dt_element = 0
+      sim%dt_particle = i_p
+    end if
+    sim%dt = sim%control%dt_safety*min(dt_e, dt_p)
   end subroutine solver_stable_step
 
   !> Run cycles until the clock reaches t_target [s] (the last steps are
@@ -156,16 +233,25 @@ contains
   end subroutine solver_advance
 
   !> One explicit cycle of length dt_step [s], ALGORITHMS.md section 7.
+  !> On failure ifault is the element or node (> 0) or minus the particle
+  !> (< 0) at fault.
   subroutine cycle(dt_step, ierr, ifault)
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
 
-    ! 1. internal forces from the stress at t^n on the geometry at t^n
-    call compute_forces()
+    ! 1. forces at t^n: element nodal forces; particle neighbours, SPH
+    !    accelerations and particle contact
+    call compute_forces(dt_step)
     ! 2. central difference: velocities to t^(n+1/2)
     call update_velocities(0.5_wp*(sim%dt_last + dt_step))
     ! 3. boundary conditions on the half-step velocities
     call apply_boundaries(dt_step)
+    if (sim%particles%n > 0) then
+      ! velocities at which the viscous work of this kick is charged: the mean
+      ! over the kick, scaled from the kick length to the step length
+      sim%particles%v_bar = 0.5_wp*(sim%particles%v_bar + sim%particles%v)* &
+                            (0.5_wp*(sim%dt_last + dt_step)/dt_step)
+    end if
     ! 4. positions to t^(n+1); the clock moves with them, so a failure in
     !    the rest of the cycle is reported at the time the geometry reached
     call update_positions(dt_step, ierr, ifault)
@@ -176,36 +262,69 @@ contains
     ! 5. element strain rates at mid-step, new geometry, stress update
     call update_elements(dt_step, ierr, ifault)
     if (ierr /= status_ok) return
-    ! 6. next stable step
+    ! 6. particle rates at mid-step (density, energy, strain rate), update
+    call update_particles(dt_step, ierr, ifault)
+    if (ierr /= status_ok) return
+    ! 7. next stable step
     call solver_stable_step()
     if (mod(sim%cycle, sim%control%history_every) == 0) call record_history()
     if (sim%dt < sim%control%dt_floor_ratio*sim%dt_initial) then
       ierr = status_dt_floor
-      ifault = sim%dt_element
+      ifault = sim%dt_element - sim%dt_particle   ! particle faults are negative
     end if
   end subroutine cycle
 
-  subroutine compute_forces()
-    associate (el => sim%elements, nd => sim%nodes)
-      call element_corner_forces(el%n, nd%n, el%conn, nd%x, el%s, el%p, el%q, el%fc)
-      call gather_corner_forces(nd%n, el%n, size(nd%corner_list), nd%corner_ptr, nd%corner_list, &
-                                el%fc, nd%f)
+  subroutine compute_forces(dt_step)
+    real(wp), intent(in) :: dt_step
+    integer :: i
+    associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
+      if (el%n > 0) then
+        call element_corner_forces(el%n, nd%n, el%conn, nd%x, el%s, el%p, el%q, el%fc)
+        call gather_corner_forces(nd%n, el%n, size(nd%corner_list), nd%corner_ptr, nd%corner_list, &
+                                  el%fc, nd%f)
+      end if
+      if (pt%n > 0) then
+        call build_neighbors(pt%n, pt%x, pt%h, pt%body, pt%cell_of, pt%cell_start, pt%cell_items, &
+                             pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+        do i = 1, pt%n
+          pt%sig(:, i) = pt%s(:, i)
+          pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
+        end do
+        if (allocated(pt%pair_q)) then
+          if (size(pt%pair_q) < size(pt%nbr_list)) deallocate (pt%pair_q)
+        end if
+        if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)))
+        call sph_accelerations(pt%n, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
+                               pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
+                               pt%pair_q)
+        pt%radius = particle_radius(pt%mass, pt%x(1, :), pt%rho)
+        call particle_contact_accelerations(pt%n, pt%x, pt%mass, pt%radius, pt%cnt_ptr, pt%cnt_list, &
+                                            dt_step, sim%control%contact_penalty, pt%acc)
+      end if
     end associate
   end subroutine compute_forces
 
   subroutine update_velocities(dt_v)
     real(wp), intent(in) :: dt_v  !< velocity step: mean of the two position steps [s]
-    call integrate_velocities(sim%nodes%n, sim%nodes%mass, sim%nodes%f, dt_v, sim%nodes%v)
+    associate (nd => sim%nodes, pt => sim%particles)
+      if (nd%n > 0) call integrate_velocities(nd%n, nd%mass, nd%f, dt_v, nd%v)
+      if (pt%n > 0) then
+        pt%v_bar = pt%v     ! velocity before the kick, averaged after the boundaries
+        pt%v = pt%v + dt_v*pt%acc
+      end if
+    end associate
   end subroutine update_velocities
 
   subroutine apply_boundaries(dt_step)
     real(wp), intent(in) :: dt_step
     integer :: ip
-    associate (nd => sim%nodes)
-      call apply_axis(nd%n, nd%on_axis, nd%v)
+    associate (nd => sim%nodes, pt => sim%particles)
+      if (nd%n > 0) call apply_axis(nd%n, nd%on_axis, nd%v)
       do ip = 1, sim%n_planes
-        call apply_rigid_plane(nd%n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, &
-                               nd%x, nd%v)
+        if (nd%n > 0) call apply_rigid_plane(nd%n, sim%planes(ip)%point, sim%planes(ip)%normal, &
+                                             dt_step, nd%x, nd%v)
+        if (pt%n > 0) call apply_rigid_plane(pt%n, sim%planes(ip)%point, sim%planes(ip)%normal, &
+                                             dt_step, pt%x, pt%v, pt%radius)
       end do
     end associate
   end subroutine apply_boundaries
@@ -213,14 +332,30 @@ contains
   subroutine update_positions(dt_step, ierr, ifault)
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
-    call integrate_positions(sim%nodes%n, dt_step, sim%nodes%v, sim%nodes%x, sim%nodes%x_old, &
-                             sim%nodes%x_mid, ierr, ifault)
+    ierr = status_ok
+    ifault = 0
+    associate (nd => sim%nodes, pt => sim%particles)
+      if (nd%n > 0) then
+        call integrate_positions(nd%n, dt_step, nd%v, nd%x, nd%x_old, nd%x_mid, ierr, ifault)
+        if (ierr /= status_ok) return
+      end if
+      if (pt%n > 0) then
+        call integrate_positions(pt%n, dt_step, pt%v, pt%x, pt%x_old, pt%x_mid, ierr, ifault)
+        if (ierr /= status_ok) then
+          ierr = status_nonfinite_particle
+          ifault = -ifault
+        end if
+      end if
+    end associate
   end subroutine update_positions
 
   subroutine update_elements(dt_step, ierr, ifault)
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
+    ierr = status_ok
+    ifault = 0
     associate (el => sim%elements, nd => sim%nodes)
+      if (el%n == 0) return
       call element_strain_rates(el%n, nd%n, el%conn, nd%x_mid, nd%v, el%d, el%spin)
       call element_geometry(el%n, nd%n, el%conn, nd%x, el%area, el%rbar, el%volume, el%lmin, &
                             ierr, ifault)
@@ -231,6 +366,47 @@ contains
                                  el%e, el%temp, el%c, ierr, ifault)
     end associate
   end subroutine update_elements
+
+  !> Particle rates at the mid-step positions with the half-step velocities
+  !> (neighbour lists of this cycle): density and strain rate, a predictor
+  !> energy with the start-of-step stress, the stress update, then the
+  !> energy of eq 3 with the mid-step stress and density (the time-centred
+  !> work of the central difference, so no secular energy drift), and the
+  !> pressure at the final energy.
+  subroutine update_particles(dt_step, ierr, ifault)
+    real(wp), intent(in) :: dt_step
+    integer, intent(out) :: ierr, ifault
+    integer :: i
+    ierr = status_ok
+    ifault = 0
+    associate (pt => sim%particles)
+      if (pt%n == 0) return
+      if (any(.not. (pt%x_mid(1, :) > 0.0_wp))) then
+        ierr = status_particle_axis
+        ifault = -findloc(.not. (pt%x_mid(1, :) > 0.0_wp), .true., dim=1)
+        return
+      end if
+      call sph_rates(pt%n, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
+                     pt%pair_q, pt%drho, pt%de, pt%d, pt%spin)
+      pt%e_old = pt%e
+      pt%rho_old = pt%rho
+      call particle_state_update(pt%n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, &
+                                 dt_step, pt%x, pt%drho, pt%de, pt%d, pt%spin, pt%rho, pt%e, pt%s, &
+                                 pt%p, pt%eps_p, pt%temp, pt%c, ierr, ifault)
+      if (ierr == status_ok) then
+        do i = 1, pt%n
+          pt%sig_mid(:, i) = 0.5_wp*(pt%sig(:, i) + pt%s(:, i))
+          pt%sig_mid([1, 2, 4], i) = pt%sig_mid([1, 2, 4], i) - 0.5_wp*pt%p(i)
+          pt%rho_mid(i) = 0.5_wp*(pt%rho_old(i) + pt%rho(i))
+        end do
+        call sph_energy_rate(pt%n, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%h, pt%sig_mid, &
+                             pt%nbr_ptr, pt%nbr_list, pt%pair_q, pt%de)
+        call particle_energy_update(pt%n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
+                                    pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%c, ierr, ifault)
+      end if
+      ifault = -ifault
+    end associate
+  end subroutine update_particles
 
   !> Append (time, cycle, dt, kinetic, internal) to the history buffer,
   !> doubling its capacity when full (rare: the API drains it).
@@ -250,12 +426,19 @@ contains
     sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal]
   end subroutine record_history
 
-  !> Kinetic energy (half-step velocities) and internal energy [J].
+  !> Kinetic energy (half-step velocities) and internal energy [J] of
+  !> nodes, elements and particles.
   subroutine solver_energies(kinetic, internal)
     real(wp), intent(out) :: kinetic, internal
-    associate (el => sim%elements, nd => sim%nodes)
-      kinetic = 0.5_wp*sum(nd%mass*(nd%v(1, :)**2 + nd%v(2, :)**2))
-      internal = sum(el%mass*el%e)
+    kinetic = 0.0_wp
+    internal = 0.0_wp
+    associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
+      if (nd%n > 0) kinetic = kinetic + 0.5_wp*sum(nd%mass*(nd%v(1, :)**2 + nd%v(2, :)**2))
+      if (el%n > 0) internal = internal + sum(el%mass*el%e)
+      if (pt%n > 0) then
+        kinetic = kinetic + 0.5_wp*sum(pt%mass*(pt%v(1, :)**2 + pt%v(2, :)**2))
+        internal = internal + sum(pt%mass*pt%e)
+      end if
     end associate
   end subroutine solver_energies
 

@@ -42,6 +42,32 @@ module fsph_state
     real(wp), allocatable :: fc(:, :, :)  !< corner forces (2, 3, n) [N]
   end type element_set_t
 
+  !> SPH particles (full-ring masses) and their material-point state.
+  type, public :: particle_set_t
+    integer :: n = 0
+    real(wp), allocatable :: x(:, :)      !< position (r, z) [m]
+    real(wp), allocatable :: x0(:, :)     !< initial position [m]
+    real(wp), allocatable :: x_old(:, :), x_mid(:, :) !< start-of-cycle and mid-step positions [m]
+    real(wp), allocatable :: v(:, :)      !< velocity at the last half step [m/s]
+    real(wp), allocatable :: v_bar(:, :)  !< mean of the velocities before and after the kick [m/s]
+    real(wp), allocatable :: acc(:, :)    !< acceleration [m/s^2]
+    real(wp), allocatable :: mass(:)      !< ring mass [kg]
+    real(wp), allocatable :: h(:)         !< smoothing length [m]
+    real(wp), allocatable :: radius(:)    !< particle radius (contact, planes) [m]
+    integer, allocatable :: mat(:), body(:)
+    real(wp), allocatable :: rho(:)       !< density [kg/m^3]
+    real(wp), allocatable :: s(:, :)      !< deviatoric stress rr, zz, rz, tt [Pa]
+    real(wp), allocatable :: sig(:, :)    !< total stress s - p I [Pa]
+    real(wp), allocatable :: p(:)         !< pressure [Pa]
+    real(wp), allocatable :: eps_p(:), e(:), temp(:), c(:) !< [-], [J/kg], [K], [m/s]
+    real(wp), allocatable :: drho(:), de(:), d(:, :), spin(:) !< rates of the last step
+    real(wp), allocatable :: e_old(:), rho_old(:), rho_mid(:), sig_mid(:, :) !< cycle work arrays
+    ! neighbour search (fsph_neighbors): cells, same-body and contact lists
+    integer, allocatable :: cell_of(:), cell_start(:), cell_items(:)
+    integer, allocatable :: nbr_ptr(:), nbr_list(:), cnt_ptr(:), cnt_list(:)
+    real(wp), allocatable :: pair_q(:)    !< viscous pressure per neighbour entry [Pa]
+  end type particle_set_t
+
   !> Rigid, fixed, frictionless plane: points x with (x - point).normal >= 0
   !> are outside it.
   type, public :: rigid_plane_t
@@ -56,6 +82,9 @@ module fsph_state
     real(wp) :: c_l = 0.06_wp         !< linear viscosity coefficient [-]
     real(wp) :: dt_floor_ratio = 1.0e-3_wp !< stop when dt < ratio * initial dt [-]
     integer :: history_every = 10     !< cycles between time-history records
+    real(wp) :: sph_c_q = 1.0_wp      !< SPH quadratic viscosity coefficient [-]
+    real(wp) :: sph_c_l = 0.2_wp      !< SPH linear viscosity coefficient [-]
+    real(wp) :: contact_penalty = 0.1_wp !< particle contact: overlap fraction removed per step [-]
   end type control_t
 
   !> Columns of a time-history record.
@@ -64,6 +93,7 @@ module fsph_state
   type, public :: simulation_t
     type(node_set_t) :: nodes
     type(element_set_t) :: elements
+    type(particle_set_t) :: particles
     integer :: n_materials = 0
     real(wp), allocatable :: props(:, :)  !< (n_props, n_materials)
     integer, allocatable :: istrength(:), ieos(:)
@@ -76,7 +106,8 @@ module fsph_state
     real(wp) :: dt = 0.0_wp               !< stable step for the next cycle (with safety) [s]
     real(wp) :: dt_last = 0.0_wp          !< step taken by the last cycle [s]
     real(wp) :: dt_initial = 0.0_wp       !< stable step at set-up [s]
-    integer :: dt_element = 0             !< element controlling dt
+    integer :: dt_element = 0             !< element controlling dt (0: a particle does)
+    integer :: dt_particle = 0            !< particle controlling dt (0: an element does)
     integer :: n_history = 0              !< records waiting in history
     integer :: history_cycle = -1         !< cycle of the last record
     real(wp), allocatable :: history(:, :) !< (history_columns, capacity), drained by the API
@@ -85,7 +116,7 @@ module fsph_state
   !> The simulation state of this process.
   type(simulation_t), public, save :: sim
 
-  public :: state_reset, state_allocate
+  public :: state_reset, state_allocate, state_allocate_particles
 
 contains
 
@@ -112,5 +143,22 @@ contains
   subroutine state_reset()
     sim = simulation_t()
   end subroutine state_reset
+
+  !> Allocate every particle array for np particles.
+  subroutine state_allocate_particles(np)
+    integer, intent(in) :: np
+    sim%particles = particle_set_t()
+    sim%ready = .false.
+    sim%particles%n = np
+    associate (pt => sim%particles)
+      allocate (pt%x(2, np), pt%x0(2, np), pt%x_old(2, np), pt%x_mid(2, np), pt%v(2, np), pt%v_bar(2, np), &
+                pt%acc(2, np), pt%mass(np), pt%h(np), pt%radius(np), pt%mat(np), pt%body(np), &
+                pt%rho(np), pt%s(4, np), pt%sig(4, np), pt%p(np), pt%eps_p(np), pt%e(np), &
+                pt%temp(np), pt%c(np), pt%drho(np), pt%de(np), pt%d(4, np), pt%spin(np), &
+                pt%e_old(np), pt%rho_old(np), pt%rho_mid(np), pt%sig_mid(4, np), &
+                pt%nbr_ptr(np + 1), pt%cnt_ptr(np + 1))
+      pt%acc = 0.0_wp
+    end associate
+  end subroutine state_allocate_particles
 
 end module fsph_state

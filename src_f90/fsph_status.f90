@@ -24,4 +24,8 @@ module fsph_status
   integer, parameter, public :: status_not_ready = 7
   !> The cycle limit was reached before the target time.
   integer, parameter, public :: status_max_cycles = 8
+  !> A NaN or infinity (or a non-positive density) in a particle. Index: particle.
+  integer, parameter, public :: status_nonfinite_particle = 9
+  !> A particle reached the axis (r <= 0). Index: particle.
+  integer, parameter, public :: status_particle_axis = 10
 end module fsph_status

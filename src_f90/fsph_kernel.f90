@@ -1,0 +1,50 @@
+!> SPH smoothing kernel: the cubic B-spline of Monaghan & Lattanzio (1985)
+!> with support 2h and the 2D (planar) normalisation 10/(7 pi h^2), so that
+!> the integral of W over the plane is 1 (ALGORITHMS.md section 2).
+module fsph_kernel
+  use fsph_kinds, only: wp, pi
+  implicit none
+  private
+
+  !> 2D normalisation constant of the cubic B-spline [-] (times 1/h^2).
+  real(wp), parameter, public :: kernel_norm_2d = 10.0_wp/(7.0_wp*pi)
+  !> Support radius in units of h [-].
+  real(wp), parameter, public :: kernel_support = 2.0_wp
+
+  public :: kernel_w, kernel_dwdr
+
+contains
+
+  !> W(dist, h) [1/m^2].
+  pure elemental function kernel_w(dist, h) result(w)
+    real(wp), intent(in) :: dist   !< distance between the points [m]
+    real(wp), intent(in) :: h      !< smoothing length [m]
+    real(wp) :: w, q
+    q = dist/h
+    if (q < 1.0_wp) then
+      w = 1.0_wp - 1.5_wp*q*q + 0.75_wp*q*q*q
+    else if (q < 2.0_wp) then
+      w = 0.25_wp*(2.0_wp - q)**3
+    else
+      w = 0.0_wp
+    end if
+    w = w*kernel_norm_2d/(h*h)
+  end function kernel_w
+
+  !> dW/d(dist) [1/m^3]; the gradient with respect to x_i of W(|x_i - x_j|)
+  !> is kernel_dwdr * (x_i - x_j)/dist.
+  pure elemental function kernel_dwdr(dist, h) result(dw)
+    real(wp), intent(in) :: dist, h
+    real(wp) :: dw, q
+    q = dist/h
+    if (q < 1.0_wp) then
+      dw = -3.0_wp*q + 2.25_wp*q*q
+    else if (q < 2.0_wp) then
+      dw = -0.75_wp*(2.0_wp - q)**2
+    else
+      dw = 0.0_wp
+    end if
+    dw = dw*kernel_norm_2d/(h*h*h)
+  end function kernel_dwdr
+
+end module fsph_kernel

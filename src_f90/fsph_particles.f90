@@ -1,0 +1,126 @@
+!> Particle-wise updates that are not SPH sums: density, energy and stress
+!> update after the rates, and the penalty contact between particles of
+!> different bodies.
+module fsph_particles
+  use fsph_kinds, only: wp
+  use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
+                         status_particle_axis
+  use fsph_material, only: n_props, particle_material_update, eos_pressure, sound_speed, &
+                           prop_pmin, prop_shear
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  implicit none
+  private
+
+  public :: particle_state_update, particle_energy_update, particle_contact_accelerations
+
+contains
+
+  !> rho <- rho + dt drho, e <- e + dt de, then the strength and EOS update
+  !> of fsph_material (shared with elements). ierr/ifault: first particle
+  !> with a non-positive radius position, non-finite state or EOS range.
+  subroutine particle_state_update(n, nmat, props, istrength, ieos, mat, dt, x, drho, de, d, spin, &
+                                   rho, e, s, p, eps_p, temp, c, ierr, ifault)
+    integer, intent(in) :: n, nmat
+    real(wp), intent(in) :: props(n_props, nmat)
+    integer, intent(in) :: istrength(nmat), ieos(nmat), mat(n)
+    real(wp), intent(in) :: dt, x(2, n), drho(n), de(n), d(4, n), spin(n)
+    real(wp), intent(inout) :: rho(n), e(n), s(4, n), p(n), eps_p(n), temp(n), c(n)
+    integer, intent(out) :: ierr, ifault
+    integer :: i, im, ierr_i, f_axis, f_nan, f_eos
+    f_axis = n + 1; f_nan = n + 1; f_eos = n + 1
+    !$omp parallel do default(none) &
+    !$omp shared(n, props, istrength, ieos, mat, dt, x, drho, de, d, spin, rho, e, s, p, eps_p, temp, c) &
+    !$omp private(i, im, ierr_i) reduction(min:f_axis, f_nan, f_eos)
+    do i = 1, n
+      if (.not. (x(1, i) > 0.0_wp)) then
+        f_axis = min(f_axis, i)
+        cycle
+      end if
+      im = mat(i)
+      rho(i) = rho(i) + dt*drho(i)
+      e(i) = e(i) + dt*de(i)
+      if (.not. (rho(i) > 0.0_wp .and. ieee_is_finite(rho(i)) .and. ieee_is_finite(e(i)))) then
+        f_nan = min(f_nan, i)
+        cycle
+      end if
+      call particle_material_update(props(:, im), istrength(im), ieos(im), dt, d(:, i), spin(i), &
+                                    rho(i), e(i), s(:, i), p(i), eps_p(i), temp(i), c(i), ierr_i)
+      if (ierr_i /= status_ok) f_eos = min(f_eos, i)
+      if (.not. (ieee_is_finite(p(i)) .and. all(ieee_is_finite(s(:, i))))) f_nan = min(f_nan, i)
+    end do
+    !$omp end parallel do
+    ierr = status_ok
+    ifault = 0
+    if (f_axis <= n) then
+      ierr = status_particle_axis; ifault = f_axis
+    else if (f_nan <= n) then
+      ierr = status_nonfinite_particle; ifault = f_nan
+    else if (f_eos <= n) then
+      ierr = status_eos_range; ifault = f_eos
+    end if
+  end subroutine particle_state_update
+
+  !> Final internal energy e = e_old + dt de (de from the mid-step stress)
+  !> and the pressure and sound speed that follow from it at the new
+  !> density (the deviator is already final).
+  subroutine particle_energy_update(n, nmat, props, ieos, mat, dt, e_old, de, rho, e, p, c, ierr, ifault)
+    integer, intent(in) :: n, nmat
+    real(wp), intent(in) :: props(n_props, nmat)
+    integer, intent(in) :: ieos(nmat), mat(n)
+    real(wp), intent(in) :: dt, e_old(n), de(n), rho(n)
+    real(wp), intent(inout) :: e(n), p(n), c(n)
+    integer, intent(out) :: ierr, ifault
+    integer :: i, im, ierr_i, f_nan
+    real(wp) :: a, b, dadrho
+    f_nan = n + 1
+    !$omp parallel do default(none) shared(n, props, ieos, mat, dt, e_old, de, rho, e, p, c) &
+    !$omp private(i, im, ierr_i, a, b, dadrho) reduction(min:f_nan)
+    do i = 1, n
+      im = mat(i)
+      e(i) = e_old(i) + dt*de(i)
+      call eos_pressure(props(:, im), ieos(im), rho(i), a, b, dadrho, ierr_i)
+      p(i) = max(a + b*e(i), props(prop_pmin, im))
+      c(i) = sound_speed(props(prop_shear, im), dadrho, b, rho(i), p(i))
+      if (.not. (ieee_is_finite(e(i)) .and. ieee_is_finite(p(i)))) f_nan = min(f_nan, i)
+    end do
+    !$omp end parallel do
+    ierr = status_ok
+    ifault = 0
+    if (f_nan <= n) then
+      ierr = status_nonfinite_particle; ifault = f_nan
+    end if
+  end subroutine particle_energy_update
+
+  !> Penalty contact between particles of different bodies (after Campbell,
+  !> Vignjevic & Libersky 2000, CMAME 184:49): a pair closer than the sum
+  !> of the particle radii is pushed apart along the line of centres by
+  !>   f = penalty * m_i m_j/(m_i + m_j) * (r_i + r_j - |x_ij|)/dt^2,
+  !> the force that would remove a fraction `penalty` of the overlap in one
+  !> step; equal and opposite, so momentum is conserved. Gather loop: each
+  !> particle adds the forces on itself.
+  subroutine particle_contact_accelerations(n, x, mass, radius, cnt_ptr, cnt_list, dt, penalty, acc)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(2, n), mass(n), radius(n)
+    integer, intent(in) :: cnt_ptr(n + 1), cnt_list(*)
+    real(wp), intent(in) :: dt          !< step the force acts over [s]
+    real(wp), intent(in) :: penalty     !< fraction of the overlap removed per step [-]
+    real(wp), intent(inout) :: acc(2, n)
+    integer :: i, k, j
+    real(wp) :: dx(2), dist, overlap, f
+    !$omp parallel do default(none) shared(n, x, mass, radius, cnt_ptr, cnt_list, dt, penalty, acc) &
+    !$omp private(i, k, j, dx, dist, overlap, f)
+    do i = 1, n
+      do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
+        j = cnt_list(k)
+        dx = x(:, i) - x(:, j)
+        dist = sqrt(dx(1)**2 + dx(2)**2)
+        overlap = radius(i) + radius(j) - dist
+        if (overlap <= 0.0_wp .or. dist <= 0.0_wp) cycle
+        f = penalty*mass(i)*mass(j)/(mass(i) + mass(j))*overlap/(dt*dt)
+        acc(:, i) = acc(:, i) + f*dx/(dist*mass(i))
+      end do
+    end do
+    !$omp end parallel do
+  end subroutine particle_contact_accelerations
+
+end module fsph_particles
