@@ -128,7 +128,7 @@ SCHEMA = {
     ),
     "body": Group(
         "A body: a geometry generator, its resolution, its material and initial velocity. "
-        "Repeatable. The rod generator meshes the rectangle 0 <= r <= radius, "
+        "Repeatable. The rod generator meshes the rectangle inner_radius <= r <= radius, "
         "z_base <= z <= z_base + length into n_radial x n_axial quadrilaterals, each split "
         "into 4 crossed triangles through a centre node.",
         {
@@ -140,7 +140,9 @@ SCHEMA = {
                                   "in mode sph. Particles sit at the centres of the n_radial x "
                                   "n_axial lattice cells, each carrying the ring mass of its cell.",
                                   choices=("elements", "particles")),
-            "radius": _pos("Rod radius.", "m"),
+            "radius": _pos("Rod (outer) radius.", "m"),
+            "inner_radius": Key("float", 0.0, "m",
+                                "Inner radius: 0 for a solid rod, > 0 for a tube.", lower=0.0),
             "length": _pos("Rod length.", "m"),
             "z_base": Key("float", 0.0, "m", "Axial position of the lower end face."),
             "n_radial": Key("int", REQUIRED, "-",
@@ -437,6 +439,10 @@ def _cross_check(path, deck):
             raise DeckError(path, f"body #{i + 1}", "discretisation",
                             f"'{default_disc}' in mode '{mode}' (mixed bodies need mode 'fixed')",
                             b["discretisation"])
+    for i, b in enumerate(deck["body"]):
+        if not b["inner_radius"] < b["radius"]:
+            raise DeckError(path, f"body #{i + 1}", "inner_radius",
+                            f"a value below radius = {b['radius']} m", b["inner_radius"])
     _unique_names(path, "material", deck["material"])
     _unique_names(path, "body", deck["body"])
     for i, m in enumerate(deck["material"]):

@@ -58,9 +58,10 @@ def crossed_quads(r_edges, z_edges):
     return Mesh(x=x, conn=conn[order].astype(np.int64))
 
 
-def rod(radius, length, n_radial, n_axial, z_base=0.0):
-    """Solid rod 0 <= r <= radius, z_base <= z <= z_base + length."""
-    return crossed_quads(np.linspace(0.0, radius, n_radial + 1),
+def rod(radius, length, n_radial, n_axial, z_base=0.0, inner_radius=0.0):
+    """Rod inner_radius <= r <= radius, z_base <= z <= z_base + length
+    (solid for inner_radius = 0, a tube otherwise)."""
+    return crossed_quads(np.linspace(inner_radius, radius, n_radial + 1),
                          np.linspace(z_base, z_base + length, n_axial + 1))
 
 
@@ -99,17 +100,17 @@ def lattice(r_edges, z_edges):
                            area=(dr * dz).ravel())
 
 
-def rod_particles(radius, length, n_radial, n_axial, z_base=0.0):
-    """Solid rod as an n_radial x n_axial particle lattice."""
-    return lattice(np.linspace(0.0, radius, n_radial + 1),
+def rod_particles(radius, length, n_radial, n_axial, z_base=0.0, inner_radius=0.0):
+    """Rod (or tube) as an n_radial x n_axial particle lattice."""
+    return lattice(np.linspace(inner_radius, radius, n_radial + 1),
                    np.linspace(z_base, z_base + length, n_axial + 1))
 
 
 GENERATORS = {
     ("rod", "elements"): lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
-                                       b["z_base"]),
+                                       b["z_base"], b["inner_radius"]),
     ("rod", "particles"): lambda b: rod_particles(b["radius"], b["length"], b["n_radial"],
-                                                  b["n_axial"], b["z_base"]),
+                                                  b["n_axial"], b["z_base"], b["inner_radius"]),
 }
 
 

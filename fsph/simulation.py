@@ -269,6 +269,12 @@ class Simulation:
         return d.T.copy(), spin.copy()
 
 
+def kernel(dist, h):
+    """Smoothing kernel W [1/m^2] and dW/dr [1/m^3] at distances dist [m]."""
+    w, dw = _api.kernel_values(np.asarray(dist, dtype=float), float(h))
+    return w, dw
+
+
 def drain_history():
     """Time-history records (k, 5) recorded by the cycle since the last
     call: time [s], cycle, dt [s], kinetic [J], internal [J]."""

@@ -12,7 +12,7 @@ module fsph_api
   public :: get_element_fields, get_energies, set_node_velocities, get_strain_rates
   public :: material_point, history_count, drain_history, set_sph_control, set_particles
   public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
-  public :: get_neighbor_count, get_neighbors
+  public :: get_neighbor_count, get_neighbors, kernel_values
 
 contains
 
@@ -150,6 +150,17 @@ contains
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
+
+  !> The smoothing kernel and its radial derivative at distances dist [m]
+  !> for smoothing length h [m] (verification).
+  subroutine kernel_values(n, dist, h, w, dwdr)
+    use fsph_kernel, only: kernel_w, kernel_dwdr
+    integer, intent(in) :: n
+    real(wp), intent(in) :: dist(n), h
+    real(wp), intent(out) :: w(n), dwdr(n)
+    w = kernel_w(dist, h)
+    dwdr = kernel_dwdr(dist, h)
+  end subroutine kernel_values
 
   !> Total number of neighbour entries (ghosts included) of the last search.
   subroutine get_neighbor_count(nentries)

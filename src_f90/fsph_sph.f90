@@ -34,7 +34,7 @@ module fsph_sph
   !> Range of det(L) of the gradient-correction matrix inside which the
   !> corrected velocity gradient is used; outside it (a particle with too
   !> few neighbours) the plain SPH gradient is kept [-].
-  real(wp), parameter :: correction_det_min = 0.2_wp, correction_det_max = 5.0_wp
+  real(wp), parameter :: correction_det_min = 0.05_wp, correction_det_max = 5.0_wp
 
 contains
 

@@ -14,6 +14,7 @@ import sys, numpy as np, fsph
 sim = fsph.Simulation.from_deck(sys.argv[1])
 sim.advance(float(sys.argv[2]))
 snap = sim.snapshot()
+snap = snap.get("particles", snap)
 np.savez(sys.argv[3], x=snap["x"], v=snap["velocity"], s=snap["stress"], threads=fsph.threads())
 """
 
@@ -25,9 +26,13 @@ def run_with_threads(n, out, tmp_path, deck="taylor_armco_fem.nml", t_end="10e-6
     return np.load(out)
 
 
-def test_thread_count_and_determinism(tmp_path):
-    one = run_with_threads(1, tmp_path / "one.npz", tmp_path)
-    two = run_with_threads(2, tmp_path / "two.npz", tmp_path)
+import pytest
+
+
+@pytest.mark.parametrize("deck", ["taylor_armco_fem.nml", "taylor_armco_sph.nml"])
+def test_thread_count_and_determinism(tmp_path, deck):
+    one = run_with_threads(1, tmp_path / "one.npz", tmp_path, deck)
+    two = run_with_threads(2, tmp_path / "two.npz", tmp_path, deck)
     assert int(one["threads"]) == 1
     assert int(two["threads"]) == 2
     for key in ("x", "v", "s"):
