@@ -37,7 +37,8 @@ test-slow: toolchain $(STAMP)
 	$(VENV)/bin/pytest -m slow
 
 bench: toolchain $(STAMP)
-	$(VPY) benchmarks/bench_fem.py --json docs/performance.json
+	$(VPY) benchmarks/bench_fem.py --json docs/performance_fem.json
+	$(VPY) benchmarks/bench_sph.py --json docs/performance_sph.json
 
 docs: toolchain $(STAMP)
 	$(VENV)/bin/fsph decks-reference -o docs/decks.md

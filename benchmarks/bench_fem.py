@@ -10,11 +10,9 @@ interval, as in `fsph run`).
 
 import argparse
 import json
-import os
-import platform
-import subprocess
-import sys
 from pathlib import Path
+
+from common import machine, machine_line, run_child
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -42,30 +40,16 @@ print(json.dumps(best))
 """
 
 
-def measure(deck, threads, repeat):
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
-    out = subprocess.run([sys.executable, "-c", CHILD, str(deck), str(repeat)], env=env,
-                         check=True, capture_output=True, text=True, cwd="/")
-    return json.loads(out.stdout.strip().splitlines()[-1])
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--deck", default=str(REPO / "cases" / "taylor_armco_fem.nml"))
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args()
-    rows = [measure(args.deck, n, args.repeat) for n in (1, 2)]
-    machine = {"processor": platform.processor() or platform.machine(),
-               "cpus": os.cpu_count(), "python": platform.python_version()}
-    try:
-        model = [l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
-                 if l.startswith("model name")][0]
-        machine["cpu_model"] = model
-    except (OSError, IndexError):
-        pass
+    rows = [run_child(CHILD, [args.deck, args.repeat], n) for n in (1, 2)]
+    info = machine()
     print(f"deck: {args.deck}")
-    print(f"machine: {machine.get('cpu_model', machine['processor'])}, {machine['cpus']} cpus")
+    print(machine_line(info))
     print(f"{'threads':>7s} {'elements':>8s} {'cycles':>7s} {'advance [s]':>11s} "
           f"{'ns/elem-cycle':>13s} {'speed-up':>8s}")
     for row in rows:
@@ -73,7 +57,7 @@ def main():
               f"{row['advance_s']:11.3f} {row['ns_per_element_cycle']:13.1f} "
               f"{rows[0]['advance_s'] / row['advance_s']:8.2f}")
     if args.json:
-        Path(args.json).write_text(json.dumps({"deck": args.deck, "machine": machine,
+        Path(args.json).write_text(json.dumps({"deck": args.deck, "machine": info,
                                                "results": rows}, indent=2) + "\n")
 
 
