@@ -12,7 +12,8 @@ module fsph_api
   public :: get_element_fields, get_energies, set_node_velocities, get_strain_rates
   public :: material_point, history_count, drain_history, set_sph_control, set_particles
   public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
-  public :: get_neighbor_count, get_neighbors, kernel_values
+  public :: get_neighbor_count, get_neighbors, kernel_values, set_continua, reserve_particles
+  public :: set_conversion, get_element_groups, get_conversion_stats, get_particle_ties
 
 contains
 
@@ -73,7 +74,9 @@ contains
     integer, intent(out) :: ierr
     ierr = status_bad_input
     if (np < 1) return
-    call state_allocate_particles(np)
+    ! room for the imaginary particles of every element, and for the
+    ! particles the elements may become
+    call state_allocate_particles(np, np + sim%elements%n)
     sim%particles%x = x
     sim%particles%v = v
     sim%particles%mass = mass
@@ -99,9 +102,10 @@ contains
     integer, intent(out) :: mat(np), body(np)
     if (np /= sim%particles%n .or. np == 0) return
     associate (pt => sim%particles)
-      x = pt%x; x0 = pt%x0; v = pt%v; mass = pt%mass; h = pt%h
-      radius = particle_radius(pt%mass, pt%x(1, :), pt%rho)
-      mat = pt%mat; body = pt%body
+      x = pt%x(:, 1:np); x0 = pt%x0(:, 1:np); v = pt%v(:, 1:np); mass = pt%mass(1:np)
+      h = pt%h(1:np)
+      radius = particle_radius(pt%mass(1:np), pt%x(1, 1:np), pt%rho(1:np))
+      mat = pt%mat(1:np); body = pt%body(1:np)
     end associate
   end subroutine get_particles
 
@@ -114,7 +118,8 @@ contains
     real(wp), intent(out) :: s(4, np), p(np), eps_p(np), rho(np), e(np), temp(np), c(np)
     if (np /= sim%particles%n .or. np == 0) return
     associate (pt => sim%particles)
-      s = pt%s; p = pt%p; eps_p = pt%eps_p; rho = pt%rho; e = pt%e; temp = pt%temp; c = pt%c
+      s = pt%s(:, 1:np); p = pt%p(1:np); eps_p = pt%eps_p(1:np); rho = pt%rho(1:np)
+      e = pt%e(1:np); temp = pt%temp(1:np); c = pt%c(1:np)
     end associate
   end subroutine get_particle_fields
 
@@ -127,29 +132,122 @@ contains
     use fsph_status, only: status_ok, status_bad_input
     use fsph_neighbors, only: build_neighbors
     use fsph_sph, only: sph_accelerations, sph_rates
+    use fsph_coupling, only: fill_imaginary, stage_start
     integer, intent(in) :: np
     real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
     integer, intent(out) :: ierr
-    integer :: i
+    integer :: i, ntot
     real(wp), allocatable :: pair_q(:)
     ierr = status_bad_input
     acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
     if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
     associate (pt => sim%particles)
-      call build_neighbors(pt%n, pt%x, pt%h, pt%body, pt%cell_of, pt%cell_start, pt%cell_items, &
-                           pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+      pt%n_imag = 0
+      if (sim%elements%n > 0) call fill_imaginary(stage_start)
+      ntot = np + pt%n_imag
+      call build_neighbors(np, ntot, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
+                           pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
       do i = 1, np
         pt%sig(:, i) = pt%s(:, i)
         pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
       end do
       allocate (pair_q(max(size(pt%nbr_list), 1)))
-      call sph_accelerations(np, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
+      call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
                              pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q)
-      call sph_rates(np, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
+      call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
                      pair_q, drho, de, d, spin)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
+
+  !> Continuum index of every body (bodies joined into one continuum share
+  !> it: SPH sums and coupling join them, contact does not) and whether the
+  !> body's elements act as imaginary particles (coupled modes).
+  subroutine set_continua(nbody, continuum, coupled, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: nbody
+    integer, intent(in) :: continuum(nbody), coupled(nbody)
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (nbody < 1) return
+    sim%continuum_of_body = continuum
+    sim%body_coupled = coupled /= 0
+    ierr = status_ok
+  end subroutine set_continua
+
+  !> Room for particles when a run starts with none (adaptive mode): one per
+  !> element, plus the imaginary entries.
+  subroutine reserve_particles(ierr)
+    use fsph_state, only: sim, state_allocate_particles
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (sim%particles%n > 0 .or. sim%elements%n == 0) return
+    call state_allocate_particles(0, 2*sim%elements%n)
+    ierr = status_ok
+  end subroutine reserve_particles
+
+  !> Conversion of elements to particles: enabled flag (0/1), criterion
+  !> (1 minimum angle, 2 plastic strain, 3 equivalent stress), critical
+  !> angle [rad], plastic strain [-], equivalent stress [Pa], group factor
+  !> kappa [-] and smoothing-length factor alpha_h [-] (also used for the
+  !> imaginary particles of fixed coupling).
+  subroutine set_conversion(enabled, criterion, theta_c, eps_c, sigma_c, kappa, alpha_h)
+    use fsph_state, only: sim
+    integer, intent(in) :: enabled, criterion
+    real(wp), intent(in) :: theta_c, eps_c, sigma_c, kappa, alpha_h
+    sim%conversion%enabled = enabled /= 0
+    sim%conversion%criterion = criterion
+    sim%conversion%theta_c = theta_c
+    sim%conversion%eps_c = eps_c
+    sim%conversion%sigma_c = sigma_c
+    sim%conversion%kappa = kappa
+    sim%conversion%alpha_h = alpha_h
+  end subroutine set_conversion
+
+  !> Conversion group of every element (0: not in a coupled body).
+  subroutine get_element_groups(ne, group)
+    use fsph_state, only: sim
+    integer, intent(in) :: ne
+    integer, intent(out) :: group(ne)
+    group = 0
+    if (ne /= sim%elements%n .or. ne == 0) return
+    group = sim%elements%group(1:ne)
+  end subroutine get_element_groups
+
+  !> Elements converted, conversion events, kinetic energy turned into
+  !> heat at conversion [J], coupling edges in use.
+  subroutine get_conversion_stats(n_converted, n_events, heat, n_edges)
+    use fsph_state, only: sim
+    integer, intent(out) :: n_converted, n_events, n_edges
+    real(wp), intent(out) :: heat
+    n_converted = sim%conversion%n_converted
+    n_events = sim%conversion%n_events
+    heat = sim%conversion%heat
+    n_edges = sim%coupling%n_edges
+  end subroutine get_conversion_stats
+
+  !> Ties and associations of the particles: tied edge nodes (0: free),
+  !> position along the edge, and the node pairs of up to two associated
+  !> coupling edges (0: none).
+  subroutine get_particle_ties(np, tie_a, tie_b, tie_xi, assoc_nodes)
+    use fsph_state, only: sim
+    integer, intent(in) :: np
+    integer, intent(out) :: tie_a(np), tie_b(np), assoc_nodes(2, 2, np)
+    real(wp), intent(out) :: tie_xi(np)
+    integer :: i, slot
+    tie_a = 0; tie_b = 0; tie_xi = 0.0_wp; assoc_nodes = 0
+    if (np /= sim%particles%n .or. np == 0) return
+    associate (pt => sim%particles)
+      tie_a = pt%tie_a(1:np); tie_b = pt%tie_b(1:np); tie_xi = pt%tie_xi(1:np)
+      do i = 1, np
+        do slot = 1, 2
+          if (pt%assoc(slot, i) > 0) assoc_nodes(:, slot, i) = sim%coupling%edge(:, pt%assoc(slot, i))
+        end do
+      end do
+    end associate
+  end subroutine get_particle_ties
 
   !> The smoothing kernel and its radial derivative at distances dist [m]
   !> for smoothing length h [m] (verification).

@@ -39,25 +39,27 @@ contains
     nz = int(z_ext/cell) + 1
   end subroutine make_grid
 
-  !> Build the neighbour and contact lists of n particles. The allocatable
-  !> lists grow as needed (no fixed capacity).
-  subroutine build_neighbors(n, x, h, body, cell_of, cell_start, cell_items, &
+  !> Build the neighbour and contact lists of the first nq of n points (the
+  !> real particles; the others, imaginary particles, appear only as
+  !> neighbours and never as contact candidates). `body` is the continuum
+  !> index: SPH neighbours share it, contact candidates do not. The
+  !> allocatable lists grow as needed (no fixed capacity).
+  subroutine build_neighbors(nq, n, x, h, body, cell_of, cell_start, cell_items, &
                              nbr_ptr, nbr_list, cnt_ptr, cnt_list)
-    integer, intent(in) :: n
+    integer, intent(in) :: nq, n
     real(wp), intent(in) :: x(2, n)        !< positions (r >= 0, z) [m]
     real(wp), intent(in) :: h(n)           !< smoothing lengths [m]
-    integer, intent(in) :: body(n)         !< body index
+    integer, intent(in) :: body(n)         !< continuum index
     integer, allocatable, intent(inout) :: cell_of(:), cell_start(:), cell_items(:)
-    integer, intent(out) :: nbr_ptr(n + 1), cnt_ptr(n + 1)
+    integer, intent(out) :: nbr_ptr(nq + 1), cnt_ptr(nq + 1)
     integer, allocatable, intent(inout) :: nbr_list(:), cnt_list(:)
     real(wp) :: cell, z0
     integer :: nr, nz, ncell, i, k
     integer, allocatable :: fill(:)
 
-    if (n == 0) then
-      nbr_ptr(1) = 1; cnt_ptr(1) = 1
-      return
-    end if
+    nbr_ptr(1) = 1
+    cnt_ptr(1) = 1
+    if (nq == 0 .or. n == 0) return
     call make_grid(n, x, maxval(h), cell, nr, nz, z0)
     ncell = nr*nz
     if (allocated(cell_start)) then
@@ -91,12 +93,12 @@ contains
     call scan_pairs(.false.)
     nbr_ptr(1) = 1
     cnt_ptr(1) = 1
-    do i = 1, n
+    do i = 1, nq
       nbr_ptr(i + 1) = nbr_ptr(i) + nbr_ptr(i + 1)
       cnt_ptr(i + 1) = cnt_ptr(i) + cnt_ptr(i + 1)
     end do
-    call ensure_size(nbr_list, nbr_ptr(n + 1) - 1)
-    call ensure_size(cnt_list, cnt_ptr(n + 1) - 1)
+    call ensure_size(nbr_list, nbr_ptr(nq + 1) - 1)
+    call ensure_size(cnt_list, cnt_ptr(nq + 1) - 1)
     call scan_pairs(.true.)
 
   contains
@@ -108,10 +110,10 @@ contains
       integer :: ii, jj, ir, iz, jr, jz, c, kk, n_nbr, n_cnt
       real(wp) :: ri, zi, reach2, d2
       !$omp parallel do default(none) schedule(dynamic, 64) &
-      !$omp shared(n, x, h, body, cell, z0, nr, nz, cell_start, cell_items, nbr_ptr, cnt_ptr) &
+      !$omp shared(nq, x, h, body, cell, z0, nr, nz, cell_start, cell_items, nbr_ptr, cnt_ptr) &
       !$omp shared(nbr_list, cnt_list, fill_lists) &
       !$omp private(ii, jj, ir, iz, jr, jz, c, kk, n_nbr, n_cnt, ri, zi, reach2, d2)
-      do ii = 1, n
+      do ii = 1, nq
         ri = x(1, ii)
         zi = x(2, ii)
         ir = min(int(max(ri, 0.0_wp)/cell), nr - 1)
@@ -131,7 +133,7 @@ contains
               if (body(jj) == body(ii)) then
                 n_nbr = n_nbr + 1
                 if (fill_lists) nbr_list(nbr_ptr(ii) + n_nbr - 1) = jj
-              else
+              else if (jj <= nq) then
                 n_cnt = n_cnt + 1
                 if (fill_lists) cnt_list(cnt_ptr(ii) + n_cnt - 1) = jj
               end if

@@ -1,5 +1,6 @@
-!> The hydrocode cycle (ALGORITHMS.md section 7) for the element phase:
-!> set-up of derived quantities and `solver_advance`, one call per phase.
+!> The hydrocode cycle (ALGORITHMS.md section 7): set-up of derived
+!> quantities and `solver_advance`, one call per phase, for elements,
+!> particles, their coupling and the conversion of elements to particles.
 module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
@@ -15,10 +16,19 @@ module fsph_solver
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations
+  use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
+                           update_tie_masses, stage_start, stage_mid
+  use fsph_convert, only: assign_groups, convert_elements, associate_by_proximity, &
+                          rebuild_coupling_edges
   implicit none
   private
 
   public :: solver_initialise, solver_advance, solver_energies, solver_stable_step
+
+  !> Fixed coupling: a particle is associated with a surface edge of the
+  !> element region when its centre lies within this many particle radii
+  !> of the edge, on its outer side [-]. Two radii: the first particle row.
+  real(wp), parameter :: fixed_association_reach = 2.0_wp
 
 contains
 
@@ -35,6 +45,7 @@ contains
     if (sim%n_materials < 1) return
     if (any(sim%istrength < strength_elastic) .or. any(sim%istrength > strength_johnson_cook)) return
     if (any(sim%ieos < eos_linear) .or. any(sim%ieos > eos_mie_gruneisen)) return
+    call default_continua()
     if (sim%elements%n > 0) then
       call initialise_elements(ierr, ifault)
       if (ierr /= status_ok) return
@@ -42,6 +53,15 @@ contains
     if (sim%particles%n > 0) then
       call initialise_particles(ierr, ifault)
       if (ierr /= status_ok) return
+    end if
+    if (sim%elements%n > 0 .and. sim%particles%capacity > 0) then
+      call assign_groups()
+      sim%coupling%n_edges = 0
+      ! fixed coupling: particles next to the element region, within two
+      ! particle radii of a surface edge, are associated with it
+      if (sim%particles%n > 0) call associate_by_proximity(fixed_association_reach)
+      call rebuild_coupling_edges()
+      call update_tie_masses()
     end if
 
     sim%time = 0.0_wp
@@ -56,6 +76,21 @@ contains
     ierr = status_ok
     ifault = 0
   end subroutine solver_initialise
+
+  !> Without set_continua every body is its own, uncoupled continuum.
+  subroutine default_continua()
+    integer :: nb, ib
+    nb = 0
+    if (sim%elements%n > 0) nb = max(nb, maxval(sim%elements%body))
+    if (sim%particles%n > 0) nb = max(nb, maxval(sim%particles%body(1:sim%particles%n)))
+    if (allocated(sim%continuum_of_body)) then
+      if (size(sim%continuum_of_body) >= nb) return
+    end if
+    sim%continuum_of_body = [(ib, ib = 1, nb)]
+    if (allocated(sim%body_coupled)) deallocate (sim%body_coupled)
+    allocate (sim%body_coupled(nb))
+    sim%body_coupled = .false.
+  end subroutine default_continua
 
   !> Elements: geometry, masses and densities, lumped nodal masses (1/3 of
   !> each element's ring mass to each of its nodes, EPIC style), the
@@ -133,27 +168,30 @@ contains
   !> particles must start off the axis (r > 0).
   subroutine initialise_particles(ierr, ifault)
     integer, intent(out) :: ierr, ifault
-    integer :: i, im
+    integer :: i, im, n
     ierr = status_bad_input
     ifault = 0
+    n = sim%particles%n
     associate (pt => sim%particles)
-      if (any(pt%mat < 1) .or. any(pt%mat > sim%n_materials)) return
-      if (any(.not. (pt%mass > 0.0_wp)) .or. any(.not. (pt%h > 0.0_wp))) return
-      if (any(.not. (pt%x(1, :) > 0.0_wp))) then
+      if (any(pt%mat(1:n) < 1) .or. any(pt%mat(1:n) > sim%n_materials)) return
+      if (any(.not. (pt%mass(1:n) > 0.0_wp)) .or. any(.not. (pt%h(1:n) > 0.0_wp))) return
+      if (any(.not. (pt%x(1, 1:n) > 0.0_wp))) then
         ierr = status_particle_axis
-        ifault = -findloc(.not. (pt%x(1, :) > 0.0_wp), .true., dim=1)
+        ifault = -findloc(.not. (pt%x(1, 1:n) > 0.0_wp), .true., dim=1)
         return
       end if
-      pt%x0 = pt%x
-      do i = 1, pt%n
+      pt%x0(:, 1:n) = pt%x(:, 1:n)
+      do i = 1, n
         im = pt%mat(i)
         pt%rho(i) = sim%props(prop_rho0, im)
         pt%temp(i) = sim%props(prop_t_room, im)
         pt%c(i) = reference_sound_speed(im)
+        pt%continuum(i) = sim%continuum_of_body(pt%body(i))
       end do
       pt%s = 0.0_wp; pt%p = 0.0_wp; pt%sig = 0.0_wp; pt%eps_p = 0.0_wp; pt%e = 0.0_wp
       pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%drho = 0.0_wp; pt%de = 0.0_wp
-      pt%radius = particle_radius(pt%mass, pt%x(1, :), pt%rho)
+      pt%tie_a = 0; pt%tie_b = 0; pt%assoc = 0
+      pt%radius(1:n) = particle_radius(pt%mass(1:n), pt%x(1, 1:n), pt%rho(1:n))
     end associate
     ierr = status_ok
   end subroutine initialise_particles
@@ -238,20 +276,18 @@ contains
   subroutine cycle(dt_step, ierr, ifault)
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
+    integer :: n_new
 
-    ! 1. forces at t^n: element nodal forces; particle neighbours, SPH
-    !    accelerations and particle contact
+    ! 1. forces at t^n: element nodal forces; imaginary particles,
+    !    particle neighbours, SPH accelerations, particle contact; coupling
+    !    tractions on interface edges; tied particles' forces to their edges
     call compute_forces(dt_step)
     ! 2. central difference: velocities to t^(n+1/2)
     call update_velocities(0.5_wp*(sim%dt_last + dt_step))
-    ! 3. boundary conditions on the half-step velocities
+    ! 3. boundary conditions on the half-step velocities; tied particles
+    !    follow their edges
     call apply_boundaries(dt_step)
-    if (sim%particles%n > 0) then
-      ! velocities at which the viscous work of this kick is charged: the mean
-      ! over the kick, scaled from the kick length to the step length
-      sim%particles%v_bar = 0.5_wp*(sim%particles%v_bar + sim%particles%v)* &
-                            (0.5_wp*(sim%dt_last + dt_step)/dt_step)
-    end if
+    call finish_particle_kick(0.5_wp*(sim%dt_last + dt_step), dt_step)
     ! 4. positions to t^(n+1); the clock moves with them, so a failure in
     !    the rest of the cycle is reported at the time the geometry reached
     call update_positions(dt_step, ierr, ifault)
@@ -265,7 +301,9 @@ contains
     ! 6. particle rates at mid-step (density, energy, strain rate), update
     call update_particles(dt_step, ierr, ifault)
     if (ierr /= status_ok) return
-    ! 7. next stable step
+    ! 7. conversion of distorted element groups, surface and ties
+    call convert_elements(n_new)
+    ! 8. next stable step
     call solver_stable_step()
     if (mod(sim%cycle, sim%control%history_every) == 0) call record_history()
     if (sim%dt < sim%control%dt_floor_ratio*sim%dt_initial) then
@@ -276,17 +314,21 @@ contains
 
   subroutine compute_forces(dt_step)
     real(wp), intent(in) :: dt_step
-    integer :: i
+    integer :: i, n, ntot
     associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
       if (el%n > 0) then
         call element_corner_forces(el%n, nd%n, el%conn, nd%x, el%s, el%p, el%q, el%fc)
         call gather_corner_forces(nd%n, el%n, size(nd%corner_list), nd%corner_ptr, nd%corner_list, &
                                   el%fc, nd%f)
       end if
-      if (pt%n > 0) then
-        call build_neighbors(pt%n, pt%x, pt%h, pt%body, pt%cell_of, pt%cell_start, pt%cell_items, &
-                             pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
-        do i = 1, pt%n
+      n = pt%n
+      if (n > 0) then
+        pt%n_imag = 0
+        if (el%n > 0) call fill_imaginary(stage_start)
+        ntot = n + pt%n_imag
+        call build_neighbors(n, ntot, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
+                             pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+        do i = 1, n
           pt%sig(:, i) = pt%s(:, i)
           pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
         end do
@@ -294,23 +336,36 @@ contains
           if (size(pt%pair_q) < size(pt%nbr_list)) deallocate (pt%pair_q)
         end if
         if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)))
-        call sph_accelerations(pt%n, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
+        call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
                                pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
                                pt%pair_q)
-        pt%radius = particle_radius(pt%mass, pt%x(1, :), pt%rho)
-        call particle_contact_accelerations(pt%n, pt%x, pt%mass, pt%radius, pt%cnt_ptr, pt%cnt_list, &
+        pt%radius(1:n) = particle_radius(pt%mass(1:n), pt%x(1, 1:n), pt%rho(1:n))
+        call particle_contact_accelerations(n, pt%x, pt%mass, pt%radius, pt%cnt_ptr, pt%cnt_list, &
                                             dt_step, sim%control%contact_penalty, pt%acc)
+        if (el%n > 0) then
+          call coupling_tractions()
+          call tie_forces()
+        end if
       end if
     end associate
   end subroutine compute_forces
 
   subroutine update_velocities(dt_v)
     real(wp), intent(in) :: dt_v  !< velocity step: mean of the two position steps [s]
+    integer :: n
     associate (nd => sim%nodes, pt => sim%particles)
-      if (nd%n > 0) call integrate_velocities(nd%n, nd%mass, nd%f, dt_v, nd%v)
-      if (pt%n > 0) then
-        pt%v_bar = pt%v     ! velocity before the kick, averaged after the boundaries
-        pt%v = pt%v + dt_v*pt%acc
+      if (nd%n > 0) then
+        if (any(nd%mass_tie > 0.0_wp)) then
+          nd%x_old(1, :) = nd%mass + nd%mass_tie   ! work array: mass with tied particles
+          call integrate_velocities(nd%n, nd%x_old(1, :), nd%f, dt_v, nd%v)
+        else
+          call integrate_velocities(nd%n, nd%mass, nd%f, dt_v, nd%v)
+        end if
+      end if
+      n = pt%n
+      if (n > 0) then
+        pt%v_bar(:, 1:n) = pt%v(:, 1:n)   ! velocity before the kick
+        pt%v(:, 1:n) = pt%v(:, 1:n) + dt_v*pt%acc(:, 1:n)
       end if
     end associate
   end subroutine update_velocities
@@ -328,6 +383,20 @@ contains
       end do
     end associate
   end subroutine apply_boundaries
+
+  !> Tied particles take their edge velocity; v_bar becomes the velocity at
+  !> which the viscous work of this kick is charged: the mean over the kick,
+  !> scaled from the kick length to the step length.
+  subroutine finish_particle_kick(dt_v, dt_step)
+    real(wp), intent(in) :: dt_v, dt_step
+    integer :: n
+    n = sim%particles%n
+    if (n == 0) return
+    if (sim%nodes%n > 0) call tie_velocities()
+    associate (pt => sim%particles)
+      pt%v_bar(:, 1:n) = 0.5_wp*(pt%v_bar(:, 1:n) + pt%v(:, 1:n))*(dt_v/dt_step)
+    end associate
+  end subroutine finish_particle_kick
 
   subroutine update_positions(dt_step, ierr, ifault)
     real(wp), intent(in) :: dt_step
@@ -376,32 +445,35 @@ contains
   subroutine update_particles(dt_step, ierr, ifault)
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
-    integer :: i
+    integer :: i, n, ntot
     ierr = status_ok
     ifault = 0
+    n = sim%particles%n
+    if (n == 0) return
     associate (pt => sim%particles)
-      if (pt%n == 0) return
-      if (any(.not. (pt%x_mid(1, :) > 0.0_wp))) then
+      if (any(.not. (pt%x_mid(1, 1:n) > 0.0_wp))) then
         ierr = status_particle_axis
-        ifault = -findloc(.not. (pt%x_mid(1, :) > 0.0_wp), .true., dim=1)
+        ifault = -findloc(.not. (pt%x_mid(1, 1:n) > 0.0_wp), .true., dim=1)
         return
       end if
-      call sph_rates(pt%n, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
+      if (pt%n_imag > 0) call fill_imaginary(stage_mid)
+      ntot = n + pt%n_imag
+      call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
                      pt%pair_q, pt%drho, pt%de, pt%d, pt%spin)
-      pt%e_old = pt%e
-      pt%rho_old = pt%rho
-      call particle_state_update(pt%n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, &
+      pt%e_old(1:n) = pt%e(1:n)
+      pt%rho_old(1:n) = pt%rho(1:n)
+      call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, &
                                  dt_step, pt%x, pt%drho, pt%de, pt%d, pt%spin, pt%rho, pt%e, pt%s, &
                                  pt%p, pt%eps_p, pt%temp, pt%c, ierr, ifault)
       if (ierr == status_ok) then
-        do i = 1, pt%n
+        do i = 1, n
           pt%sig_mid(:, i) = 0.5_wp*(pt%sig(:, i) + pt%s(:, i))
           pt%sig_mid([1, 2, 4], i) = pt%sig_mid([1, 2, 4], i) - 0.5_wp*pt%p(i)
           pt%rho_mid(i) = 0.5_wp*(pt%rho_old(i) + pt%rho(i))
         end do
-        call sph_energy_rate(pt%n, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%h, pt%sig_mid, &
+        call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%h, pt%sig_mid, &
                              pt%nbr_ptr, pt%nbr_list, pt%pair_q, pt%de)
-        call particle_energy_update(pt%n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
+        call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
                                     pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%c, ierr, ifault)
       end if
       ifault = -ifault
@@ -436,8 +508,8 @@ contains
       if (nd%n > 0) kinetic = kinetic + 0.5_wp*sum(nd%mass*(nd%v(1, :)**2 + nd%v(2, :)**2))
       if (el%n > 0) internal = internal + sum(el%mass*el%e)
       if (pt%n > 0) then
-        kinetic = kinetic + 0.5_wp*sum(pt%mass*(pt%v(1, :)**2 + pt%v(2, :)**2))
-        internal = internal + sum(pt%mass*pt%e)
+        kinetic = kinetic + 0.5_wp*sum(pt%mass(1:pt%n)*(pt%v(1, 1:pt%n)**2 + pt%v(2, 1:pt%n)**2))
+        internal = internal + sum(pt%mass(1:pt%n)*pt%e(1:pt%n))
       end if
     end associate
   end subroutine solver_energies

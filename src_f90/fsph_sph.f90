@@ -103,9 +103,11 @@ contains
   !> The pairwise viscous pressures are stored per neighbour entry in
   !> pair_q so that the energy equation charges exactly the viscous work
   !> these forces do.
-  subroutine sph_accelerations(n, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, acc, pair_q)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: x(2, n), v(2, n), mass(n), rho(n), h(n), c(n), sig(4, n)
+  subroutine sph_accelerations(n, ntot, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, &
+                               acc, pair_q)
+    integer, intent(in) :: n             !< real particles (rows computed)
+    integer, intent(in) :: ntot          !< real and imaginary particles (neighbours)
+    real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), c(ntot), sig(4, ntot)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
     real(wp), intent(out) :: acc(2, n)
@@ -147,9 +149,9 @@ contains
   !> energy of the sums is conserved) and the velocity gradient, corrected
   !> (Randles-Libersky) so that a linear velocity field is differentiated
   !> exactly: strain rates d (rr, zz, rz, tt) with d_tt = v_r/r, and spin.
-  subroutine sph_rates(n, x, v, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, drho, de, d, spin)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: x(2, n), v(2, n), mass(n), rho(n), h(n), sig(4, n)
+  subroutine sph_rates(n, ntot, x, v, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, drho, de, d, spin)
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), sig(4, ntot)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
     real(wp), intent(in) :: pair_q(*)    !< viscous pressures of the accelerations [Pa]
     real(wp), intent(out) :: drho(n)     !< [kg/(m^3 s)]
@@ -218,9 +220,10 @@ contains
   !> pressures pair_q charged at the velocities v_visc (the cycle passes the
   !> mean of the velocities before and after the kick, which is exactly the
   !> kinetic energy those forces removed).
-  subroutine sph_energy_rate(n, x, v, v_visc, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, de)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: x(2, n), v(2, n), v_visc(2, n), mass(n), rho(n), h(n), sig(4, n)
+  subroutine sph_energy_rate(n, ntot, x, v, v_visc, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, de)
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot), h(ntot)
+    real(wp), intent(in) :: sig(4, ntot)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
     real(wp), intent(in) :: pair_q(*)
     real(wp), intent(out) :: de(n)

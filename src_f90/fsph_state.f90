@@ -16,6 +16,7 @@ module fsph_state
     real(wp), allocatable :: x_mid(:, :)  !< mid-step position [m]
     real(wp), allocatable :: f(:, :)      !< internal force [N]
     real(wp), allocatable :: mass(:)      !< lumped ring mass [kg]
+    real(wp), allocatable :: mass_tie(:)  !< mass of particles tied to the node's edges [kg]
     logical, allocatable :: on_axis(:)    !< node lies on r = 0 (v_r held at 0)
     integer, allocatable :: corner_ptr(:) !< CSR into corner_list, size n+1
     integer, allocatable :: corner_list(:) !< element corners 3*(ie-1)+k of each node
@@ -27,6 +28,7 @@ module fsph_state
     integer, allocatable :: conn(:, :)    !< nodes, counter-clockwise (3, n)
     integer, allocatable :: mat(:)        !< material index
     integer, allocatable :: body(:)       !< body index
+    integer, allocatable :: group(:)      !< conversion group (global index, 0: none)
     real(wp), allocatable :: mass(:)      !< ring mass [kg]
     real(wp), allocatable :: rho(:)       !< density [kg/m^3]
     real(wp), allocatable :: s(:, :)      !< deviatoric stress rr, zz, rz, tt [Pa]
@@ -43,8 +45,19 @@ module fsph_state
   end type element_set_t
 
   !> SPH particles (full-ring masses) and their material-point state.
+  !> Entries 1..n are real particles; entries n+1..n+n_imag are the
+  !> imaginary particles of the elements (seed 000 eq 5), refilled every
+  !> step: they enter the SPH sums of real particles as neighbours only.
+  !> Arrays are sized for `capacity` entries.
   type, public :: particle_set_t
     integer :: n = 0
+    integer :: n_imag = 0
+    integer :: capacity = 0
+    integer, allocatable :: imag_elem(:)  !< element of each imaginary entry (index - n)
+    integer, allocatable :: continuum(:)  !< SPH sums only join entries of one continuum
+    integer, allocatable :: tie_a(:), tie_b(:) !< nodes of the edge a particle is tied to (0: free)
+    real(wp), allocatable :: tie_xi(:)    !< position of the tie along the edge a -> b [-]
+    integer, allocatable :: assoc(:, :)   !< coupling edges associated with the particle (2, n)
     real(wp), allocatable :: x(:, :)      !< position (r, z) [m]
     real(wp), allocatable :: x0(:, :)     !< initial position [m]
     real(wp), allocatable :: x_old(:, :), x_mid(:, :) !< start-of-cycle and mid-step positions [m]
@@ -67,6 +80,31 @@ module fsph_state
     integer, allocatable :: nbr_ptr(:), nbr_list(:), cnt_ptr(:), cnt_list(:)
     real(wp), allocatable :: pair_q(:)    !< viscous pressure per neighbour entry [Pa]
   end type particle_set_t
+
+  !> Coupling-interface edges of the element region: node pairs oriented as
+  !> in their element (element region on the left), with the particles
+  !> associated with them (seed 000 eqs 6-8).
+  type, public :: coupling_t
+    integer :: n_edges = 0
+    integer, allocatable :: edge(:, :)    !< (2, n_edges) node pairs
+    real(wp), allocatable :: sig_sum(:, :) !< work: summed particle stress per edge [Pa]
+    integer, allocatable :: count(:)      !< work: associated particles per edge
+  end type coupling_t
+
+  !> Conversion of elements to particles (seed 000 section 2.3).
+  type, public :: conversion_t
+    logical :: enabled = .false.
+    integer :: criterion = 1              !< 1 min angle, 2 plastic strain, 3 equivalent stress
+    real(wp) :: theta_c = 0.5235987755982988_wp !< critical minimum angle [rad] (30 deg)
+    real(wp) :: eps_c = 0.4_wp            !< critical equivalent plastic strain [-]
+    real(wp) :: sigma_c = 0.0_wp          !< critical equivalent stress [Pa]
+    real(wp) :: kappa = 1.5_wp            !< group size factor of eq 9 [-]
+    real(wp) :: alpha_h = 1.3_wp          !< smoothing-length factor h = alpha_h sqrt(A) [-]
+    integer :: n_groups = 0
+    integer :: n_converted = 0            !< elements converted so far
+    integer :: n_events = 0               !< cycles in which a conversion happened
+    real(wp) :: heat = 0.0_wp             !< kinetic energy turned into heat at conversion [J]
+  end type conversion_t
 
   !> Rigid, fixed, frictionless plane: points x with (x - point).normal >= 0
   !> are outside it.
@@ -94,6 +132,10 @@ module fsph_state
     type(node_set_t) :: nodes
     type(element_set_t) :: elements
     type(particle_set_t) :: particles
+    type(coupling_t) :: coupling
+    type(conversion_t) :: conversion
+    integer, allocatable :: continuum_of_body(:) !< bodies joined into one continuum share it
+    logical, allocatable :: body_coupled(:) !< the body's elements act as imaginary particles
     integer :: n_materials = 0
     real(wp), allocatable :: props(:, :)  !< (n_props, n_materials)
     integer, allocatable :: istrength(:), ieos(:)
@@ -129,11 +171,12 @@ contains
     sim%nodes%n = nn
     allocate (sim%nodes%x(2, nn), sim%nodes%x0(2, nn), sim%nodes%v(2, nn), sim%nodes%f(2, nn), &
               sim%nodes%x_old(2, nn), sim%nodes%x_mid(2, nn), sim%nodes%mass(nn), &
-              sim%nodes%on_axis(nn), sim%nodes%corner_ptr(nn + 1))
+              sim%nodes%on_axis(nn), sim%nodes%corner_ptr(nn + 1), sim%nodes%mass_tie(nn))
     sim%nodes%f = 0.0_wp
+    sim%nodes%mass_tie = 0.0_wp
     sim%elements%n = ne
     associate (el => sim%elements)
-      allocate (el%conn(3, ne), el%mat(ne), el%body(ne), el%mass(ne), el%rho(ne), el%s(4, ne), &
+      allocate (el%conn(3, ne), el%mat(ne), el%body(ne), el%group(ne), el%mass(ne), el%rho(ne), el%s(4, ne), &
                 el%p(ne), el%q(ne), el%eps_p(ne), el%e(ne), el%temp(ne), el%c(ne), el%area(ne), &
                 el%rbar(ne), el%volume(ne), el%lmin(ne), el%d(4, ne), el%spin(ne), el%fc(2, 3, ne))
     end associate
@@ -144,20 +187,31 @@ contains
     sim = simulation_t()
   end subroutine state_reset
 
-  !> Allocate every particle array for np particles.
-  subroutine state_allocate_particles(np)
-    integer, intent(in) :: np
+  !> Allocate every particle array for np real particles and room for
+  !> `capacity` entries in all (real and imaginary).
+  subroutine state_allocate_particles(np, capacity)
+    integer, intent(in) :: np, capacity
+    integer :: cap
+    cap = max(capacity, np, 1)
     sim%particles = particle_set_t()
     sim%ready = .false.
     sim%particles%n = np
+    sim%particles%capacity = cap
     associate (pt => sim%particles)
-      allocate (pt%x(2, np), pt%x0(2, np), pt%x_old(2, np), pt%x_mid(2, np), pt%v(2, np), pt%v_bar(2, np), &
-                pt%acc(2, np), pt%mass(np), pt%h(np), pt%radius(np), pt%mat(np), pt%body(np), &
-                pt%rho(np), pt%s(4, np), pt%sig(4, np), pt%p(np), pt%eps_p(np), pt%e(np), &
-                pt%temp(np), pt%c(np), pt%drho(np), pt%de(np), pt%d(4, np), pt%spin(np), &
-                pt%e_old(np), pt%rho_old(np), pt%rho_mid(np), pt%sig_mid(4, np), &
-                pt%nbr_ptr(np + 1), pt%cnt_ptr(np + 1))
-      pt%acc = 0.0_wp
+      allocate (pt%x(2, cap), pt%x0(2, cap), pt%x_old(2, cap), pt%x_mid(2, cap), pt%v(2, cap), &
+                pt%v_bar(2, cap), pt%acc(2, cap), pt%mass(cap), pt%h(cap), pt%radius(cap), &
+                pt%mat(cap), pt%body(cap), pt%rho(cap), pt%s(4, cap), pt%sig(4, cap), pt%p(cap), &
+                pt%eps_p(cap), pt%e(cap), pt%temp(cap), pt%c(cap), pt%drho(cap), pt%de(cap), &
+                pt%d(4, cap), pt%spin(cap), pt%e_old(cap), pt%rho_old(cap), pt%rho_mid(cap), &
+                pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
+                pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap))
+      pt%x = 0.0_wp; pt%x0 = 0.0_wp; pt%x_old = 0.0_wp; pt%x_mid = 0.0_wp; pt%v = 0.0_wp
+      pt%v_bar = 0.0_wp; pt%acc = 0.0_wp; pt%mass = 0.0_wp; pt%h = 0.0_wp; pt%radius = 0.0_wp
+      pt%mat = 0; pt%body = 0; pt%rho = 0.0_wp; pt%s = 0.0_wp; pt%sig = 0.0_wp; pt%p = 0.0_wp
+      pt%eps_p = 0.0_wp; pt%e = 0.0_wp; pt%temp = 0.0_wp; pt%c = 0.0_wp; pt%drho = 0.0_wp
+      pt%de = 0.0_wp; pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%e_old = 0.0_wp; pt%rho_old = 0.0_wp
+      pt%rho_mid = 0.0_wp; pt%sig_mid = 0.0_wp; pt%imag_elem = 0; pt%continuum = 0
+      pt%tie_a = 0; pt%tie_b = 0; pt%tie_xi = 0.0_wp; pt%assoc = 0
     end associate
   end subroutine state_allocate_particles
 

@@ -1,0 +1,137 @@
+!> Helpers that resize, append to and compact allocatable arrays whose last
+!> dimension runs over items (nodes, elements, particles). Used only when
+!> the discretisation changes (conversion), never in the ordinary cycle.
+module fsph_arrays
+  use fsph_kinds, only: wp
+  implicit none
+  private
+
+  !> Keep the items where mask is true, in order.
+  public :: compact
+  interface compact
+    module procedure compact_r1, compact_r2, compact_i1, compact_i2, compact_l1
+  end interface compact
+
+  !> Append the items of b after those of a.
+  public :: append
+  interface append
+    module procedure append_r1, append_r2, append_i1, append_i2
+  end interface append
+
+  !> Reallocate to n items (contents discarded, set to zero).
+  public :: reset_size
+  interface reset_size
+    module procedure reset_r1, reset_r2, reset_i1
+  end interface reset_size
+
+contains
+
+  subroutine compact_r1(a, mask)
+    real(wp), allocatable, intent(inout) :: a(:)
+    logical, intent(in) :: mask(:)
+    a = pack(a, mask)
+  end subroutine compact_r1
+
+  subroutine compact_r2(a, mask)
+    real(wp), allocatable, intent(inout) :: a(:, :)
+    logical, intent(in) :: mask(:)
+    real(wp), allocatable :: b(:, :)
+    integer :: k, m
+    allocate (b(size(a, 1), count(mask)))
+    m = 0
+    do k = 1, size(mask)
+      if (.not. mask(k)) cycle
+      m = m + 1
+      b(:, m) = a(:, k)
+    end do
+    call move_alloc(b, a)
+  end subroutine compact_r2
+
+  subroutine compact_i1(a, mask)
+    integer, allocatable, intent(inout) :: a(:)
+    logical, intent(in) :: mask(:)
+    a = pack(a, mask)
+  end subroutine compact_i1
+
+  subroutine compact_l1(a, mask)
+    logical, allocatable, intent(inout) :: a(:)
+    logical, intent(in) :: mask(:)
+    a = pack(a, mask)
+  end subroutine compact_l1
+
+  subroutine compact_i2(a, mask)
+    integer, allocatable, intent(inout) :: a(:, :)
+    logical, intent(in) :: mask(:)
+    integer, allocatable :: b(:, :)
+    integer :: k, m
+    allocate (b(size(a, 1), count(mask)))
+    m = 0
+    do k = 1, size(mask)
+      if (.not. mask(k)) cycle
+      m = m + 1
+      b(:, m) = a(:, k)
+    end do
+    call move_alloc(b, a)
+  end subroutine compact_i2
+
+  subroutine append_r1(a, b)
+    real(wp), allocatable, intent(inout) :: a(:)
+    real(wp), intent(in) :: b(:)
+    a = [a, b]
+  end subroutine append_r1
+
+  subroutine append_i1(a, b)
+    integer, allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: b(:)
+    a = [a, b]
+  end subroutine append_i1
+
+  subroutine append_r2(a, b)
+    real(wp), allocatable, intent(inout) :: a(:, :)
+    real(wp), intent(in) :: b(:, :)
+    real(wp), allocatable :: c(:, :)
+    integer :: n
+    n = size(a, 2)
+    allocate (c(size(a, 1), n + size(b, 2)))
+    c(:, 1:n) = a
+    c(:, n + 1:) = b
+    call move_alloc(c, a)
+  end subroutine append_r2
+
+  subroutine append_i2(a, b)
+    integer, allocatable, intent(inout) :: a(:, :)
+    integer, intent(in) :: b(:, :)
+    integer, allocatable :: c(:, :)
+    integer :: n
+    n = size(a, 2)
+    allocate (c(size(a, 1), n + size(b, 2)))
+    c(:, 1:n) = a
+    c(:, n + 1:) = b
+    call move_alloc(c, a)
+  end subroutine append_i2
+
+  subroutine reset_r1(a, n)
+    real(wp), allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    if (allocated(a)) deallocate (a)
+    allocate (a(n))
+    a = 0.0_wp
+  end subroutine reset_r1
+
+  subroutine reset_r2(a, m, n)
+    real(wp), allocatable, intent(inout) :: a(:, :)
+    integer, intent(in) :: m, n
+    if (allocated(a)) deallocate (a)
+    allocate (a(m, n))
+    a = 0.0_wp
+  end subroutine reset_r2
+
+  subroutine reset_i1(a, n)
+    integer, allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    if (allocated(a)) deallocate (a)
+    allocate (a(n))
+    a = 0
+  end subroutine reset_i1
+
+end module fsph_arrays

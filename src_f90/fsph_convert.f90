@@ -1,0 +1,496 @@
+!> Automatic conversion of distorted elements into particles (seed 000
+!> section 2.3, eqs 9-13; ALGORITHMS.md section 4): element groups, the
+!> conversion criteria, the conversion itself (mass exact, momentum to
+!> round-off, the kinetic energy of the nodes' relative motion turned into
+!> heat of the new particle), removal of orphan nodes, the element-region
+!> surface and the association and ties of particles to its edges.
+module fsph_convert
+  use fsph_kinds, only: wp, pi
+  use fsph_state, only: sim
+  use fsph_arrays, only: compact
+  use fsph_material, only: equivalent_stress
+  use fsph_coupling, only: coupled_body, update_tie_masses
+  implicit none
+  private
+
+  integer, parameter, public :: criterion_min_angle = 1
+  integer, parameter, public :: criterion_plastic_strain = 2
+  integer, parameter, public :: criterion_equivalent_stress = 3
+
+  public :: assign_groups, convert_elements, rebuild_corner_map, associate_by_proximity
+  public :: minimum_angle, rebuild_coupling_edges
+
+contains
+
+  !> Smallest interior angle of a triangle [rad].
+  pure function minimum_angle(xe) result(angle)
+    real(wp), intent(in) :: xe(2, 3)
+    real(wp) :: angle, u(2), w(2)
+    integer :: k
+    angle = pi
+    do k = 1, 3
+      u = xe(:, modulo(k, 3) + 1) - xe(:, k)
+      w = xe(:, modulo(k + 1, 3) + 1) - xe(:, k)
+      angle = min(angle, atan2(abs(u(1)*w(2) - u(2)*w(1)), u(1)*w(1) + u(2)*w(2)))
+    end do
+  end function minimum_angle
+
+  !> Element groups of every coupled body from the initial mesh (eqs 9-13):
+  !> Delta_s = kappa R_max, R_max = 2 alpha_h sqrt(A0_max); N_r, N_z
+  !> rectangles over the body's bounding box; an element belongs to the
+  !> rectangle of its initial centroid. Group indices are global.
+  subroutine assign_groups()
+    integer :: ib, nb, ie, nr, nz, ir, iz, offset
+    real(wp) :: rmin, rmax, zmin, zmax, amax, ds, dr, dz, xg(2)
+    logical, allocatable :: in_body(:)
+    associate (el => sim%elements, nd => sim%nodes, cv => sim%conversion)
+      el%group = 0
+      if (el%n == 0) return
+      nb = maxval(el%body)
+      offset = 0
+      allocate (in_body(el%n))
+      do ib = 1, nb
+        in_body = el%body(1:el%n) == ib
+        if (.not. any(in_body)) cycle
+        if (.not. coupled_body(ib)) cycle
+        rmin = huge(1.0_wp); rmax = -huge(1.0_wp); zmin = huge(1.0_wp); zmax = -huge(1.0_wp)
+        amax = 0.0_wp
+        do ie = 1, el%n
+          if (.not. in_body(ie)) cycle
+          rmin = min(rmin, minval(nd%x0(1, el%conn(:, ie))))
+          rmax = max(rmax, maxval(nd%x0(1, el%conn(:, ie))))
+          zmin = min(zmin, minval(nd%x0(2, el%conn(:, ie))))
+          zmax = max(zmax, maxval(nd%x0(2, el%conn(:, ie))))
+          amax = max(amax, el%area(ie))
+        end do
+        ds = cv%kappa*2.0_wp*cv%alpha_h*sqrt(amax)
+        nr = max(int((rmax - rmin)/ds), 1)
+        nz = max(int((zmax - zmin)/ds), 1)
+        dr = (rmax - rmin)/nr
+        dz = (zmax - zmin)/nz
+        do ie = 1, el%n
+          if (.not. in_body(ie)) cycle
+          xg = (nd%x0(:, el%conn(1, ie)) + nd%x0(:, el%conn(2, ie)) + nd%x0(:, el%conn(3, ie)))/3.0_wp
+          ir = min(int((xg(1) - rmin)/dr) + 1, nr)
+          iz = min(int((xg(2) - zmin)/dz) + 1, nz)
+          el%group(ie) = offset + (iz - 1)*nr + ir
+        end do
+        offset = offset + nr*nz
+      end do
+      cv%n_groups = offset
+    end associate
+  end subroutine assign_groups
+
+  !> Node -> element-corner map (CSR) of the current mesh.
+  subroutine rebuild_corner_map()
+    integer :: ie, k, a
+    integer, allocatable :: fill(:)
+    associate (el => sim%elements, nd => sim%nodes)
+      if (allocated(nd%corner_ptr)) deallocate (nd%corner_ptr)
+      allocate (nd%corner_ptr(nd%n + 1), fill(nd%n + 1))
+      fill = 0
+      do ie = 1, el%n
+        do k = 1, 3
+          fill(el%conn(k, ie) + 1) = fill(el%conn(k, ie) + 1) + 1
+        end do
+      end do
+      nd%corner_ptr(1) = 1
+      do a = 1, nd%n
+        nd%corner_ptr(a + 1) = nd%corner_ptr(a) + fill(a + 1)
+      end do
+      if (allocated(nd%corner_list)) deallocate (nd%corner_list)
+      allocate (nd%corner_list(max(3*el%n, 1)))
+      fill(1:nd%n) = nd%corner_ptr(1:nd%n)
+      do ie = 1, el%n
+        do k = 1, 3
+          a = el%conn(k, ie)
+          nd%corner_list(fill(a)) = 3*(ie - 1) + k
+          fill(a) = fill(a) + 1
+        end do
+      end do
+    end associate
+  end subroutine rebuild_corner_map
+
+  !> Number of elements, other than `except`, that have both nodes a and b.
+  integer function elements_with_edge(a, b, except) result(count)
+    integer, intent(in) :: a, b, except
+    integer :: k, ie
+    count = 0
+    associate (el => sim%elements, nd => sim%nodes)
+      do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
+        ie = (nd%corner_list(k) - 1)/3 + 1
+        if (ie == except) cycle
+        if (any(el%conn(:, ie) == b)) count = count + 1
+      end do
+    end associate
+  end function elements_with_edge
+
+  !> The element other than `except` that has edge (a, b), 0 if none.
+  integer function element_across(a, b, except) result(other)
+    integer, intent(in) :: a, b, except
+    integer :: k, ie
+    other = 0
+    associate (el => sim%elements, nd => sim%nodes)
+      do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
+        ie = (nd%corner_list(k) - 1)/3 + 1
+        if (ie == except) cycle
+        if (any(el%conn(:, ie) == b)) then
+          other = ie
+          return
+        end if
+      end do
+    end associate
+  end function element_across
+
+  !> Distance of point p from segment a-b and the parameter xi in [0, 1] of
+  !> its projection.
+  pure subroutine segment_projection(p, xa, xb, dist, xi)
+    real(wp), intent(in) :: p(2), xa(2), xb(2)
+    real(wp), intent(out) :: dist, xi
+    real(wp) :: t(2), l2
+    t = xb - xa
+    l2 = t(1)**2 + t(2)**2
+    xi = 0.0_wp
+    if (l2 > 0.0_wp) xi = max(0.0_wp, min(1.0_wp, dot_product(p - xa, t)/l2))
+    dist = norm2(p - (xa + xi*t))
+  end subroutine segment_projection
+
+  !> Index of coupling edge (a, b) in the list, adding it if new.
+  integer function coupling_edge_index(a, b) result(k)
+    integer, intent(in) :: a, b
+    integer, allocatable :: grown(:, :)
+    associate (cp => sim%coupling)
+      do k = 1, cp%n_edges
+        if (cp%edge(1, k) == a .and. cp%edge(2, k) == b) return
+      end do
+      if (.not. allocated(cp%edge)) allocate (cp%edge(2, 64))
+      if (cp%n_edges == size(cp%edge, 2)) then
+        allocate (grown(2, 2*size(cp%edge, 2)))
+        grown(:, 1:cp%n_edges) = cp%edge(:, 1:cp%n_edges)
+        call move_alloc(grown, cp%edge)
+      end if
+      cp%n_edges = cp%n_edges + 1
+      k = cp%n_edges
+      cp%edge(:, k) = [a, b]
+    end associate
+  end function coupling_edge_index
+
+  !> Drop associations and ties to edges no longer on the element-region
+  !> surface, then renumber the coupling edges to those still used.
+  subroutine rebuild_coupling_edges()
+    integer :: i, slot, k, a, b
+    integer, allocatable :: old_edge(:, :)
+    logical :: on_surface
+    associate (cp => sim%coupling, pt => sim%particles)
+      if (cp%n_edges > 0) then
+        old_edge = cp%edge(:, 1:cp%n_edges)
+      else
+        allocate (old_edge(2, 0))
+      end if
+      cp%n_edges = 0
+      do i = 1, pt%n
+        do slot = 1, 2
+          k = pt%assoc(slot, i)
+          if (k == 0) cycle
+          a = old_edge(1, k)
+          b = old_edge(2, k)
+          on_surface = a > 0 .and. b > 0
+          if (on_surface) on_surface = elements_with_edge(a, b, 0) == 1
+          if (on_surface) then
+            pt%assoc(slot, i) = coupling_edge_index(a, b)
+          else
+            pt%assoc(slot, i) = 0
+            if (pt%tie_a(i) == a .and. pt%tie_b(i) == b) then
+              pt%tie_a(i) = 0
+              pt%tie_b(i) = 0
+            end if
+          end if
+        end do
+        ! keep slot 1 filled first
+        if (pt%assoc(1, i) == 0 .and. pt%assoc(2, i) /= 0) then
+          pt%assoc(1, i) = pt%assoc(2, i)
+          pt%assoc(2, i) = 0
+        end if
+      end do
+      call size_work()
+    end associate
+  end subroutine rebuild_coupling_edges
+
+  subroutine size_work()
+    associate (cp => sim%coupling)
+      if (allocated(cp%sig_sum)) deallocate (cp%sig_sum, cp%count)
+      allocate (cp%sig_sum(4, max(cp%n_edges, 1)), cp%count(max(cp%n_edges, 1)))
+    end associate
+  end subroutine size_work
+
+  !> Fixed coupling: associate every real particle with the surface edges
+  !> of an element region of its continuum that it faces: its projection
+  !> falls on the edge, it lies on the outer side, closer than
+  !> `reach` times its radius. The two nearest such edges are kept. No ties.
+  subroutine associate_by_proximity(reach)
+    real(wp), intent(in) :: reach
+    integer :: i, ie, k, a, b, slot
+    real(wp) :: dist, xi, best(2), t(2), nrm(2), l
+    integer :: best_edge(2, 2)
+    associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
+      if (el%n == 0 .or. pt%n == 0) return
+      pt%radius(1:pt%n) = 0.5_wp*sqrt(pt%mass(1:pt%n)/(2.0_wp*pi*pt%x(1, 1:pt%n)*pt%rho(1:pt%n)))
+      do i = 1, pt%n
+        best = huge(1.0_wp)
+        best_edge = 0
+        do ie = 1, el%n
+          if (sim%continuum_of_body(el%body(ie)) /= pt%continuum(i)) cycle
+          do k = 1, 3
+            a = el%conn(k, ie)
+            b = el%conn(modulo(k, 3) + 1, ie)
+            call segment_projection(pt%x(:, i), nd%x(:, a), nd%x(:, b), dist, xi)
+            if (dist > reach*pt%radius(i) .or. dist >= best(2)) cycle
+            t = nd%x(:, b) - nd%x(:, a)
+            l = norm2(t)
+            nrm = [t(2), -t(1)]/l
+            if (dot_product(pt%x(:, i) - nd%x(:, a), nrm) <= 0.0_wp) cycle
+            if (elements_with_edge(a, b, ie) /= 0) cycle
+            if (dist < best(1)) then
+              best(2) = best(1); best_edge(:, 2) = best_edge(:, 1)
+              best(1) = dist; best_edge(:, 1) = [a, b]
+            else
+              best(2) = dist; best_edge(:, 2) = [a, b]
+            end if
+          end do
+        end do
+        do slot = 1, 2
+          if (best_edge(1, slot) /= 0) pt%assoc(slot, i) = &
+            coupling_edge_index(best_edge(1, slot), best_edge(2, slot))
+        end do
+      end do
+      call size_work()
+    end associate
+  end subroutine associate_by_proximity
+
+  !> Conversion check after the stress update: flag groups holding an
+  !> element that meets the criterion, turn every element of those groups
+  !> into a particle, remove orphan nodes, update the surface, associations
+  !> and ties. Returns the number of elements converted.
+  subroutine convert_elements(n_new)
+    integer, intent(out) :: n_new
+    logical, allocatable :: group_hit(:), convert(:), keep_node(:)
+    integer, allocatable :: pending(:, :, :)
+    integer :: ie, ng
+    n_new = 0
+    associate (el => sim%elements, cv => sim%conversion)
+      if (.not. cv%enabled .or. el%n == 0 .or. cv%n_groups == 0) return
+      ng = cv%n_groups
+      allocate (group_hit(ng), convert(el%n))
+      group_hit = .false.
+      do ie = 1, el%n
+        if (el%group(ie) == 0) cycle
+        if (group_hit(el%group(ie))) cycle
+        if (meets_criterion(ie)) group_hit(el%group(ie)) = .true.
+      end do
+      if (.not. any(group_hit)) return
+      do ie = 1, el%n
+        convert(ie) = .false.
+        if (el%group(ie) > 0) convert(ie) = group_hit(el%group(ie))
+      end do
+      n_new = min(count(convert), sim%particles%capacity - sim%particles%n)
+      allocate (pending(2, 2, n_new))
+      call make_particles(convert, pending)
+      call remove_elements(convert, keep_node)
+      call remove_nodes(keep_node, pending)
+      call rebuild_corner_map()
+      call nodal_masses()
+      call rebuild_coupling_edges()
+      call tie_new_particles(pending)
+      call update_tie_masses()
+      cv%n_converted = cv%n_converted + n_new
+      cv%n_events = cv%n_events + 1
+    end associate
+  end subroutine convert_elements
+
+  logical function meets_criterion(ie)
+    integer, intent(in) :: ie
+    real(wp) :: xe(2, 3)
+    associate (el => sim%elements, cv => sim%conversion)
+      select case (cv%criterion)
+      case (criterion_plastic_strain)
+        meets_criterion = el%eps_p(ie) >= cv%eps_c
+      case (criterion_equivalent_stress)
+        meets_criterion = equivalent_stress(el%s(:, ie)) >= cv%sigma_c
+      case default
+        xe = sim%nodes%x(:, el%conn(:, ie))
+        meets_criterion = minimum_angle(xe) < cv%theta_c
+      end select
+    end associate
+  end function meets_criterion
+
+  !> Append one particle per converted element (seed 000: the variables of
+  !> the imaginary particle): mass, density, stress, plastic strain,
+  !> energy, temperature; position and velocity the mean of the nodes;
+  !> h = alpha_h sqrt(A). The kinetic energy of the nodes' motion relative
+  !> to that mean, (m_e/3) sum |v_a - v_mean|^2 / 2, becomes heat of the
+  !> particle. pending(:, slot, k) receives the (at most two) edges of the
+  !> k-th converted element that border a remaining element, oriented as in
+  !> that element (node pairs; 0 where none).
+  subroutine make_particles(convert, pending)
+    logical, intent(in) :: convert(:)
+    integer, intent(out) :: pending(:, :, :)
+    integer :: ie, i, k, a, b, other, slot, knew
+    real(wp) :: vbar(2), dke
+    pending = 0
+    knew = 0
+    associate (el => sim%elements, nd => sim%nodes, pt => sim%particles, cv => sim%conversion)
+      do ie = 1, el%n
+        if (.not. convert(ie)) cycle
+        if (knew == size(pending, 3)) exit
+        knew = knew + 1
+        pt%n = pt%n + 1
+        i = pt%n
+        pt%x(:, i) = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
+        pt%x0(:, i) = (nd%x0(:, el%conn(1, ie)) + nd%x0(:, el%conn(2, ie)) + nd%x0(:, el%conn(3, ie)))/3.0_wp
+        vbar = (nd%v(:, el%conn(1, ie)) + nd%v(:, el%conn(2, ie)) + nd%v(:, el%conn(3, ie)))/3.0_wp
+        dke = 0.0_wp
+        do k = 1, 3
+          dke = dke + 0.5_wp*(el%mass(ie)/3.0_wp)*sum((nd%v(:, el%conn(k, ie)) - vbar)**2)
+        end do
+        pt%v(:, i) = vbar
+        pt%mass(i) = el%mass(ie)
+        pt%rho(i) = el%rho(ie)
+        pt%s(:, i) = el%s(:, ie)
+        pt%p(i) = el%p(ie)
+        pt%eps_p(i) = el%eps_p(ie)
+        pt%e(i) = el%e(ie) + dke/el%mass(ie)
+        pt%temp(i) = el%temp(ie)
+        pt%c(i) = el%c(ie)
+        pt%h(i) = cv%alpha_h*sqrt(el%area(ie))
+        pt%mat(i) = el%mat(ie)
+        pt%body(i) = el%body(ie)
+        pt%continuum(i) = sim%continuum_of_body(el%body(ie))
+        pt%acc(:, i) = 0.0_wp
+        pt%tie_a(i) = 0
+        pt%tie_b(i) = 0
+        pt%tie_xi(i) = 0.0_wp
+        pt%assoc(:, i) = 0
+        cv%heat = cv%heat + dke
+        slot = 0
+        do k = 1, 3
+          a = el%conn(k, ie)
+          b = el%conn(modulo(k, 3) + 1, ie)
+          other = element_across(a, b, ie)
+          if (other == 0) cycle
+          if (convert(other)) cycle
+          if (slot == 2) cycle
+          slot = slot + 1
+          pending(:, slot, knew) = [b, a]     ! counter-clockwise in the remaining element
+        end do
+      end do
+    end associate
+  end subroutine make_particles
+
+  !> Drop converted elements; keep_node marks nodes still used.
+  subroutine remove_elements(convert, keep_node)
+    logical, intent(in) :: convert(:)
+    logical, allocatable, intent(out) :: keep_node(:)
+    logical, allocatable :: keep(:)
+    integer :: ie
+    associate (el => sim%elements)
+      allocate (keep(el%n))
+      keep = .not. convert(1:el%n)
+      call compact(el%conn, keep); call compact(el%mat, keep); call compact(el%body, keep)
+      call compact(el%group, keep); call compact(el%mass, keep); call compact(el%rho, keep)
+      call compact(el%s, keep); call compact(el%p, keep); call compact(el%q, keep)
+      call compact(el%eps_p, keep); call compact(el%e, keep); call compact(el%temp, keep)
+      call compact(el%c, keep); call compact(el%area, keep); call compact(el%rbar, keep)
+      call compact(el%volume, keep); call compact(el%lmin, keep); call compact(el%d, keep)
+      call compact(el%spin, keep)
+      el%n = count(keep)
+      if (allocated(el%fc)) deallocate (el%fc)
+      allocate (el%fc(2, 3, max(el%n, 1)))
+      allocate (keep_node(sim%nodes%n))
+      keep_node = .false.
+      do ie = 1, el%n
+        keep_node(el%conn(:, ie)) = .true.
+      end do
+    end associate
+  end subroutine remove_elements
+
+  !> Remove nodes no element uses and renumber every node reference.
+  subroutine remove_nodes(keep_node, pending)
+    logical, intent(in) :: keep_node(:)
+    integer, intent(inout) :: pending(:, :, :)
+    integer, allocatable :: new_index(:)
+    integer :: a, m, i, k
+    associate (nd => sim%nodes, el => sim%elements, pt => sim%particles, cp => sim%coupling)
+      allocate (new_index(0:nd%n))
+      new_index = 0
+      m = 0
+      do a = 1, nd%n
+        if (.not. keep_node(a)) cycle
+        m = m + 1
+        new_index(a) = m
+      end do
+      do i = 1, el%n
+        el%conn(:, i) = new_index(el%conn(:, i))
+      end do
+      do i = 1, pt%n
+        pt%tie_a(i) = new_index(pt%tie_a(i))
+        pt%tie_b(i) = new_index(pt%tie_b(i))
+      end do
+      do k = 1, size(pending, 3)
+        pending(1, :, k) = new_index(pending(1, :, k))
+        pending(2, :, k) = new_index(pending(2, :, k))
+      end do
+      do k = 1, cp%n_edges
+        cp%edge(:, k) = new_index(cp%edge(:, k))
+      end do
+      call compact(nd%x, keep_node); call compact(nd%x0, keep_node); call compact(nd%v, keep_node)
+      call compact(nd%f, keep_node); call compact(nd%x_old, keep_node)
+      call compact(nd%x_mid, keep_node); call compact(nd%mass, keep_node)
+      call compact(nd%mass_tie, keep_node); call compact(nd%on_axis, keep_node)
+      nd%n = m
+    end associate
+  end subroutine remove_nodes
+
+  !> Lumped nodal masses from the remaining elements.
+  subroutine nodal_masses()
+    integer :: ie, k
+    associate (nd => sim%nodes, el => sim%elements)
+      nd%mass = 0.0_wp
+      do ie = 1, el%n
+        do k = 1, 3
+          nd%mass(el%conn(k, ie)) = nd%mass(el%conn(k, ie)) + el%mass(ie)/3.0_wp
+        end do
+      end do
+    end associate
+  end subroutine nodal_masses
+
+  !> The new particles (the last size(pending, 3)): associate them with
+  !> their pending edges (now surface edges of the remaining elements) and
+  !> tie each to the nearer.
+  subroutine tie_new_particles(pending)
+    integer, intent(in) :: pending(:, :, :)
+    integer :: i, k, slot, n_new
+    real(wp) :: dist(2), xi(2)
+    associate (pt => sim%particles, nd => sim%nodes)
+      n_new = size(pending, 3)
+      do k = 1, n_new
+        i = pt%n - n_new + k
+        dist = huge(1.0_wp)
+        xi = 0.0_wp
+        do slot = 1, 2
+          if (pending(1, slot, k) == 0) cycle
+          call segment_projection(pt%x(:, i), nd%x(:, pending(1, slot, k)), &
+                                  nd%x(:, pending(2, slot, k)), dist(slot), xi(slot))
+          pt%assoc(slot, i) = coupling_edge_index(pending(1, slot, k), pending(2, slot, k))
+        end do
+        if (pending(1, 1, k) == 0) cycle
+        slot = 1
+        if (dist(2) < dist(1)) slot = 2
+        pt%tie_a(i) = pending(1, slot, k)
+        pt%tie_b(i) = pending(2, slot, k)
+        pt%tie_xi(i) = xi(slot)
+      end do
+      call size_work()
+    end associate
+  end subroutine tie_new_particles
+
+end module fsph_convert

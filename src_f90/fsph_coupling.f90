@@ -1,0 +1,177 @@
+!> Element-particle coupling (seed 000 section 2.1, eqs 5-8; ALGORITHMS.md
+!> section 3) and the ties of particles to element edges (Johnson et al.
+!> 2002 style, section 4).
+!>
+!>  - Elements -> particles: each element of a coupled body is an imaginary
+!>    particle (mass and density of the element, position and velocity the
+!>    mean of its nodes, stress of the element, h = alpha_h sqrt(A)), stored
+!>    after the real particles and refilled every step; it enters the SPH
+!>    sums of the real particles of its continuum as a neighbour.
+!>  - Particles -> elements: each coupling-interface edge IJ receives the
+!>    traction t = sigma_bar . n of the mean stress of its associated
+!>    particles (n the outward normal of the element region; the printed
+!>    eq 6 has index typos, this is the Cauchy traction), F = 2 pi r_bar l t,
+!>    half to each node.
+!>  - Ties: a tied particle moves with the point xi of its edge; its force
+!>    and mass go to the edge nodes with weights (1 - xi, xi), so momentum is
+!>    conserved.
+module fsph_coupling
+  use fsph_kinds, only: wp, two_pi
+  use fsph_state, only: sim
+  implicit none
+  private
+
+  public :: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, update_tie_masses
+  public :: coupled_body
+
+  !> Stage of the cycle at which imaginary particles are filled.
+  integer, parameter, public :: stage_start = 1  !< positions x^n, velocities v^(n-1/2)
+  integer, parameter, public :: stage_mid = 2    !< positions x^(n+1/2), velocities v^(n+1/2)
+
+contains
+
+  !> Whether the elements of body ib take part in coupling (their continuum
+  !> has or may get particles).
+  pure logical function coupled_body(ib)
+    integer, intent(in) :: ib
+    coupled_body = .false.
+    if (.not. allocated(sim%body_coupled)) return
+    if (ib < 1 .or. ib > size(sim%body_coupled)) return
+    coupled_body = sim%body_coupled(ib)
+  end function coupled_body
+
+  !> Refill the imaginary particles from the elements of coupled bodies.
+  subroutine fill_imaginary(stage)
+    integer, intent(in) :: stage
+    integer :: ie, k, n0
+    associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
+      n0 = pt%n
+      k = 0
+      do ie = 1, el%n
+        if (.not. coupled_body(el%body(ie))) cycle
+        k = k + 1
+        if (n0 + k > pt%capacity) exit
+        pt%imag_elem(n0 + k) = ie
+      end do
+      pt%n_imag = min(k, pt%capacity - n0)
+    end associate
+    call fill_imaginary_entries(n0, stage)
+  end subroutine fill_imaginary
+
+  !> Values of the imaginary entries n0+1 .. n0+n_imag (eq 5).
+  subroutine fill_imaginary_entries(n0, stage)
+    integer, intent(in) :: n0, stage
+    integer :: k, ie
+    real(wp) :: xe(2), ve(2)
+    !$omp parallel do default(none) shared(sim, n0, stage) private(k, ie, xe, ve)
+    do k = n0 + 1, n0 + sim%particles%n_imag
+      ie = sim%particles%imag_elem(k)
+      associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
+        if (stage == stage_mid) then
+          xe = (nd%x_mid(:, el%conn(1, ie)) + nd%x_mid(:, el%conn(2, ie)) + nd%x_mid(:, el%conn(3, ie)))/3.0_wp
+        else
+          xe = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
+        end if
+        ve = (nd%v(:, el%conn(1, ie)) + nd%v(:, el%conn(2, ie)) + nd%v(:, el%conn(3, ie)))/3.0_wp
+        pt%x(:, k) = xe
+        pt%x_mid(:, k) = xe
+        pt%v(:, k) = ve
+        pt%v_bar(:, k) = ve
+        pt%mass(k) = el%mass(ie)
+        pt%rho(k) = el%rho(ie)
+        pt%rho_mid(k) = el%rho(ie)
+        pt%h(k) = sim%conversion%alpha_h*sqrt(el%area(ie))
+        pt%radius(k) = 0.5_wp*sqrt(el%area(ie))
+        pt%c(k) = el%c(ie)
+        pt%sig(:, k) = el%s(:, ie)
+        pt%sig([1, 2, 4], k) = pt%sig([1, 2, 4], k) - el%p(ie)
+        pt%sig_mid(:, k) = pt%sig(:, k)
+        pt%continuum(k) = sim%continuum_of_body(el%body(ie))
+        pt%mat(k) = el%mat(ie)
+        pt%body(k) = el%body(ie)
+      end associate
+    end do
+    !$omp end parallel do
+  end subroutine fill_imaginary_entries
+
+
+  !> Add the equivalent edge forces of the particles to the nodal forces
+  !> (eqs 6-8). Serial: the sums keep a fixed order.
+  subroutine coupling_tractions()
+    integer :: i, k, slot, a, b
+    real(wp) :: sbar(4), dr, dz, l, nr, nz, tr, tz, rbar
+    associate (cp => sim%coupling, pt => sim%particles, nd => sim%nodes)
+      if (cp%n_edges == 0) return
+      cp%sig_sum(:, 1:cp%n_edges) = 0.0_wp
+      cp%count(1:cp%n_edges) = 0
+      do i = 1, pt%n
+        do slot = 1, 2
+          k = pt%assoc(slot, i)
+          if (k == 0) cycle
+          cp%sig_sum(:, k) = cp%sig_sum(:, k) + pt%sig(:, i)
+          cp%count(k) = cp%count(k) + 1
+        end do
+      end do
+      do k = 1, cp%n_edges
+        if (cp%count(k) == 0) cycle
+        a = cp%edge(1, k)
+        b = cp%edge(2, k)
+        sbar = cp%sig_sum(:, k)/real(cp%count(k), wp)
+        dr = nd%x(1, b) - nd%x(1, a)
+        dz = nd%x(2, b) - nd%x(2, a)
+        l = sqrt(dr*dr + dz*dz)
+        if (l <= 0.0_wp) cycle
+        ! outward normal of the element region: the element lies to the left
+        nr = dz/l
+        nz = -dr/l
+        tr = sbar(1)*nr + sbar(3)*nz
+        tz = sbar(3)*nr + sbar(2)*nz
+        rbar = 0.5_wp*(nd%x(1, a) + nd%x(1, b))
+        nd%f(1, a) = nd%f(1, a) + 0.5_wp*two_pi*rbar*l*tr
+        nd%f(2, a) = nd%f(2, a) + 0.5_wp*two_pi*rbar*l*tz
+        nd%f(1, b) = nd%f(1, b) + 0.5_wp*two_pi*rbar*l*tr
+        nd%f(2, b) = nd%f(2, b) + 0.5_wp*two_pi*rbar*l*tz
+      end do
+    end associate
+  end subroutine coupling_tractions
+
+  !> Nodal masses of tied particles: (1 - xi) m_p to node a, xi m_p to b.
+  subroutine update_tie_masses()
+    integer :: i
+    associate (pt => sim%particles, nd => sim%nodes)
+      if (nd%n == 0) return
+      nd%mass_tie = 0.0_wp
+      do i = 1, pt%n
+        if (pt%tie_a(i) == 0) cycle
+        nd%mass_tie(pt%tie_a(i)) = nd%mass_tie(pt%tie_a(i)) + (1.0_wp - pt%tie_xi(i))*pt%mass(i)
+        nd%mass_tie(pt%tie_b(i)) = nd%mass_tie(pt%tie_b(i)) + pt%tie_xi(i)*pt%mass(i)
+      end do
+    end associate
+  end subroutine update_tie_masses
+
+  !> The force m_p a_p of each tied particle goes to its edge nodes.
+  subroutine tie_forces()
+    integer :: i
+    real(wp) :: f(2)
+    associate (pt => sim%particles, nd => sim%nodes)
+      do i = 1, pt%n
+        if (pt%tie_a(i) == 0) cycle
+        f = pt%mass(i)*pt%acc(:, i)
+        nd%f(:, pt%tie_a(i)) = nd%f(:, pt%tie_a(i)) + (1.0_wp - pt%tie_xi(i))*f
+        nd%f(:, pt%tie_b(i)) = nd%f(:, pt%tie_b(i)) + pt%tie_xi(i)*f
+      end do
+    end associate
+  end subroutine tie_forces
+
+  !> A tied particle takes the velocity of its edge point.
+  subroutine tie_velocities()
+    integer :: i
+    associate (pt => sim%particles, nd => sim%nodes)
+      do i = 1, pt%n
+        if (pt%tie_a(i) == 0) cycle
+        pt%v(:, i) = (1.0_wp - pt%tie_xi(i))*nd%v(:, pt%tie_a(i)) + pt%tie_xi(i)*nd%v(:, pt%tie_b(i))
+      end do
+    end associate
+  end subroutine tie_velocities
+
+end module fsph_coupling
