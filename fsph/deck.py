@@ -58,7 +58,7 @@ SCHEMA = {
                         "Discretisation mode: fem (elements only), sph (particles only), "
                         "fixed (FEM-SPH coupling as declared), adaptive (elements converted "
                         "to particles where they distort).",
-                        choices=("fem", "sph", "fixed", "adaptive"), implemented=("fem", "sph")),
+                        choices=("fem", "sph", "fixed", "adaptive")),
             "end_time": _pos("Physical time at which the run stops.", "s"),
             "dt_safety": Key("float", 0.6, "-",
                              "Time-step safety factor s: dt = s * min(min_e L_min/(Q + sqrt(Q^2 + c^2)), "
@@ -136,10 +136,16 @@ SCHEMA = {
             "material": Key("str", REQUIRED, "-", "Name of a &material."),
             "geometry": Key("str", "rod", "-", "Geometry generator.", choices=("rod",)),
             "discretisation": Key("str", None, "-",
-                                  "elements or particles. Unset: elements in mode fem, particles "
-                                  "in mode sph. Particles sit at the centres of the n_radial x "
+                                  "elements or particles. Unset: particles in mode sph, elements "
+                                  "otherwise; mode fem takes only elements, mode sph only "
+                                  "particles. Particles sit at the centres of the n_radial x "
                                   "n_axial lattice cells, each carrying the ring mass of its cell.",
                                   choices=("elements", "particles")),
+            "joined_to": Key("str", None, "-",
+                             "Name of another body this one is glued to as one continuum (modes "
+                             "fixed and adaptive): element and particle parts are coupled through "
+                             "imaginary particles and interface tractions; no contact between "
+                             "them."),
             "radius": _pos("Rod (outer) radius.", "m"),
             "inner_radius": Key("float", 0.0, "m",
                                 "Inner radius: 0 for a solid rod, > 0 for a tube.", lower=0.0),
@@ -173,6 +179,29 @@ SCHEMA = {
                                    "Particle-particle contact between bodies: fraction of an "
                                    "overlap of the particle radii removed per step by the "
                                    "penalty force.", lower=0.0, upper=1.0, lower_open=True),
+        },
+    ),
+    "convert": Group(
+        "Automatic conversion of distorted elements into particles (mode adaptive; seed 000 "
+        "section 2.3). Elements are grouped at set-up into rectangles of side kappa * R_max, "
+        "R_max = 2 alpha_h sqrt(A0_max) (&sph alpha_h); when one element of a group meets the "
+        "criterion, the whole group becomes particles.",
+        {
+            "criterion": Key("str", "min_angle", "-",
+                             "min_angle: smallest interior angle below theta_c (seed 000); "
+                             "plastic_strain: equivalent plastic strain at least eps_c "
+                             "(seed 002); equivalent_stress: von Mises stress at least sigma_c.",
+                             choices=("min_angle", "plastic_strain", "equivalent_stress")),
+            "theta_c": Key("float", 30.0, "deg", "Critical minimum interior angle (seed 000: 30).",
+                           lower=0.0, upper=60.0, lower_open=True, upper_open=True),
+            "eps_c": Key("float", 0.4, "-",
+                         "Critical equivalent plastic strain (seed 002 uses 0.4; 0.3-0.6 usual).",
+                         lower=0.0, lower_open=True),
+            "sigma_c": _pos("Critical equivalent stress (criterion equivalent_stress).", "Pa", None),
+            "kappa": Key("float", 1.5, "-",
+                         "Group size factor of seed 000 eq 9 (> 1, so a converted group's "
+                         "particles stay within its neighbouring groups).",
+                         lower=1.0, lower_open=True),
         },
     ),
     "boundary": Group(
@@ -215,6 +244,10 @@ SCHEMA = {
                                 "bar_wave: start of the plateau window, distance from the "
                                 "impact face in the initial configuration.", lower=0.0),
             "plateau_to": _pos("bar_wave: end of the plateau window (see plateau_from).", "m", None),
+            "interface": Key("float", None, "m",
+                             "bar_wave: initial distance from the face of an element-particle "
+                             "interface; the jump of the mean stress across it (3 mm either "
+                             "side, relative to the plateau) is reported.", lower=0.0),
         },
     ),
 }
@@ -431,14 +464,28 @@ def _unique_names(path, gname, items):
 
 def _cross_check(path, deck):
     mode = deck["control"]["mode"]
-    default_disc = {"fem": "elements", "sph": "particles"}[mode]
+    default_disc = "particles" if mode == "sph" else "elements"
     for i, b in enumerate(deck["body"]):
         if b["discretisation"] is None:
             b["discretisation"] = default_disc
-        elif b["discretisation"] != default_disc:
+        elif mode in ("fem", "sph") and b["discretisation"] != default_disc:
             raise DeckError(path, f"body #{i + 1}", "discretisation",
-                            f"'{default_disc}' in mode '{mode}' (mixed bodies need mode 'fixed')",
-                            b["discretisation"])
+                            f"'{default_disc}' in mode '{mode}' (mixed bodies need mode 'fixed' "
+                            "or 'adaptive')", b["discretisation"])
+    names = [b["name"] for b in deck["body"]]
+    for i, b in enumerate(deck["body"]):
+        if b["joined_to"] is None:
+            continue
+        if mode not in ("fixed", "adaptive"):
+            raise DeckError(path, f"body #{i + 1}", "joined_to",
+                            "no value outside modes 'fixed' and 'adaptive'", b["joined_to"])
+        if b["joined_to"] not in names or b["joined_to"] == b["name"]:
+            raise DeckError(path, f"body #{i + 1}", "joined_to",
+                            "the name of another &body: " + ", ".join(names), b["joined_to"])
+    conv = deck["convert"]
+    if conv["criterion"] == "equivalent_stress" and conv["sigma_c"] is None:
+        raise DeckError(path, "convert", "sigma_c",
+                        "a value (needed by criterion 'equivalent_stress')", "missing key")
     for i, b in enumerate(deck["body"]):
         if not b["inner_radius"] < b["radius"]:
             raise DeckError(path, f"body #{i + 1}", "inner_radius",

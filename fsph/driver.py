@@ -64,7 +64,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
     say(f"fsph: {ctrl['title'] or deck_path.stem}: mode {ctrl['mode']}, {sim.n_elements} elements, "
         f"{sim.n_nodes} nodes, {sim.n_particles} particles, {threads()} thread(s), "
         f"end time {ctrl['end_time'] * 1e6:g} us")
-    say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s}")
+    say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s} "
+        f"{'elements':>9s} {'particles':>9s}")
 
     last_good = sim.snapshot()
     writer.write_snapshot(last_good)
@@ -81,7 +82,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
             if progress_due:
                 say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
                     f"{sim.energies()['relative_error']:+11.3e} "
-                    f"{wallclock.perf_counter() - t_wall0:9.2f}")
+                    f"{wallclock.perf_counter() - t_wall0:9.2f} {sim.n_elements:9d} "
+                    f"{sim.n_particles:9d}")
     except SimulationError as err:
         failure = err
         writer.append_history(drain_history())
@@ -107,8 +109,12 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
         "n_elements": sim.n_elements,
         "n_nodes": sim.n_nodes,
         "n_particles": sim.n_particles,
+        "n_elements_initial": sim.n_elements0,
+        "n_converted": sim.conversion()["n_converted"],
+        "conversion": sim.conversion(),
         "energy": {"initial_J": sim.initial_energy, "final_J": energies["total"],
                    "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
+                   "conversion_heat_J": sim.conversion()["heat_J"],
                    "relative_error": energies["relative_error"]},
         "metrics": case_metrics,
     }

@@ -1,59 +1,65 @@
-"""Case metrics from a snapshot: Taylor L/D/W, elastic-bar stress plateau
-and wave front. Vectorised numpy over arrays; no loops over elements."""
+"""Case metrics from a snapshot: Taylor L/D/W, elastic-bar stress plateau,
+wave front and interface jump. Bodies may be elements, particles or both;
+vectorised numpy over arrays, no loops over elements or particles."""
 
 import numpy as np
 
 from .mesh import boundary_edges
 
+EMPTY = np.zeros((0, 2))
+
 
 def _body_elements(snap, body_index):
     keep = snap["body"] == body_index
-    conn = snap["conn"][keep]
-    return conn, keep
+    return snap["conn"][keep], keep
 
 
-def taylor_particles(part, body, body_index, w_height=None):
-    """Taylor L, D, W [mm] of a particle body, each particle counted as a
-    square of half-side its radius: L spans the lowest and highest particle
-    edges, D is twice the largest r + radius, W twice the largest r + radius
-    among particles whose axial extent covers the level w_height above the
-    impact face."""
+def _element_extent(snap, body_index):
+    """Element nodes (k, 2) of a body and the end points of its boundary edges."""
+    if "conn" not in snap:
+        return EMPTY, EMPTY, EMPTY
+    conn, _ = _body_elements(snap, body_index)
+    if len(conn) == 0:
+        return EMPTY, EMPTY, EMPTY
+    x = snap["x"]
+    edges = boundary_edges(conn)
+    return x[np.unique(conn)], x[edges[:, 0]], x[edges[:, 1]]
+
+
+def _particle_extent(snap, body_index):
+    """Particle centres (k, 2) and radii (k,) of a body."""
+    if "particles" not in snap:
+        return EMPTY, np.zeros(0)
+    part = snap["particles"]
     keep = part["body"] == body_index
-    x, rad = part["x"][keep], part["radius"][keep]
-    z_face = (x[:, 1] - rad).min()
-    length = (x[:, 1] + rad).max() - z_face
-    diameter = 2.0 * (x[:, 0] + rad).max()
-    if w_height is None:
-        w_height = 0.2 * body["length"]
-    level = z_face + w_height
-    at_level = (x[:, 1] - rad <= level) & (x[:, 1] + rad >= level)
-    width = 2.0 * (x[at_level, 0] + rad[at_level]).max() if at_level.any() else float("nan")
-    return {"L_mm": length * 1e3, "D_mm": diameter * 1e3, "W_mm": width * 1e3,
-            "w_height_mm": w_height * 1e3}
+    return part["x"][keep], part["radius"][keep]
 
 
 def taylor(snap, body, body_index, w_height=None):
     """Final length L, maximum diameter D and width W at w_height (default
-    0.2 L0) above the impact face, in mm. The impact face is the lowest
-    point of the body; W is twice the largest radius at which the deformed
-    outer boundary crosses the level z_face + w_height."""
-    conn, _ = _body_elements(snap, body_index)
-    nodes = np.unique(conn)
-    x = snap["x"]
-    z_face = x[nodes, 1].min()
-    length = x[nodes, 1].max() - z_face
-    diameter = 2.0 * x[nodes, 0].max()
+    0.2 L0) above the impact face, in mm, of a body made of elements,
+    particles or both. Elements count by their nodes and boundary edges;
+    each particle counts as a square of half-side its radius. The impact
+    face is the lowest point of the body; W is twice the largest radius at
+    which the deformed body (boundary edges crossing the level, or particles
+    whose extent covers it) meets the level z_face + w_height."""
+    nodes, ea, eb = _element_extent(snap, body_index)
+    xp, rad = _particle_extent(snap, body_index)
+    z_lo = min(nodes[:, 1].min(initial=np.inf), (xp[:, 1] - rad).min(initial=np.inf))
+    z_hi = max(nodes[:, 1].max(initial=-np.inf), (xp[:, 1] + rad).max(initial=-np.inf))
+    r_hi = max(nodes[:, 0].max(initial=-np.inf), (xp[:, 0] + rad).max(initial=-np.inf))
     if w_height is None:
         w_height = 0.2 * body["length"]
-    level = z_face + w_height
-    edges = boundary_edges(conn)
-    a, b = x[edges[:, 0]], x[edges[:, 1]]
-    off_axis = (a[:, 0] > 0.0) | (b[:, 0] > 0.0)
-    crosses = off_axis & ((a[:, 1] - level) * (b[:, 1] - level) <= 0.0) & (a[:, 1] != b[:, 1])
-    t = (level - a[crosses, 1]) / (b[crosses, 1] - a[crosses, 1])
-    r_cross = a[crosses, 0] + t * (b[crosses, 0] - a[crosses, 0])
-    width = 2.0 * r_cross.max() if r_cross.size else float("nan")
-    return {"L_mm": length * 1e3, "D_mm": diameter * 1e3, "W_mm": width * 1e3,
+    level = z_lo + w_height
+    off_axis = (ea[:, 0] > 0.0) | (eb[:, 0] > 0.0)
+    crosses = off_axis & ((ea[:, 1] - level) * (eb[:, 1] - level) <= 0.0) & (ea[:, 1] != eb[:, 1])
+    t = (level - ea[crosses, 1]) / (eb[crosses, 1] - ea[crosses, 1])
+    r_cross = ea[crosses, 0] + t * (eb[crosses, 0] - ea[crosses, 0])
+    at_level = (xp[:, 1] - rad <= level) & (xp[:, 1] + rad >= level)
+    r_level = max(r_cross.max(initial=-np.inf),
+                  (xp[at_level, 0] + rad[at_level]).max(initial=-np.inf))
+    width = 2.0 * r_level if np.isfinite(r_level) else float("nan")
+    return {"L_mm": (z_hi - z_lo) * 1e3, "D_mm": 2.0 * r_hi * 1e3, "W_mm": width * 1e3,
             "w_height_mm": w_height * 1e3}
 
 
@@ -72,44 +78,76 @@ def _locate(points, x, conn):
     return np.where(found, inside.argmax(axis=1), -1)
 
 
-def stress_profile(snap, body_index, probe_radius, n_samples=801):
-    """Axial stress sigma_zz [Pa] along the line r = probe_radius of the
-    initial configuration, against the initial distance from the impact
-    face (the lowest initial z of the body) [m]. Material coordinates are
-    the ones in which the bar wave travels at c0."""
+def initial_face(snap, body_indices):
+    """Lowest initial point of the bodies: element nodes, or particle centres
+    less their initial radius [m]."""
+    z = []
+    for ib in body_indices:
+        if "conn" in snap:
+            conn, _ = _body_elements(snap, ib)
+            if len(conn):
+                z.append(snap["x0"][np.unique(conn), 1].min())
+        if "particles" in snap:
+            part = snap["particles"]
+            keep = part["body"] == ib
+            if keep.any():
+                z.append((part["x0"][keep, 1] - part["radius0"][keep]).min())
+    return min(z)
+
+
+def stress_profile(snap, body_index, probe_radius, z_face, n_samples=801):
+    """Axial stress sigma_zz [Pa] of the elements of a body along the line
+    r = probe_radius of the initial configuration, against the initial
+    distance from the impact face z_face [m]. Material coordinates are the
+    ones in which the bar wave travels at c0."""
     conn, keep = _body_elements(snap, body_index)
     x0 = snap["x0"]
     nodes = np.unique(conn)
-    z_lo, z_hi = x0[nodes, 1].min(), x0[nodes, 1].max()
-    z = np.linspace(z_lo, z_hi, n_samples)
+    z = np.linspace(x0[nodes, 1].min(), x0[nodes, 1].max(), n_samples)
     pts = np.column_stack([np.full_like(z, probe_radius), z])
     idx = _locate(pts, x0, conn)
     ok = idx >= 0
-    szz = snap["stress"][keep][idx[ok], 1]
-    return z[ok] - z_lo, szz
+    return z[ok] - z_face, snap["stress"][keep][idx[ok], 1]
 
 
-def particle_stress_profile(part, body_index, probe_radius):
+def particle_stress_profile(part, body_index, probe_radius, z_face):
     """Axial stress [Pa] of the particle column whose initial radius is
-    nearest probe_radius, against the initial distance from the impact face
-    (lowest initial particle edge) [m]."""
+    nearest probe_radius, against the initial distance from z_face [m]."""
     keep = part["body"] == body_index
-    x0, rad0, szz = part["x0"][keep], part["radius0"][keep], part["stress"][keep, 1]
+    x0, szz = part["x0"][keep], part["stress"][keep, 1]
     r_col = x0[np.argmin(np.abs(x0[:, 0] - probe_radius)), 0]
     col = np.isclose(x0[:, 0], r_col, rtol=1e-9, atol=0.0)
     order = np.argsort(x0[col, 1])
-    face = (x0[:, 1] - rad0).min()
-    return x0[col, 1][order] - face, szz[col][order]
+    return x0[col, 1][order] - z_face, szz[col][order]
 
 
-def bar_wave(snap, body_index, probe_radius, plateau_from, plateau_to):
+def bar_profile(snap, body_indices, probe_radius):
+    """Axial stress along r = probe_radius over the given bodies (elements
+    sampled on the line, particles by their nearest column), sorted by the
+    initial distance from the common impact face."""
+    z_face = initial_face(snap, body_indices)
+    dists, stresses = [], []
+    for ib in body_indices:
+        if "conn" in snap and (snap["body"] == ib).any():
+            d, s = stress_profile(snap, ib, probe_radius, z_face)
+            dists.append(d)
+            stresses.append(s)
+        if "particles" in snap and (snap["particles"]["body"] == ib).any():
+            d, s = particle_stress_profile(snap["particles"], ib, probe_radius, z_face)
+            dists.append(d)
+            stresses.append(s)
+    dist, szz = np.concatenate(dists), np.concatenate(stresses)
+    order = np.argsort(dist, kind="stable")
+    return dist[order], szz[order]
+
+
+def bar_wave(snap, body_indices, probe_radius, plateau_from, plateau_to, interface=None):
     """Mean compressive stress of the plateau window [GPa] and wave front
     [mm]: the farthest initial distance from the face where the compressive
-    stress still reaches half the plateau (linear interpolation)."""
-    if "particles" in snap and "conn" not in snap:
-        dist, szz = particle_stress_profile(snap["particles"], body_index, probe_radius)
-    else:
-        dist, szz = stress_profile(snap, body_index, probe_radius)
+    stress still reaches half the plateau (linear interpolation). With an
+    interface distance [m] (coupled bar), also the jump of the mean stress
+    across it: means over 3 mm on either side, relative to the plateau."""
+    dist, szz = bar_profile(snap, body_indices, probe_radius)
     comp = -szz
     window = (dist >= plateau_from) & (dist <= plateau_to)
     plateau = comp[window].mean()
@@ -119,9 +157,46 @@ def bar_wave(snap, body_index, probe_radius, plateau_from, plateau_to):
     if k + 1 < len(dist):
         c0, c1 = comp[k], comp[k + 1]
         front = dist[k] + (c0 - 0.5 * plateau) / (c0 - c1) * (dist[k + 1] - dist[k])
-    return {"plateau_GPa": plateau / 1e9, "front_mm": front * 1e3,
-            "probe_radius_mm": probe_radius * 1e3,
-            "plateau_window_mm": [plateau_from * 1e3, plateau_to * 1e3]}
+    out = {"plateau_GPa": plateau / 1e9, "front_mm": front * 1e3,
+           "probe_radius_mm": probe_radius * 1e3,
+           "plateau_window_mm": [plateau_from * 1e3, plateau_to * 1e3]}
+    if interface is not None:
+        span = 3.0e-3
+        below = comp[(dist >= interface - span) & (dist < interface)].mean()
+        beyond = comp[(dist >= interface) & (dist <= interface + span)].mean()
+        out["interface_mm"] = interface * 1e3
+        out["interface_jump"] = float(abs(beyond - below) / plateau)
+    return out
+
+
+def joined_bodies(deck, ib):
+    """Body ib with every body joined to it (one continuum), sorted."""
+    names = [b["name"] for b in deck["body"]]
+    joined = {ib}
+    changed = True
+    while changed:
+        changed = False
+        for j, b in enumerate(deck["body"]):
+            if b["joined_to"] is None:
+                continue
+            partner = names.index(b["joined_to"])
+            if (j in joined) != (partner in joined):
+                joined |= {j, partner}
+                changed = True
+    return sorted(joined)
+
+
+def _merge_bodies(snap, bodies):
+    """A view of the snapshot where the given bodies carry the index of the
+    first (metrics of a continuum made of several bodies)."""
+    out = dict(snap)
+    if "conn" in snap:
+        out["body"] = np.where(np.isin(snap["body"], bodies), bodies[0], snap["body"])
+    if "particles" in snap:
+        part = dict(snap["particles"])
+        part["body"] = np.where(np.isin(part["body"], bodies), bodies[0], part["body"])
+        out["particles"] = part
+    return out
 
 
 def case_metrics(snap, deck):
@@ -129,14 +204,13 @@ def case_metrics(snap, deck):
     met = deck["metrics"]
     names = [b["name"] for b in deck["body"]]
     ib = names.index(met["body"]) if met["body"] else 0
+    joined = joined_bodies(deck, ib)
     if met["kind"] == "taylor":
-        if deck["body"][ib]["discretisation"] == "particles":
-            return {"taylor": taylor_particles(snap["particles"], deck["body"][ib], ib,
-                                               met["w_height"])}
-        return {"taylor": taylor(snap, deck["body"][ib], ib, met["w_height"])}
+        return {"taylor": taylor(_merge_bodies(snap, joined), deck["body"][ib], joined[0],
+                                 met["w_height"])}
     if met["kind"] == "bar_wave":
-        return {"bar_wave": bar_wave(snap, ib, met["probe_radius"], met["plateau_from"],
-                                     met["plateau_to"])}
+        return {"bar_wave": bar_wave(snap, joined, met["probe_radius"], met["plateau_from"],
+                                     met["plateau_to"], met["interface"])}
     return {}
 
 

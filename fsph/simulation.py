@@ -73,11 +73,11 @@ class Simulation:
             (elem_bodies if b["discretisation"] == "elements" else part_bodies).append(
                 (ib, b, geometry, mat))
 
-        self.n_nodes = self.n_elements = self.n_particles = 0
         if elem_bodies:
             self._set_elements(elem_bodies)
         if part_bodies:
             self._set_particles(part_bodies, rho0, sph["alpha_h"])
+        self._set_coupling(deck, bool(elem_bodies), bool(part_bodies))
         for bc in deck["boundary"]:
             self._call(_api.add_rigid_plane(np.array(bc["point"]), np.array(bc["normal"])),
                        "rigid plane")
@@ -88,6 +88,7 @@ class Simulation:
         self.initial_energy = ke + ie
         self.particle_radius0 = (self._particles()["radius"].copy() if self.n_particles
                                  else np.zeros(0))
+        self.n_elements0 = self.n_elements
 
     def _set_elements(self, bodies):
         xs, conns, mats, body_ids, vels = [], [], [], [], []
@@ -106,7 +107,6 @@ class Simulation:
                                  np.asfortranarray(conn.T + 1, dtype=np.int32),
                                  np.concatenate(mats).astype(np.int32),
                                  np.concatenate(body_ids).astype(np.int32)), "mesh")
-        self.n_nodes, self.n_elements = len(x), len(conn)
 
     def _set_particles(self, bodies, rho0, alpha_h):
         xs, vels, masses, hs, mats, body_ids = [], [], [], [], [], []
@@ -124,7 +124,40 @@ class Simulation:
                                       np.concatenate(masses), np.concatenate(hs),
                                       np.concatenate(mats).astype(np.int32),
                                       np.concatenate(body_ids).astype(np.int32)), "particles")
-        self.n_particles = len(x)
+
+    def _set_coupling(self, deck, has_elements, has_particles):
+        """Continua (bodies joined by joined_to), which element bodies act as
+        imaginary particles, and the conversion parameters."""
+        bodies = deck["body"]
+        names = [b["name"] for b in bodies]
+        continuum = list(range(1, len(bodies) + 1))
+
+        def root(k):
+            while continuum[k] != k + 1:
+                k = continuum[k] - 1
+            return k
+
+        for ib, b in enumerate(bodies):
+            if b["joined_to"] is not None:
+                a, c = root(ib), root(names.index(b["joined_to"]))
+                continuum[max(a, c)] = min(a, c) + 1
+        continuum = [root(k) + 1 for k in range(len(bodies))]
+        mode = self.control["mode"]
+        coupled = []
+        for ib, b in enumerate(bodies):
+            same = [j for j in range(len(bodies)) if continuum[j] == continuum[ib]]
+            has_part = any(bodies[j]["discretisation"] == "particles" for j in same)
+            coupled.append(int(b["discretisation"] == "elements"
+                               and (mode == "adaptive" or (mode == "fixed" and has_part))))
+        self._call(_api.set_continua(np.array(continuum, dtype=np.int32),
+                                     np.array(coupled, dtype=np.int32)), "continua")
+        conv = deck["convert"]
+        criteria = {"min_angle": 1, "plastic_strain": 2, "equivalent_stress": 3}
+        _api.set_conversion(int(mode == "adaptive"), criteria[conv["criterion"]],
+                            np.radians(conv["theta_c"]), conv["eps_c"], conv["sigma_c"] or 0.0,
+                            conv["kappa"], deck["sph"]["alpha_h"])
+        if has_elements and not has_particles and mode == "adaptive":
+            self._call(_api.reserve_particles(), "particle capacity")
 
     @classmethod
     def from_deck(cls, path):
@@ -174,6 +207,37 @@ class Simulation:
         ierr, ifault = _api.advance(float(t), int(max(max_cycles, 0)))
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault)
+
+    @property
+    def n_nodes(self):
+        return int(_api.get_sizes()[0])
+
+    @property
+    def n_elements(self):
+        return int(_api.get_sizes()[1])
+
+    @property
+    def n_particles(self):
+        return int(_api.get_particle_count())
+
+    def conversion(self):
+        """Elements converted so far, conversion events, kinetic energy of
+        the nodes' relative motion turned into heat at conversion [J], and
+        coupling-interface edges in use."""
+        n_conv, n_events, heat, n_edges = _api.get_conversion_stats()
+        return {"n_converted": int(n_conv), "n_events": int(n_events), "heat_J": float(heat),
+                "n_coupling_edges": int(n_edges)}
+
+    def ties(self):
+        """Particle ties: tied edge nodes (0-based, -1 free), position along
+        the edge, associated edges (n, 2, 2) node pairs (-1 none)."""
+        a, b, xi, assoc = _api.get_particle_ties(self.n_particles)
+        return {"tie_a": a - 1, "tie_b": b - 1, "tie_xi": xi.copy(),
+                "assoc": assoc.transpose(2, 1, 0) - 1}
+
+    def element_groups(self):
+        """Conversion group of every element (0-based, -1 none)."""
+        return _api.get_element_groups(self.n_elements) - 1
 
     @property
     def time(self):
@@ -230,10 +294,12 @@ class Simulation:
             s, p, eps_p, rho, e, temp, c = _api.get_particle_fields(self.n_particles)
             stress = s.T.copy()
             stress[:, [0, 1, 3]] -= p[:, None]
+            radius0 = part["radius"].copy()
+            radius0[:len(self.particle_radius0)] = self.particle_radius0
             part.update({"stress": stress, "pressure": p.copy(), "plastic_strain": eps_p.copy(),
                          "density": rho.copy(), "internal_energy": e.copy(),
                          "temperature": temp.copy(), "sound_speed": c.copy(),
-                         "radius0": self.particle_radius0})
+                         "radius0": radius0})
             snap["particles"] = part
         return snap
 

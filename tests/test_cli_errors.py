@@ -34,8 +34,10 @@ BAD_DECKS = {
                          ["&body #1", "'material'", "steel"]),
     "bad_choice": (rod_deck(material="name='steel'\n library='steel_elastic_bar'\n strength='rubber'"),
                    ["&material #1", "'strength'", "johnson_cook"]),
-    "mode_not_available": (rod_deck(control="mode = 'adaptive'"),
-                           ["&control", "'mode'", "not available in this version"]),
+    "mixed_in_fem": (rod_deck(body="discretisation = 'particles'"),
+                     ["&body #1", "'discretisation'", "'elements' in mode 'fem'"]),
+    "join_outside_coupling": (rod_deck(body="joined_to = 'rod'"),
+                              ["&body #1", "'joined_to'", "modes 'fixed' and 'adaptive'"]),
     "missing_model_constant": (rod_deck(material="name='steel'\n strength='epp'\n eos='linear'\n"
                                         " density=7850.0\n youngs_modulus=2e11\n poisson_ratio=0.3"),
                                ["&material #1", "'yield_stress'", "missing key"]),
