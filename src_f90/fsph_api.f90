@@ -77,12 +77,13 @@ contains
     ! room for the imaginary particles of every element, and for the
     ! particles the elements may become
     call state_allocate_particles(np, np + sim%elements%n)
-    sim%particles%x = x
-    sim%particles%v = v
-    sim%particles%mass = mass
-    sim%particles%h = h
-    sim%particles%mat = mat
-    sim%particles%body = body
+    ! slices: whole-array assignment would reallocate to np and lose the room
+    sim%particles%x(:, 1:np) = x
+    sim%particles%v(:, 1:np) = v
+    sim%particles%mass(1:np) = mass
+    sim%particles%h(1:np) = h
+    sim%particles%mat(1:np) = mat
+    sim%particles%body(1:np) = body
     ierr = status_ok
   end subroutine set_particles
 

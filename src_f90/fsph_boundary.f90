@@ -28,7 +28,9 @@ contains
   !> plane; tangential velocity is untouched (frictionless). The plane is
   !> rigid and fixed: it takes the normal momentum and does no work.
   !> With `offset` (particles: their radius [m]) the point keeps that
-  !> distance from the plane.
+  !> distance from the plane. A point already closer than that (a particle
+  !> just made from an element next to the plane) only stops approaching:
+  !> it is not pushed out, which would put energy in.
   subroutine apply_rigid_plane(nn, point, normal, dt, x, v, offset)
     integer, intent(in) :: nn
     real(wp), intent(in) :: point(2), normal(2) !< plane point [m], unit normal [-]
@@ -44,7 +46,8 @@ contains
       if (present(offset)) gap = gap - offset(a)
       vn = dot_product(v(:, a), normal)
       if (gap + dt*vn < 0.0_wp) then
-        vn_new = -gap/dt
+        vn_new = max(-gap/dt, 0.0_wp)
+        if (gap < 0.0_wp) vn_new = max(vn, 0.0_wp)
         v(:, a) = v(:, a) + (vn_new - vn)*normal
       end if
     end do
