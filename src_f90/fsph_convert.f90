@@ -9,7 +9,8 @@ module fsph_convert
   use fsph_state, only: sim
   use fsph_arrays, only: compact
   use fsph_material, only: equivalent_stress
-  use fsph_coupling, only: coupled_body, update_tie_masses
+  use fsph_coupling, only: coupled_body, update_tie_masses, fill_imaginary, stage_start
+  use fsph_neighbors, only: build_neighbors
   implicit none
   private
 
@@ -17,8 +18,13 @@ module fsph_convert
   integer, parameter, public :: criterion_plastic_strain = 2
   integer, parameter, public :: criterion_equivalent_stress = 3
 
-  public :: assign_groups, convert_elements, rebuild_corner_map, associate_by_proximity
-  public :: minimum_angle, rebuild_coupling_edges
+  public :: assign_groups, convert_elements, rebuild_corner_map, associate_particles
+  public :: minimum_angle
+
+  !> A particle is associated with a surface edge of the element region when
+  !> its centre lies within this many particle radii of the edge, on its
+  !> outer side [-]: the first particle row along the interface.
+  real(wp), parameter, public :: association_reach = 2.0_wp
 
 contains
 
@@ -175,47 +181,6 @@ contains
     end associate
   end function coupling_edge_index
 
-  !> Drop associations and ties to edges no longer on the element-region
-  !> surface, then renumber the coupling edges to those still used.
-  subroutine rebuild_coupling_edges()
-    integer :: i, slot, k, a, b
-    integer, allocatable :: old_edge(:, :)
-    logical :: on_surface
-    associate (cp => sim%coupling, pt => sim%particles)
-      if (cp%n_edges > 0) then
-        old_edge = cp%edge(:, 1:cp%n_edges)
-      else
-        allocate (old_edge(2, 0))
-      end if
-      cp%n_edges = 0
-      do i = 1, pt%n
-        do slot = 1, 2
-          k = pt%assoc(slot, i)
-          if (k == 0) cycle
-          a = old_edge(1, k)
-          b = old_edge(2, k)
-          on_surface = a > 0 .and. b > 0
-          if (on_surface) on_surface = elements_with_edge(a, b, 0) == 1
-          if (on_surface) then
-            pt%assoc(slot, i) = coupling_edge_index(a, b)
-          else
-            pt%assoc(slot, i) = 0
-            if (pt%tie_a(i) == a .and. pt%tie_b(i) == b) then
-              pt%tie_a(i) = 0
-              pt%tie_b(i) = 0
-            end if
-          end if
-        end do
-        ! keep slot 1 filled first
-        if (pt%assoc(1, i) == 0 .and. pt%assoc(2, i) /= 0) then
-          pt%assoc(1, i) = pt%assoc(2, i)
-          pt%assoc(2, i) = 0
-        end if
-      end do
-      call size_work()
-    end associate
-  end subroutine rebuild_coupling_edges
-
   subroutine size_work()
     associate (cp => sim%coupling)
       if (allocated(cp%sig_sum)) deallocate (cp%sig_sum, cp%count)
@@ -223,30 +188,52 @@ contains
     end associate
   end subroutine size_work
 
-  !> Fixed coupling: associate every real particle with the surface edges
-  !> of an element region of its continuum that it faces: its projection
-  !> falls on the edge, it lies on the outer side, closer than
-  !> `reach` times its radius. The two nearest such edges are kept. No ties.
-  subroutine associate_by_proximity(reach)
+  !> Associate every real particle with the element-region surface edges of
+  !> its continuum that it faces: edges of the elements among its imaginary
+  !> neighbours (so the search is O(N)), with no element on their other side,
+  !> the particle on their outer side within `reach` particle radii of the
+  !> edge. The two nearest are kept. A tie to an edge that is no longer on
+  !> the surface is released; a tied edge is always among the associations.
+  !> Rebuilds the coupling-edge list.
+  subroutine associate_particles(reach)
     real(wp), intent(in) :: reach
-    integer :: i, ie, k, a, b, slot
+    integer :: i, k, j, ie, e, a, b, n
     real(wp) :: dist, xi, best(2), t(2), nrm(2), l
     integer :: best_edge(2, 2)
+    n = sim%particles%n
+    sim%coupling%n_edges = 0
+    if (n == 0 .or. sim%elements%n == 0) then
+      call size_work()
+      return
+    end if
+    call fill_imaginary(stage_start)
     associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
-      if (el%n == 0 .or. pt%n == 0) return
-      pt%radius(1:pt%n) = 0.5_wp*sqrt(pt%mass(1:pt%n)/(2.0_wp*pi*pt%x(1, 1:pt%n)*pt%rho(1:pt%n)))
-      do i = 1, pt%n
+      call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
+                           pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+      pt%radius(1:n) = 0.5_wp*sqrt(pt%mass(1:n)/(2.0_wp*pi*pt%x(1, 1:n)*pt%rho(1:n)))
+      do i = 1, n
+        ! release a tie whose edge left the surface
+        if (pt%tie_a(i) > 0) then
+          if (elements_with_edge(pt%tie_a(i), pt%tie_b(i), 0) /= 1) then
+            pt%tie_a(i) = 0
+            pt%tie_b(i) = 0
+          end if
+        end if
         best = huge(1.0_wp)
         best_edge = 0
-        do ie = 1, el%n
-          if (sim%continuum_of_body(el%body(ie)) /= pt%continuum(i)) cycle
-          do k = 1, 3
-            a = el%conn(k, ie)
-            b = el%conn(modulo(k, 3) + 1, ie)
+        do k = pt%nbr_ptr(i), pt%nbr_ptr(i + 1) - 1
+          j = pt%nbr_list(k)
+          if (j <= n) cycle                      ! real particles and mirror images
+          ie = pt%imag_elem(j)
+          do e = 1, 3
+            a = el%conn(e, ie)
+            b = el%conn(modulo(e, 3) + 1, ie)
+            if (any(best_edge(1, :) == a .and. best_edge(2, :) == b)) cycle
             call segment_projection(pt%x(:, i), nd%x(:, a), nd%x(:, b), dist, xi)
             if (dist > reach*pt%radius(i) .or. dist >= best(2)) cycle
             t = nd%x(:, b) - nd%x(:, a)
             l = norm2(t)
+            if (l <= 0.0_wp) cycle
             nrm = [t(2), -t(1)]/l
             if (dot_product(pt%x(:, i) - nd%x(:, a), nrm) <= 0.0_wp) cycle
             if (elements_with_edge(a, b, ie) /= 0) cycle
@@ -258,14 +245,23 @@ contains
             end if
           end do
         end do
-        do slot = 1, 2
-          if (best_edge(1, slot) /= 0) pt%assoc(slot, i) = &
-            coupling_edge_index(best_edge(1, slot), best_edge(2, slot))
+        if (pt%tie_a(i) > 0) then
+          if (.not. any(best_edge(1, :) == pt%tie_a(i) .and. best_edge(2, :) == pt%tie_b(i))) then
+            if (best_edge(1, 1) == 0) then
+              best_edge(:, 1) = [pt%tie_a(i), pt%tie_b(i)]
+            else
+              best_edge(:, 2) = [pt%tie_a(i), pt%tie_b(i)]
+            end if
+          end if
+        end if
+        pt%assoc(:, i) = 0
+        do e = 1, 2
+          if (best_edge(1, e) /= 0) pt%assoc(e, i) = coupling_edge_index(best_edge(1, e), best_edge(2, e))
         end do
       end do
-      call size_work()
     end associate
-  end subroutine associate_by_proximity
+    call size_work()
+  end subroutine associate_particles
 
   !> Conversion check after the stress update: flag groups holding an
   !> element that meets the criterion, turn every element of those groups
@@ -299,8 +295,8 @@ contains
       call remove_nodes(keep_node, pending)
       call rebuild_corner_map()
       call nodal_masses()
-      call rebuild_coupling_edges()
       call tie_new_particles(pending)
+      call associate_particles(association_reach)
       call update_tie_masses()
       cv%n_converted = cv%n_converted + n_new
       cv%n_events = cv%n_events + 1
@@ -463,9 +459,9 @@ contains
     end associate
   end subroutine nodal_masses
 
-  !> The new particles (the last size(pending, 3)): associate them with
-  !> their pending edges (now surface edges of the remaining elements) and
-  !> tie each to the nearer.
+  !> The new particles (the last size(pending, 3)) are tied to the nearer
+  !> of their pending edges (edges of remaining elements they were made
+  !> next to; seed 000 Fig. 5); associations follow in associate_particles.
   subroutine tie_new_particles(pending)
     integer, intent(in) :: pending(:, :, :)
     integer :: i, k, slot, n_new
@@ -480,7 +476,6 @@ contains
           if (pending(1, slot, k) == 0) cycle
           call segment_projection(pt%x(:, i), nd%x(:, pending(1, slot, k)), &
                                   nd%x(:, pending(2, slot, k)), dist(slot), xi(slot))
-          pt%assoc(slot, i) = coupling_edge_index(pending(1, slot, k), pending(2, slot, k))
         end do
         if (pending(1, 1, k) == 0) cycle
         slot = 1
@@ -489,7 +484,6 @@ contains
         pt%tie_b(i) = pending(2, slot, k)
         pt%tie_xi(i) = xi(slot)
       end do
-      call size_work()
     end associate
   end subroutine tie_new_particles
 

@@ -18,17 +18,11 @@ module fsph_solver
                             particle_contact_accelerations
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_start, stage_mid
-  use fsph_convert, only: assign_groups, convert_elements, associate_by_proximity, &
-                          rebuild_coupling_edges
+  use fsph_convert, only: assign_groups, convert_elements, associate_particles, association_reach
   implicit none
   private
 
   public :: solver_initialise, solver_advance, solver_energies, solver_stable_step
-
-  !> Fixed coupling: a particle is associated with a surface edge of the
-  !> element region when its centre lies within this many particle radii
-  !> of the edge, on its outer side [-]. Two radii: the first particle row.
-  real(wp), parameter :: fixed_association_reach = 2.0_wp
 
 contains
 
@@ -56,11 +50,9 @@ contains
     end if
     if (sim%elements%n > 0 .and. sim%particles%capacity > 0) then
       call assign_groups()
-      sim%coupling%n_edges = 0
-      ! fixed coupling: particles next to the element region, within two
-      ! particle radii of a surface edge, are associated with it
-      if (sim%particles%n > 0) call associate_by_proximity(fixed_association_reach)
-      call rebuild_coupling_edges()
+      ! fixed coupling: particles next to the element region are associated
+      ! with its surface edges
+      call associate_particles(association_reach)
       call update_tie_masses()
     end if
 
