@@ -200,11 +200,14 @@ class Simulation:
                                cycle=int(cycle), location=location)
 
     # ------------------------------------------------------------------
-    def advance(self, t, max_cycles=None):
-        """Advance the state to time t [s]; raises SimulationError on failure."""
+    def advance(self, t, max_cycles=None, land=True):
+        """Advance the state to time t [s]; raises SimulationError on failure.
+        land=True shortens the last steps to end exactly on t; land=False
+        keeps the stable step and stops at the first cycle end at or after t
+        (outputs then do not alter the trajectory)."""
         if max_cycles is None:
             max_cycles = self.control["max_cycles"] - self.cycle
-        ierr, ifault = _api.advance(float(t), int(max(max_cycles, 0)))
+        ierr, ifault = _api.advance(float(t), int(max(max_cycles, 0)), int(bool(land)))
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault)
 

@@ -350,23 +350,24 @@ contains
     call solver_initialise(ierr, ifault)
   end subroutine initialise
 
-  !> Advance to t_target [s], at most max_cycles cycles.
+  !> Advance to t_target [s], at most max_cycles cycles; land /= 0: end
+  !> exactly on t_target (see solver_advance).
   !> In a debug build, floating-point traps (invalid, division by zero,
   !> overflow) are on during the cycle and restored afterwards.
-  subroutine advance(t_target, max_cycles, ierr, ifault)
+  subroutine advance(t_target, max_cycles, land, ierr, ifault)
     use fsph_solver, only: solver_advance
     use fsph_build, only: debug_checks
     use, intrinsic :: ieee_exceptions, only: ieee_get_halting_mode, ieee_set_halting_mode, &
                                               ieee_invalid, ieee_divide_by_zero, ieee_overflow
     real(wp), intent(in) :: t_target
-    integer, intent(in) :: max_cycles
+    integer, intent(in) :: max_cycles, land
     integer, intent(out) :: ierr, ifault
     logical :: halting(3)
     if (debug_checks) then
       call ieee_get_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], halting)
       call ieee_set_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], .true.)
     end if
-    call solver_advance(t_target, max_cycles, ierr, ifault)
+    call solver_advance(t_target, max_cycles, land, ierr, ifault)
     if (debug_checks) then
       call ieee_set_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], halting)
     end if

@@ -210,7 +210,7 @@ contains
     associate (el => sim%elements, pt => sim%particles)
       if (el%n > 0) call element_time_step(el%n, el%lmin, el%area, el%c, el%d, sim%control%c_q, &
                                            sim%control%c_l, dt_e, i_e)
-      if (pt%n > 0) call sph_time_step(pt%n, pt%h, pt%c, pt%v, dt_p, i_p)
+      if (pt%n > 0) call sph_time_step(pt%n, pt%x, pt%h, pt%c, pt%v, dt_p, i_p)
     end associate
     if (dt_e <= dt_p) then
       sim%dt_element = i_e
@@ -222,11 +222,14 @@ contains
     sim%dt = sim%control%dt_safety*min(dt_e, dt_p)
   end subroutine solver_stable_step
 
-  !> Run cycles until the clock reaches t_target [s] (the last steps are
-  !> shortened to land on it), or a failure, or max_cycles more cycles.
-  subroutine solver_advance(t_target, max_cycles, ierr, ifault)
+  !> Run cycles until the clock reaches t_target [s], or a failure, or
+  !> max_cycles more cycles. With land /= 0 the last steps are shortened to
+  !> end exactly on t_target; with land = 0 the stable step is never
+  !> changed and the clock stops at the first cycle end at or after
+  !> t_target, so intermediate outputs do not alter the trajectory.
+  subroutine solver_advance(t_target, max_cycles, land, ierr, ifault)
     real(wp), intent(in) :: t_target
-    integer, intent(in) :: max_cycles
+    integer, intent(in) :: max_cycles, land
     integer, intent(out) :: ierr, ifault
     !> Remaining time below this fraction of a step counts as arrived [-].
     real(wp), parameter :: arrival_fraction = 1.0e-9_wp
@@ -245,14 +248,15 @@ contains
         ierr = status_max_cycles
         exit
       end if
-      ! land on t_target without a sliver step: the last one or two steps
-      ! share the remainder
-      if (remaining <= sim%dt) then
-        dt_step = remaining
-      else if (remaining < 2.0_wp*sim%dt) then
-        dt_step = 0.5_wp*remaining
-      else
-        dt_step = sim%dt
+      dt_step = sim%dt
+      if (land /= 0) then
+        ! land on t_target without a sliver step: the last one or two steps
+        ! share the remainder
+        if (remaining <= sim%dt) then
+          dt_step = remaining
+        else if (remaining < 2.0_wp*sim%dt) then
+          dt_step = 0.5_wp*remaining
+        end if
       end if
       call cycle(dt_step, ierr, ifault)
       n_done = n_done + 1

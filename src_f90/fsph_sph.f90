@@ -260,11 +260,15 @@ contains
     !$omp end parallel do
   end subroutine sph_energy_rate
 
-  !> Stable particle step before the safety factor: min h/(c + |v|) [s]
-  !> (ALGORITHMS.md section 1) and the particle that sets it.
-  subroutine sph_time_step(n, h, c, v, dt_min, icontrol)
+  !> Stable particle step before the safety factor: min L/(c + |v|) [s]
+  !> with L = min(h, 2r) and the particle that sets it. h/(c + |v|) is the
+  !> step of ALGORITHMS.md section 1; next to the axis the hoop term
+  !> -sigma_tt/(rho r) adds a mode of frequency about c/r, stable under the
+  !> central difference for dt < 2r/c, which a particle made from an
+  !> element touching the axis (r = Delta/6) would break.
+  subroutine sph_time_step(n, x, h, c, v, dt_min, icontrol)
     integer, intent(in) :: n
-    real(wp), intent(in) :: h(n), c(n), v(2, n)
+    real(wp), intent(in) :: x(2, n), h(n), c(n), v(2, n)
     real(wp), intent(out) :: dt_min
     integer, intent(out) :: icontrol
     real(wp) :: dti
@@ -272,7 +276,7 @@ contains
     dt_min = huge(1.0_wp)
     icontrol = 0
     do i = 1, n
-      dti = h(i)/(c(i) + sqrt(v(1, i)**2 + v(2, i)**2))
+      dti = min(h(i), 2.0_wp*x(1, i))/(c(i) + sqrt(v(1, i)**2 + v(2, i)**2))
       if (dti < dt_min) then
         dt_min = dti
         icontrol = i
