@@ -9,7 +9,7 @@ VENV ?= .venv
 VPY := $(VENV)/bin/python
 STAMP := $(VENV)/.fsph-installed
 SOURCES := $(wildcard src_f90/*.f90 src_f90/.f2py_f2cmap fsph/*.py) meson.build meson.options pyproject.toml
-DECK ?= cases/taylor_armco_fem.nml
+DECK ?= cases/taylor_armco.nml
 OUT ?= out/$(basename $(notdir $(DECK)))
 
 .PHONY: run test test-slow bench docs toolchain clean

@@ -238,6 +238,21 @@ class Simulation:
         return {"tie_a": a - 1, "tie_b": b - 1, "tie_xi": xi.copy(),
                 "assoc": assoc.transpose(2, 1, 0) - 1}
 
+    def convert_now(self):
+        """Run the conversion check immediately; returns elements converted."""
+        return int(_api.convert_now())
+
+    def set_stress_state(self, deviator, pressure):
+        """Uniform stress in every element and particle: deviator (rr, zz,
+        rz, tt) and pressure [Pa] (verification)."""
+        _api.set_stress_state(np.asarray(deviator, dtype=float), float(pressure))
+
+    def forces(self, dt=None):
+        """Nodal forces (n, 2) [N] (with coupling tractions and ties) and
+        particle accelerations (m, 2) [m/s^2] of the current state."""
+        f, acc = _api.get_forces(self.n_nodes, self.n_particles, float(dt or self.dt))
+        return f.T.copy(), acc.T.copy()
+
     def element_groups(self):
         """Conversion group of every element (0-based, -1 none)."""
         return _api.get_element_groups(self.n_elements) - 1

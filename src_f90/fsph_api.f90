@@ -14,6 +14,7 @@ module fsph_api
   public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
   public :: get_neighbor_count, get_neighbors, kernel_values, set_continua, reserve_particles
   public :: set_conversion, get_element_groups, get_conversion_stats, get_particle_ties
+  public :: convert_now, set_stress_state, get_forces
 
 contains
 
@@ -249,6 +250,49 @@ contains
       end do
     end associate
   end subroutine get_particle_ties
+
+  !> Run the conversion check of the cycle now (verification): returns the
+  !> number of elements converted.
+  subroutine convert_now(n_new)
+    use fsph_convert, only: convert_elements
+    integer, intent(out) :: n_new
+    call convert_elements(n_new)
+  end subroutine convert_now
+
+  !> Give every element and real particle the deviator s (rr, zz, rz, tt)
+  !> [Pa] and pressure p [Pa] (verification of equilibrium states).
+  subroutine set_stress_state(s, p)
+    use fsph_state, only: sim
+    real(wp), intent(in) :: s(4), p
+    integer :: i
+    do i = 1, sim%elements%n
+      sim%elements%s(:, i) = s
+      sim%elements%p(i) = p
+      sim%elements%q(i) = 0.0_wp
+    end do
+    do i = 1, sim%particles%n
+      sim%particles%s(:, i) = s
+      sim%particles%p(i) = p
+    end do
+  end subroutine set_stress_state
+
+  !> Forces of the current state as the cycle computes them (element nodal
+  !> forces with coupling tractions and tie forces [N], particle
+  !> accelerations [m/s^2]), without advancing (verification). dt [s] is
+  !> the step the particle contact penalty would use.
+  subroutine get_forces(nn, np, dt, f, acc)
+    use fsph_state, only: sim
+    use fsph_solver, only: solver_forces
+    integer, intent(in) :: nn, np
+    real(wp), intent(in) :: dt
+    real(wp), intent(out) :: f(2, nn), acc(2, np)
+    f = 0.0_wp
+    acc = 0.0_wp
+    if (nn /= sim%nodes%n .or. np /= sim%particles%n) return
+    call solver_forces(dt)
+    if (nn > 0) f = sim%nodes%f(:, 1:nn)
+    if (np > 0) acc = sim%particles%acc(:, 1:np)
+  end subroutine get_forces
 
   !> The smoothing kernel and its radial derivative at distances dist [m]
   !> for smoothing length h [m] (verification).

@@ -22,7 +22,7 @@ module fsph_solver
   implicit none
   private
 
-  public :: solver_initialise, solver_advance, solver_energies, solver_stable_step
+  public :: solver_initialise, solver_advance, solver_energies, solver_stable_step, solver_forces
 
 contains
 
@@ -345,6 +345,12 @@ contains
       end if
     end associate
   end subroutine compute_forces
+
+  !> Forces of the current state (step 1 of the cycle), for verification.
+  subroutine solver_forces(dt_step)
+    real(wp), intent(in) :: dt_step
+    call compute_forces(dt_step)
+  end subroutine solver_forces
 
   subroutine update_velocities(dt_v)
     real(wp), intent(in) :: dt_v  !< velocity step: mean of the two position steps [s]

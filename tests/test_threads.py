@@ -29,7 +29,8 @@ def run_with_threads(n, out, tmp_path, deck="taylor_armco_fem.nml", t_end="10e-6
 import pytest
 
 
-@pytest.mark.parametrize("deck", ["taylor_armco_fem.nml", "taylor_armco_sph.nml"])
+@pytest.mark.parametrize("deck", ["taylor_armco_fem.nml", "taylor_armco_sph.nml",
+                                  "taylor_armco.nml"])
 def test_thread_count_and_determinism(tmp_path, deck):
     one = run_with_threads(1, tmp_path / "one.npz", tmp_path, deck)
     two = run_with_threads(2, tmp_path / "two.npz", tmp_path, deck)
