@@ -1,4 +1,5 @@
-"""Command line: `fsph run DECK [-o DIR]`, `fsph decks-reference`, `fsph info`.
+"""Command line: `fsph run DECK [-o DIR]`, `fsph plot DIR`, `fsph decks-reference`,
+`fsph info`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
 to the last good snapshot are kept); 1 any other fsph error.
@@ -6,6 +7,7 @@ to the last good snapshot are kept); 1 any other fsph error.
 
 import argparse
 import sys
+from pathlib import Path
 
 from .errors import DeckError, FsphError
 
@@ -19,6 +21,11 @@ def _parser():
     r.add_argument("deck", help="namelist deck (.nml)")
     r.add_argument("-o", "--output", help="output folder (default out/<deck name>)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    pl = sub.add_parser("plot", help="PNG of the deformed body at chosen times")
+    pl.add_argument("run_dir", help="output folder of `fsph run`")
+    pl.add_argument("--times", default="10,20,40,60",
+                    help="times in microseconds, comma separated (nearest snapshots)")
+    pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png)")
     d = sub.add_parser("decks-reference", help="print the deck reference (markdown)")
     d.add_argument("-o", "--output", help="write to this file instead")
     sub.add_parser("info", help="version and OpenMP threads")
@@ -32,6 +39,22 @@ def main(argv=None):
             from .driver import run
             summary = run(args.deck, args.output, quiet=args.quiet)
             return EXIT_RUN_FAILED if summary["status"] == "failed" else EXIT_OK
+        if args.command == "plot":
+            from .plot import deformed_shapes
+            try:
+                times = [float(t) for t in args.times.split(",") if t.strip()]
+            except ValueError:
+                print(f"fsph: error: --times: expected numbers separated by commas, got "
+                      f"{args.times!r}", file=sys.stderr)
+                return EXIT_DECK
+            run_dir = Path(args.run_dir)
+            for name in ("fsph.h5", "summary.json"):
+                if not (run_dir / name).is_file():
+                    print(f"fsph: error: {run_dir}: expected the output folder of `fsph run` "
+                          f"(no {name})", file=sys.stderr)
+                    return EXIT_DECK
+            print(deformed_shapes(run_dir, times, args.output))
+            return EXIT_OK
         if args.command == "decks-reference":
             from .deck import reference_markdown
             text = reference_markdown()

@@ -1,0 +1,92 @@
+"""Pictures of a run: the deformed body at chosen times, elements and
+particles in different colours, with the experimental Taylor lengths marked
+(as seed 000 Fig. 8). Reads the outputs of `fsph run` (fsph.h5,
+summary.json); matplotlib with the Agg backend, no display needed."""
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ELEMENT_COLOUR = "#4a7ab5"
+PARTICLE_COLOUR = "#d9822b"
+
+
+def _snapshots(h5):
+    """(time, group) of every snapshot, in time order."""
+    snaps = h5["snapshots"]
+    return sorted(((snaps[k].attrs["time"], snaps[k]) for k in snaps), key=lambda t: t[0])
+
+
+def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None):
+    """Write a PNG with one panel per requested time (the nearest snapshot),
+    the body mirrored about the axis; returns the PNG path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    run_dir = Path(run_dir)
+    output = Path(output) if output else run_dir / "shapes.png"
+    summary = json.loads((run_dir / "summary.json").read_text())
+    experiment = {}
+    comparison = summary.get("reference", {}).get("comparison", {}).get("taylor", {})
+    for key in ("L_mm", "D_mm", "W_mm"):
+        if key in comparison:
+            experiment[key] = comparison[key]["reference"]
+    w_height = summary.get("metrics", {}).get("taylor", {}).get("w_height_mm")
+
+    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+        snaps = _snapshots(h5)
+        chosen = []
+        for t in times_us:
+            k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
+            chosen.append(snaps[k])
+        fig, axes = plt.subplots(1, len(chosen), figsize=(3.2 * len(chosen), 6.0), sharey=True)
+        axes = np.atleast_1d(axes)
+        top = experiment.get("L_mm", 0.0)
+        width = experiment.get("D_mm", 0.0) / 2
+        for ax, (time, g) in zip(axes, chosen):
+            extent = [0.0, 0.0]
+            for side in (1.0, -1.0):
+                if "connectivity" in g:
+                    x = g["nodes"][...] * 1e3
+                    tri = x[g["connectivity"][...]]
+                    tri[..., 0] *= side
+                    ax.add_collection(PolyCollection(tri, facecolors=ELEMENT_COLOUR, edgecolors="white",
+                                                     linewidths=0.15, alpha=0.9))
+                    extent = [max(extent[0], x[:, 0].max()), max(extent[1], x[:, 1].max())]
+                if "particles" in g:
+                    xp = g["particles/x"][...] * 1e3
+                    ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, color=PARTICLE_COLOUR, linewidths=0)
+                    extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
+            if experiment:
+                if "L_mm" in experiment:
+                    ax.axhline(experiment["L_mm"], color="k", ls="--", lw=0.8)
+                if "D_mm" in experiment:
+                    ax.plot([-experiment["D_mm"] / 2, experiment["D_mm"] / 2], [0.0, 0.0], "k|",
+                            ms=12, mew=1.5)
+                if "W_mm" in experiment and w_height:
+                    ax.plot([-experiment["W_mm"] / 2, experiment["W_mm"] / 2], [w_height, w_height],
+                            "k|", ms=8, mew=1.5)
+            ax.set_title(f"{time * 1e6:.0f} us")
+            ax.set_xlabel("r [mm]")
+            top = max(top, extent[1])
+            width = max(width, extent[0])
+        for ax in axes:
+            ax.set_xlim(-1.15 * width, 1.15 * width)
+            ax.set_ylim(-0.5, 1.05 * top)
+            ax.set_aspect("equal")
+        axes[0].set_ylabel("z [mm]")
+        handles = [plt.Line2D([], [], color=ELEMENT_COLOUR, lw=6, label="elements"),
+                   plt.Line2D([], [], color=PARTICLE_COLOUR, marker="o", ls="", label="particles")]
+        if experiment:
+            handles.append(plt.Line2D([], [], color="k", ls="--", label="experiment L, D, W"))
+        fig.suptitle(summary.get("title") or summary.get("case", ""))
+        fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.95), ncol=3,
+                   frameon=False)
+        fig.tight_layout(rect=(0, 0.02, 1, 0.9))
+        fig.savefig(output, dpi=150)
+        plt.close(fig)
+    return output
