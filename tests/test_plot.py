@@ -1,0 +1,30 @@
+"""`fsph plot` draws the deformed body of a run into a PNG."""
+
+import subprocess
+import sys
+
+from fsph.driver import run
+from conftest import rod_deck
+
+
+def test_plot_writes_png(tmp_path, write_deck):
+    deck = write_deck(rod_deck(control="mode = 'adaptive'\n end_time = 2e-6",
+                               material="name = 'steel'\n library = 'armco_iron'",
+                               body="velocity_z = -400.0\n n_radial = 6\n n_axial = 24")
+                      + "&convert\n theta_c = 40.0\n/\n&metrics\n kind = 'taylor'\n/\n")
+    out = tmp_path / "out"
+    summary = run(deck, out, quiet=True)
+    assert summary["n_converted"] > 0
+    res = subprocess.run([sys.executable, "-m", "fsph", "plot", str(out), "--times", "0,1,2"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    png = out / "shapes.png"
+    assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert png.stat().st_size > 20_000
+
+
+def test_plot_of_a_non_run_folder_is_a_clean_error(tmp_path):
+    res = subprocess.run([sys.executable, "-m", "fsph", "plot", str(tmp_path)],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 2
+    assert "Traceback" not in res.stderr and "fsph.h5" in res.stderr
