@@ -321,7 +321,8 @@ contains
 
   !> Append one particle per converted element (seed 000: the variables of
   !> the imaginary particle): mass, density, stress, plastic strain,
-  !> energy, temperature; position and velocity the mean of the nodes;
+  !> energy, temperature; position and velocity the mean of the nodes (the
+  !> radius at least half the particle spacing sqrt(A)/2 from the axis);
   !> h = alpha_h sqrt(A). The kinetic energy of the nodes' motion relative
   !> to that mean, (m_e/3) sum |v_a - v_mean|^2 / 2, becomes heat of the
   !> particle. pending(:, slot, k) receives the (at most two) edges of the
@@ -342,6 +343,11 @@ contains
         pt%n = pt%n + 1
         i = pt%n
         pt%x(:, i) = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
+        ! a particle keeps at least half its spacing from the axis, like the
+        ! first column of a particle lattice: the centroid of a triangle
+        ! touching the axis lies at a sixth of the spacing, where the
+        ! particle with its mirror image goes unstable in tension
+        pt%x(1, i) = max(pt%x(1, i), 0.5_wp*sqrt(el%area(ie)))
         pt%x0(:, i) = (nd%x0(:, el%conn(1, ie)) + nd%x0(:, el%conn(2, ie)) + nd%x0(:, el%conn(3, ie)))/3.0_wp
         vbar = (nd%v(:, el%conn(1, ie)) + nd%v(:, el%conn(2, ie)) + nd%v(:, el%conn(3, ie)))/3.0_wp
         dke = 0.0_wp
