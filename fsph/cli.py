@@ -26,6 +26,7 @@ def _parser():
     pl.add_argument("--times", default="10,20,40,60",
                     help="times in microseconds, comma separated (nearest snapshots)")
     pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png)")
+    pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
     d = sub.add_parser("decks-reference", help="print the deck reference (markdown)")
     d.add_argument("-o", "--output", help="write to this file instead")
     sub.add_parser("info", help="version and OpenMP threads")
@@ -53,7 +54,7 @@ def main(argv=None):
                     print(f"fsph: error: {run_dir}: expected the output folder of `fsph run` "
                           f"(no {name})", file=sys.stderr)
                     return EXIT_DECK
-            print(deformed_shapes(run_dir, times, args.output))
+            print(deformed_shapes(run_dir, times, args.output, args.dpi))
             return EXIT_OK
         if args.command == "decks-reference":
             from .deck import reference_markdown

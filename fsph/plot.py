@@ -19,7 +19,7 @@ def _snapshots(h5):
     return sorted(((snaps[k].attrs["time"], snaps[k]) for k in snaps), key=lambda t: t[0])
 
 
-def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None):
+def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi=150):
     """Write a PNG with one panel per requested time (the nearest snapshot),
     the body mirrored about the axis; returns the PNG path."""
     import matplotlib
@@ -87,6 +87,6 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None):
         fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.95), ncol=3,
                    frameon=False)
         fig.tight_layout(rect=(0, 0.02, 1, 0.9))
-        fig.savefig(output, dpi=150)
+        fig.savefig(output, dpi=dpi)
         plt.close(fig)
     return output
