@@ -132,27 +132,18 @@ contains
   subroutine get_particle_rates(np, acc, drho, de, d, spin, ierr)
     use fsph_state, only: sim
     use fsph_status, only: status_ok, status_bad_input
-    use fsph_neighbors, only: build_neighbors
     use fsph_sph, only: sph_accelerations, sph_rates
-    use fsph_coupling, only: fill_imaginary, stage_start
+    use fsph_solver, only: prepare_particle_sums
     integer, intent(in) :: np
     real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
     integer, intent(out) :: ierr
-    integer :: i, ntot
+    integer :: ntot
     real(wp), allocatable :: pair_q(:)
     ierr = status_bad_input
     acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
     if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
+    call prepare_particle_sums(ntot)
     associate (pt => sim%particles)
-      pt%n_imag = 0
-      if (sim%elements%n > 0) call fill_imaginary(stage_start)
-      ntot = np + pt%n_imag
-      call build_neighbors(np, ntot, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
-                           pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
-      do i = 1, np
-        pt%sig(:, i) = pt%s(:, i)
-        pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
-      end do
       allocate (pair_q(max(size(pt%nbr_list), 1)))
       call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
                              pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q)

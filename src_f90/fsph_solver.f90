@@ -19,10 +19,12 @@ module fsph_solver
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_start, stage_mid
   use fsph_convert, only: assign_groups, convert_elements, associate_particles, association_reach
+  use fsph_topology, only: rebuild_corner_map, nodal_masses
   implicit none
   private
 
   public :: solver_initialise, solver_advance, solver_energies, solver_stable_step, solver_forces
+  public :: prepare_particle_sums
 
 contains
 
@@ -89,8 +91,7 @@ contains
   !> node-to-corner map, axis flags, initial material state.
   subroutine initialise_elements(ierr, ifault)
     integer, intent(out) :: ierr, ifault
-    integer :: ne, nn, ie, k, a, im, ncorner
-    integer, allocatable :: fill(:)
+    integer :: ne, nn, ie, im
     real(wp) :: r_extent
 
     ifault = 0
@@ -121,37 +122,15 @@ contains
       el%s = 0.0_wp; el%p = 0.0_wp; el%q = 0.0_wp; el%eps_p = 0.0_wp; el%e = 0.0_wp
       el%d = 0.0_wp; el%spin = 0.0_wp
 
-      ! lumped masses and the node -> corner map (CSR, corners in element order)
-      nd%mass = 0.0_wp
-      allocate (fill(nn + 1))
-      fill = 0
-      do ie = 1, ne
-        do k = 1, 3
-          a = el%conn(k, ie)
-          nd%mass(a) = nd%mass(a) + el%mass(ie)/3.0_wp
-          fill(a + 1) = fill(a + 1) + 1
-        end do
-      end do
+      ! the node -> corner map and lumped masses; every node must belong to
+      ! an element
+      call rebuild_corner_map()
+      call nodal_masses()
       ierr = status_bad_input
-      if (any(fill(2:) == 0)) then
-        ifault = findloc(fill(2:) == 0, .true., dim=1)   ! a node no element uses
+      if (any(nd%corner_ptr(2:nn + 1) == nd%corner_ptr(1:nn))) then
+        ifault = findloc(nd%corner_ptr(2:nn + 1) == nd%corner_ptr(1:nn), .true., dim=1)
         return
       end if
-      nd%corner_ptr(1) = 1
-      do a = 1, nn
-        nd%corner_ptr(a + 1) = nd%corner_ptr(a) + fill(a + 1)
-      end do
-      ncorner = 3*ne
-      if (allocated(nd%corner_list)) deallocate (nd%corner_list)
-      allocate (nd%corner_list(ncorner))
-      fill(1:nn) = nd%corner_ptr(1:nn)
-      do ie = 1, ne
-        do k = 1, 3
-          a = el%conn(k, ie)
-          nd%corner_list(fill(a)) = 3*(ie - 1) + k
-          fill(a) = fill(a) + 1
-        end do
-      end do
     end associate
     ierr = status_ok
   end subroutine initialise_elements
@@ -310,7 +289,7 @@ contains
 
   subroutine compute_forces(dt_step)
     real(wp), intent(in) :: dt_step
-    integer :: i, n, ntot
+    integer :: n, ntot
     associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
       if (el%n > 0) then
         call element_corner_forces(el%n, nd%n, el%conn, nd%x, el%s, el%p, el%q, el%fc)
@@ -319,19 +298,7 @@ contains
       end if
       n = pt%n
       if (n > 0) then
-        pt%n_imag = 0
-        if (el%n > 0) call fill_imaginary(stage_start)
-        ntot = n + pt%n_imag
-        call build_neighbors(n, ntot, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
-                             pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
-        do i = 1, n
-          pt%sig(:, i) = pt%s(:, i)
-          pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
-        end do
-        if (allocated(pt%pair_q)) then
-          if (size(pt%pair_q) < size(pt%nbr_list)) deallocate (pt%pair_q)
-        end if
-        if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)))
+        call prepare_particle_sums(ntot)
         call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
                                pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
                                pt%pair_q)
@@ -345,6 +312,30 @@ contains
       end if
     end associate
   end subroutine compute_forces
+
+  !> Imaginary particles at t^n, neighbour lists of the real particles,
+  !> their total stress s - p I and room for the pair viscosities; ntot is
+  !> the number of real and imaginary entries.
+  subroutine prepare_particle_sums(ntot)
+    integer, intent(out) :: ntot
+    integer :: i, n
+    associate (pt => sim%particles)
+      n = pt%n
+      pt%n_imag = 0
+      if (sim%elements%n > 0) call fill_imaginary(stage_start)
+      ntot = n + pt%n_imag
+      call build_neighbors(n, ntot, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
+                           pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+      do i = 1, n
+        pt%sig(:, i) = pt%s(:, i)
+        pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
+      end do
+      if (allocated(pt%pair_q)) then
+        if (size(pt%pair_q) < size(pt%nbr_list)) deallocate (pt%pair_q)
+      end if
+      if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)))
+    end associate
+  end subroutine prepare_particle_sums
 
   !> Forces of the current state (step 1 of the cycle), for verification.
   subroutine solver_forces(dt_step)
