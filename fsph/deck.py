@@ -19,6 +19,24 @@ from .materials import EOS_MODELS, LIBRARY, STRENGTH_MODELS, elastic_moduli
 
 REQUIRED = object()
 
+#: Largest number of elements and particles a deck may ask for in all: far
+#: above any 2D axisymmetric run this machine class can afford, low enough
+#: that a units slip in a resolution is an error, not an exhausted memory.
+MAX_ENTITIES = 4_000_000
+#: Largest number of snapshots or progress lines over a run.
+MAX_OUTPUTS = 100_000
+#: Largest magnitude a value of each unit may have: far outside any impact
+#: problem, close enough that a garbled number (1e154 m) is caught here
+#: rather than overflowing in the solver.
+UNIT_LIMITS = {"m": 1.0e3, "s": 1.0e3, "kg/m^3": 1.0e6, "Pa": 1.0e14, "m/s": 1.0e5,
+               "K": 1.0e6, "J/(kg K)": 1.0e6, "1/s": 1.0e12, "-": 1.0e6, "deg": 360.0}
+#: Largest integer any key may hold (the solver counts in 32-bit integers).
+MAX_INT = 1_000_000_000
+#: Smallest value a strictly positive quantity of each unit may have (a
+#: denormal density would give an infinite sound speed and a zero step).
+UNIT_FLOORS = {"m": 1.0e-9, "s": 1.0e-15, "kg/m^3": 1.0e-3, "Pa": 1.0, "m/s": 1.0e-6,
+               "K": 1.0e-3, "J/(kg K)": 1.0e-3, "1/s": 1.0e-12, "-": 1.0e-12}
+
 
 @dataclass(frozen=True)
 class Key:
@@ -219,8 +237,10 @@ SCHEMA = {
         "What is written and how often.",
         {
             "n_snapshots": Key("int", 10, "-",
-                               "Snapshots at equal intervals of end_time (plus t = 0).", lower=1),
-            "n_progress": Key("int", 20, "-", "Progress lines printed over the run.", lower=1),
+                               "Snapshots at equal intervals of end_time (plus t = 0).", lower=1,
+                               upper=MAX_OUTPUTS),
+            "n_progress": Key("int", 20, "-", "Progress lines printed over the run.", lower=1,
+                              upper=MAX_OUTPUTS),
             "history_every": Key("int", 10, "-", "Cycles between time-history records.", lower=1),
             "vtu": Key("bool", True, "-", "Write a ParaView series (.pvd + .vtu)."),
             "reference": Key("str", None, "-",
@@ -295,6 +315,18 @@ def _check_range(path, gname, kname, key, value):
         raise DeckError(path, gname, kname,
                         "one of " + ", ".join(key.implemented)
                         + f" ('{value}' is not available in this version)", value)
+    if key.kind in ("float", "float2"):
+        limit = UNIT_LIMITS.get(key.unit)
+        values = value if key.kind == "float2" else (value,)
+        if limit is not None and any(abs(v) > limit for v in values):
+            raise DeckError(path, gname, kname,
+                            f"a value of plausible magnitude (at most {limit:g} {key.unit})", value)
+        floor = UNIT_FLOORS.get(key.unit)
+        if key.lower == 0.0 and key.lower_open and floor is not None and 0.0 < value < floor:
+            raise DeckError(path, gname, kname,
+                            f"a value of plausible magnitude (at least {floor:g} {key.unit})", value)
+    if key.kind == "int" and abs(value) > MAX_INT:
+        raise DeckError(path, gname, kname, f"an integer of magnitude at most {MAX_INT}", value)
     if key.kind in ("float", "int"):
         lo, hi = key.lower, key.upper
         bad = ((lo is not None and (value <= lo if key.lower_open else value < lo))
@@ -472,6 +504,14 @@ def _cross_check(path, deck):
             raise DeckError(path, f"body #{i + 1}", "discretisation",
                             f"'{default_disc}' in mode '{mode}' (mixed bodies need mode 'fixed' "
                             "or 'adaptive')", b["discretisation"])
+    entities = 0
+    for i, b in enumerate(deck["body"]):
+        entities += b["n_radial"] * b["n_axial"] * (4 if b["discretisation"] == "elements" else 1)
+        if entities > MAX_ENTITIES:
+            raise DeckError(path, f"body #{i + 1}", "n_axial",
+                            f"a resolution with at most {MAX_ENTITIES} elements and particles "
+                            "in all bodies (each quadrilateral is 4 elements)",
+                            f"n_radial x n_axial = {b['n_radial']} x {b['n_axial']}")
     names = [b["name"] for b in deck["body"]]
     for i, b in enumerate(deck["body"]):
         if b["joined_to"] is None:
@@ -536,6 +576,14 @@ def reference_markdown():
         "",
         "This page is generated from `fsph/deck.py` (`python -m fsph decks-reference`);",
         "a test keeps it in step.",
+        "",
+        "Beyond the ranges below, every value must have a plausible magnitude for its unit",
+        "(a garbled number is an error, not an overflow in the solver): at most "
+        + ", ".join(f"{v:g} {u}" for u, v in UNIT_LIMITS.items()) + ";",
+        "a strictly positive value at least "
+        + ", ".join(f"{v:g} {u}" for u, v in UNIT_FLOORS.items()) + ";",
+        f"integers at most {MAX_INT}; all bodies together at most {MAX_ENTITIES} elements",
+        "and particles (a quadrilateral counts 4 elements).",
         "",
     ]
     for gname, group in SCHEMA.items():

@@ -5,6 +5,12 @@ class FsphError(Exception):
     """Base class of every error fsph reports to the user."""
 
 
+def _one_line(text):
+    """Text with control characters (newlines included) escaped, so a
+    message built from arbitrary deck content stays on one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
 class DeckError(FsphError):
     """An input deck is unreadable or holds a value fsph cannot accept.
 
@@ -26,7 +32,7 @@ class DeckError(FsphError):
         msg = f"{where}: expected {expected}"
         if got is not None:
             msg += f", got {got!r}"
-        super().__init__(msg)
+        super().__init__(_one_line(msg))
 
 
 class SimulationError(FsphError):
