@@ -2,7 +2,8 @@
 `fsph info`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
-to the last good snapshot are kept); 1 any other fsph error.
+to the last good snapshot are kept); 4 interrupted by SIGINT/SIGTERM (a
+checkpoint is written); 1 any other fsph error.
 """
 
 import argparse
@@ -11,7 +12,7 @@ from pathlib import Path
 
 from .errors import DeckError, FsphError
 
-EXIT_OK, EXIT_ERROR, EXIT_DECK, EXIT_RUN_FAILED = 0, 1, 2, 3
+EXIT_OK, EXIT_ERROR, EXIT_DECK, EXIT_RUN_FAILED, EXIT_INTERRUPTED = 0, 1, 2, 3, 4
 
 
 def _parser():
@@ -21,6 +22,8 @@ def _parser():
     r.add_argument("deck", help="namelist deck (.nml)")
     r.add_argument("-o", "--output", help="output folder (default out/<deck name>)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    r.add_argument("--restart", help="continue from this checkpoint (checkpoint.h5 of a run "
+                                     "of the same deck)")
     pl = sub.add_parser("plot", help="PNG of the deformed body at chosen times")
     pl.add_argument("run_dir", help="output folder of `fsph run`")
     pl.add_argument("--times", default="10,20,40,60",
@@ -38,8 +41,9 @@ def main(argv=None):
     try:
         if args.command == "run":
             from .driver import run
-            summary = run(args.deck, args.output, quiet=args.quiet)
-            return EXIT_RUN_FAILED if summary["status"] == "failed" else EXIT_OK
+            summary = run(args.deck, args.output, quiet=args.quiet, restart=args.restart)
+            return {"failed": EXIT_RUN_FAILED, "interrupted": EXIT_INTERRUPTED}.get(
+                summary["status"], EXIT_OK)
         if args.command == "plot":
             from .plot import deformed_shapes
             try:

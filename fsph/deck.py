@@ -243,6 +243,9 @@ SCHEMA = {
                               upper=MAX_OUTPUTS),
             "history_every": Key("int", 10, "-", "Cycles between time-history records.", lower=1),
             "vtu": Key("bool", True, "-", "Write a ParaView series (.pvd + .vtu)."),
+            "checkpoint": Key("bool", True, "-",
+                              "Write checkpoint.h5 at every snapshot and on SIGINT/SIGTERM "
+                              "(fsph run DECK --restart DIR/checkpoint.h5 continues bit for bit)."),
             "reference": Key("str", None, "-",
                              "JSON file of reference (experimental or analytic) values, "
                              "relative to the deck's folder."),

@@ -2,12 +2,15 @@
 interval, write history, snapshots and summary, report metrics."""
 
 import json
+import signal
 import sys
 import time as wallclock
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
+from . import checkpoint as checkpoint_module
 from . import deck as deck_module
 from . import metrics as metrics_module
 from .errors import SimulationError
@@ -44,9 +47,36 @@ def _format_metrics(comparison, metrics):
     return lines
 
 
-def run(deck_path, outdir=None, quiet=False, stream=None):
+#: Cycles per call into the solver between checks for an interrupt [-].
+CYCLES_PER_CALL = 500
+
+
+@contextmanager
+def _interrupt_flag():
+    """SIGINT and SIGTERM set a flag (the run then stops at the end of the
+    current call with a checkpoint) instead of killing the process."""
+    flag = {"signal": None}
+
+    def handler(signum, frame):
+        flag["signal"] = signum
+
+    previous = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            previous[sig] = signal.signal(sig, handler)
+        except ValueError:      # not the main thread: leave signals alone
+            pass
+    try:
+        yield flag
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
     """Run one deck; returns the summary dict (its 'status' says whether the
-    run completed or failed). Raises DeckError for a bad deck."""
+    run completed, failed or was interrupted). Raises DeckError for a bad
+    deck. With restart, the state is read from that checkpoint first."""
     stream = stream or sys.stdout
 
     def say(text):
@@ -59,27 +89,46 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
     reference = _load_reference(deck)
     outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
     sim = Simulation(deck)
+    if restart is not None:
+        checkpoint_module.restore(sim, restart)
     ctrl, out = deck["control"], deck["output"]
     writer = RunWriter(outdir, deck_path.read_text(), ctrl["title"], vtu=out["vtu"])
+    checkpoint_path = outdir / "checkpoint.h5"
     say(f"fsph: {ctrl['title'] or deck_path.stem}: mode {ctrl['mode']}, {sim.n_elements} elements, "
         f"{sim.n_nodes} nodes, {sim.n_particles} particles, {threads()} thread(s), "
         f"end time {ctrl['end_time'] * 1e6:g} us")
     say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s} "
         f"{'elements':>9s} {'particles':>9s}")
 
+    if restart is not None:
+        say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
     last_good = sim.snapshot()
     writer.write_snapshot(last_good)
     writer.append_history(drain_history())
-    failure = None
+    failure = interrupted = None
     try:
-        for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
-                                                  out["n_progress"]):
-            # intermediate outputs never shorten a step; the run ends on end_time
-            sim.advance(t, land=(t >= ctrl["end_time"]))
-            writer.append_history(drain_history())
-            if snap_due:
-                last_good = sim.snapshot()
-                writer.write_snapshot(last_good)
+        with _interrupt_flag() as flag:
+            for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
+                                                      out["n_progress"]):
+                if t <= sim.time:
+                    continue            # a restart begins after these
+                # intermediate outputs never shorten a step; the run ends on end_time
+                land = t >= ctrl["end_time"]
+                while sim.time < t and not flag["signal"]:
+                    sim.advance(t, land=land, max_cycles=CYCLES_PER_CALL, partial=True)
+                writer.append_history(drain_history())
+                if flag["signal"]:
+                    interrupted = signal.Signals(flag["signal"]).name
+                    if out["checkpoint"]:
+                        checkpoint_module.save(sim, checkpoint_path)
+                    say(f"fsph: {interrupted} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: "
+                        f"stopped; restart with --restart {checkpoint_path}")
+                    break
+                if snap_due:
+                    last_good = sim.snapshot()
+                    writer.write_snapshot(last_good)
+                    if out["checkpoint"]:
+                        checkpoint_module.save(sim, checkpoint_path)
             if progress_due:
                 say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
                     f"{sim.energies()['relative_error']:+11.3e} "
@@ -100,7 +149,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None):
         "case": deck_path.stem,
         "title": ctrl["title"],
         "mode": ctrl["mode"],
-        "status": "failed" if failure else "completed",
+        "status": "failed" if failure else ("interrupted" if interrupted else "completed"),
         "end_time_s": sim.time,
         "requested_end_time_s": ctrl["end_time"],
         "metrics_time_s": last_good["time"],

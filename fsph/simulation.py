@@ -17,6 +17,7 @@ except ImportError as exc:  # importing the source folder instead of the install
 
 # fsph_status codes (src_f90/fsph_status.f90)
 STATUS_OK = 0
+STATUS_MAX_CYCLES = 8
 STATUS_TEXT = {
     1: "inverted element (area <= 0): the mesh has tangled",
     2: "non-finite stress or energy (NaN/Inf) in an element",
@@ -200,14 +201,19 @@ class Simulation:
                                cycle=int(cycle), location=location)
 
     # ------------------------------------------------------------------
-    def advance(self, t, max_cycles=None, land=True):
+    def advance(self, t, max_cycles=None, land=True, partial=False):
         """Advance the state to time t [s]; raises SimulationError on failure.
         land=True shortens the last steps to end exactly on t; land=False
         keeps the stable step and stops at the first cycle end at or after t
-        (outputs then do not alter the trajectory)."""
-        if max_cycles is None:
-            max_cycles = self.control["max_cycles"] - self.cycle
-        ierr, ifault = _api.advance(float(t), int(max(max_cycles, 0)), int(bool(land)))
+        (outputs then do not alter the trajectory). With partial=True at most
+        max_cycles cycles are run and reaching that number is not an error
+        (the deck's max_cycles still is)."""
+        limit = self.control["max_cycles"] - self.cycle
+        if max_cycles is None or not partial:
+            max_cycles = limit if max_cycles is None else max_cycles
+        ierr, ifault = _api.advance(float(t), int(max(min(max_cycles, limit), 0)), int(bool(land)))
+        if ierr == STATUS_MAX_CYCLES and partial and self.cycle < self.control["max_cycles"]:
+            return
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault)
 

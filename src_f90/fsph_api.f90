@@ -15,6 +15,8 @@ module fsph_api
   public :: get_neighbor_count, get_neighbors, kernel_values, set_continua, reserve_particles
   public :: set_conversion, get_element_groups, get_conversion_stats, get_particle_ties
   public :: convert_now, set_stress_state, get_forces
+  public :: checkpoint_layout, checkpoint_sizes, get_real_state, get_int_state, set_real_state
+  public :: set_int_state, get_scalar_state, restore_begin, restore_end
 
 contains
 
@@ -241,6 +243,122 @@ contains
       end do
     end associate
   end subroutine get_particle_ties
+
+  !> Numbers of real and integer state arrays and scalars of a checkpoint.
+  subroutine checkpoint_layout(n_real, n_int, n_rs, n_is)
+    use fsph_restart, only: n_real_arrays, n_int_arrays, n_real_scalars, n_int_scalars, &
+                            prepare_checkpoint
+    integer, intent(out) :: n_real, n_int, n_rs, n_is
+    n_real = n_real_arrays
+    n_int = n_int_arrays
+    n_rs = n_real_scalars
+    n_is = n_int_scalars
+    call prepare_checkpoint()
+  end subroutine checkpoint_layout
+
+  !> Shape (rows, cols) of state array id, real (kind 1) or integer (2);
+  !> (0, 0) when absent. Also the sizes to allocate at restart.
+  subroutine checkpoint_sizes(kind, id, rows, cols, nn, ne, np, capacity, n_edges)
+    use fsph_state, only: sim
+    use fsph_restart, only: real_view, int_view
+    integer, intent(in) :: kind, id
+    integer, intent(out) :: rows, cols, nn, ne, np, capacity, n_edges
+    real(wp), pointer :: r(:, :)
+    integer, pointer :: i(:, :)
+    rows = 0
+    cols = 0
+    if (kind == 1) then
+      r => real_view(id)
+      if (associated(r)) then
+        rows = size(r, 1); cols = size(r, 2)
+      end if
+    else
+      i => int_view(id)
+      if (associated(i)) then
+        rows = size(i, 1); cols = size(i, 2)
+      end if
+    end if
+    nn = sim%nodes%n; ne = sim%elements%n; np = sim%particles%n
+    capacity = sim%particles%capacity; n_edges = sim%coupling%n_edges
+  end subroutine checkpoint_sizes
+
+  subroutine get_real_state(id, rows, cols, a)
+    use fsph_restart, only: real_view
+    integer, intent(in) :: id, rows, cols
+    real(wp), intent(out) :: a(rows, cols)
+    real(wp), pointer :: r(:, :)
+    r => real_view(id)
+    a = 0.0_wp
+    if (associated(r)) then
+      if (size(r, 1) == rows .and. size(r, 2) == cols) a = r
+    end if
+  end subroutine get_real_state
+
+  subroutine get_int_state(id, rows, cols, a)
+    use fsph_restart, only: int_view
+    integer, intent(in) :: id, rows, cols
+    integer, intent(out) :: a(rows, cols)
+    integer, pointer :: i(:, :)
+    i => int_view(id)
+    a = 0
+    if (associated(i)) then
+      if (size(i, 1) == rows .and. size(i, 2) == cols) a = i
+    end if
+  end subroutine get_int_state
+
+  subroutine set_real_state(id, rows, cols, a, ierr)
+    use fsph_restart, only: real_view
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: id, rows, cols
+    real(wp), intent(in) :: a(rows, cols)
+    integer, intent(out) :: ierr
+    real(wp), pointer :: r(:, :)
+    ierr = status_bad_input
+    r => real_view(id)
+    if (.not. associated(r)) return
+    if (size(r, 1) /= rows .or. size(r, 2) /= cols) return
+    r = a
+    ierr = status_ok
+  end subroutine set_real_state
+
+  subroutine set_int_state(id, rows, cols, a, ierr)
+    use fsph_restart, only: int_view
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: id, rows, cols
+    integer, intent(in) :: a(rows, cols)
+    integer, intent(out) :: ierr
+    integer, pointer :: i(:, :)
+    ierr = status_bad_input
+    i => int_view(id)
+    if (.not. associated(i)) return
+    if (size(i, 1) /= rows .or. size(i, 2) /= cols) return
+    i = a
+    ierr = status_ok
+  end subroutine set_int_state
+
+  !> Clock and conversion books (see fsph_restart get_scalars).
+  subroutine get_scalar_state(r, i)
+    use fsph_restart, only: get_scalars
+    real(wp), intent(out) :: r(6)
+    integer, intent(out) :: i(8)
+    call get_scalars(r, i)
+  end subroutine get_scalar_state
+
+  !> Start a restore: allocate for the checkpoint's sizes and set the clock.
+  subroutine restore_begin(nn, ne, np, capacity, n_edges, r, i)
+    use fsph_restart, only: allocate_for_restart, set_scalars
+    integer, intent(in) :: nn, ne, np, capacity, n_edges
+    real(wp), intent(in) :: r(6)
+    integer, intent(in) :: i(8)
+    call allocate_for_restart(nn, ne, np, capacity, n_edges)
+    call set_scalars(r, i)
+  end subroutine restore_begin
+
+  !> End a restore: derived maps rebuilt, state ready.
+  subroutine restore_end()
+    use fsph_restart, only: finish_restore
+    call finish_restore()
+  end subroutine restore_end
 
   !> Run the conversion check of the cycle now (verification): returns the
   !> number of elements converted.

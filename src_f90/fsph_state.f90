@@ -18,6 +18,7 @@ module fsph_state
     real(wp), allocatable :: mass(:)      !< lumped ring mass [kg]
     real(wp), allocatable :: mass_tie(:)  !< mass of particles tied to the node's edges [kg]
     logical, allocatable :: on_axis(:)    !< node lies on r = 0 (v_r held at 0)
+    integer, allocatable :: on_axis_int(:) !< the same as 0/1, for checkpoints
     integer, allocatable :: corner_ptr(:) !< CSR into corner_list, size n+1
     integer, allocatable :: corner_list(:) !< element corners 3*(ie-1)+k of each node
   end type node_set_t
@@ -156,7 +157,7 @@ module fsph_state
   end type simulation_t
 
   !> The simulation state of this process.
-  type(simulation_t), public, save :: sim
+  type(simulation_t), public, save, target :: sim
 
   public :: state_reset, state_allocate, state_allocate_particles
 

@@ -1,0 +1,154 @@
+!> Checkpoint and restart: every state array that the next cycle reads is
+!> reachable by a number, as a (rows, cols) view, so the API can copy the
+!> whole state out and back in without one routine per array. Arrays the
+!> cycle recomputes before use (forces, neighbour lists, work arrays) are
+!> not part of it.
+module fsph_restart
+  use fsph_kinds, only: wp
+  use fsph_state, only: sim, state_allocate, state_allocate_particles
+  implicit none
+  private
+
+  !> Real arrays: 1-20 nodes and elements, 21-34 particles.
+  integer, parameter, public :: n_real_arrays = 34
+  !> Integer arrays: 1-5 nodes and elements, 6-12 particles and coupling.
+  integer, parameter, public :: n_int_arrays = 12
+  !> Real and integer scalars of the clock and the conversion books.
+  integer, parameter, public :: n_real_scalars = 6, n_int_scalars = 8
+
+  public :: real_view, int_view, get_scalars, set_scalars, allocate_for_restart
+  public :: prepare_checkpoint, finish_restore
+
+contains
+
+  !> Rank-2 view (rows, cols) of real array `id` (null if not allocated).
+  function real_view(id) result(p)
+    integer, intent(in) :: id
+    real(wp), pointer :: p(:, :)
+    p => null()
+      select case (id)
+      case (1); if (allocated(sim%nodes%x)) p => sim%nodes%x
+      case (2); if (allocated(sim%nodes%x0)) p => sim%nodes%x0
+      case (3); if (allocated(sim%nodes%v)) p => sim%nodes%v
+      case (4); if (allocated(sim%nodes%mass)) p(1:1, 1:sim%nodes%n) => sim%nodes%mass
+      case (5); if (allocated(sim%nodes%mass_tie)) p(1:1, 1:sim%nodes%n) => sim%nodes%mass_tie
+      case (6); if (allocated(sim%elements%mass)) p(1:1, 1:sim%elements%n) => sim%elements%mass
+      case (7); if (allocated(sim%elements%rho)) p(1:1, 1:sim%elements%n) => sim%elements%rho
+      case (8); if (allocated(sim%elements%s)) p => sim%elements%s
+      case (9); if (allocated(sim%elements%p)) p(1:1, 1:sim%elements%n) => sim%elements%p
+      case (10); if (allocated(sim%elements%q)) p(1:1, 1:sim%elements%n) => sim%elements%q
+      case (11); if (allocated(sim%elements%eps_p)) p(1:1, 1:sim%elements%n) => sim%elements%eps_p
+      case (12); if (allocated(sim%elements%e)) p(1:1, 1:sim%elements%n) => sim%elements%e
+      case (13); if (allocated(sim%elements%temp)) p(1:1, 1:sim%elements%n) => sim%elements%temp
+      case (14); if (allocated(sim%elements%c)) p(1:1, 1:sim%elements%n) => sim%elements%c
+      case (15); if (allocated(sim%elements%area)) p(1:1, 1:sim%elements%n) => sim%elements%area
+      case (16); if (allocated(sim%elements%rbar)) p(1:1, 1:sim%elements%n) => sim%elements%rbar
+      case (17); if (allocated(sim%elements%volume)) p(1:1, 1:sim%elements%n) => sim%elements%volume
+      case (18); if (allocated(sim%elements%lmin)) p(1:1, 1:sim%elements%n) => sim%elements%lmin
+      case (19); if (allocated(sim%elements%d)) p => sim%elements%d
+      case (20); if (allocated(sim%elements%spin)) p(1:1, 1:sim%elements%n) => sim%elements%spin
+      case (21); if (allocated(sim%particles%x)) p => sim%particles%x(:, 1:sim%particles%n)
+      case (22); if (allocated(sim%particles%x0)) p => sim%particles%x0(:, 1:sim%particles%n)
+      case (23); if (allocated(sim%particles%v)) p => sim%particles%v(:, 1:sim%particles%n)
+      case (24); if (allocated(sim%particles%mass)) p(1:1, 1:sim%particles%n) => sim%particles%mass(1:sim%particles%n)
+      case (25); if (allocated(sim%particles%h)) p(1:1, 1:sim%particles%n) => sim%particles%h(1:sim%particles%n)
+      case (26); if (allocated(sim%particles%radius)) p(1:1, 1:sim%particles%n) => sim%particles%radius(1:sim%particles%n)
+      case (27); if (allocated(sim%particles%rho)) p(1:1, 1:sim%particles%n) => sim%particles%rho(1:sim%particles%n)
+      case (28); if (allocated(sim%particles%s)) p => sim%particles%s(:, 1:sim%particles%n)
+      case (29); if (allocated(sim%particles%p)) p(1:1, 1:sim%particles%n) => sim%particles%p(1:sim%particles%n)
+      case (30); if (allocated(sim%particles%eps_p)) p(1:1, 1:sim%particles%n) => sim%particles%eps_p(1:sim%particles%n)
+      case (31); if (allocated(sim%particles%e)) p(1:1, 1:sim%particles%n) => sim%particles%e(1:sim%particles%n)
+      case (32); if (allocated(sim%particles%temp)) p(1:1, 1:sim%particles%n) => sim%particles%temp(1:sim%particles%n)
+      case (33); if (allocated(sim%particles%c)) p(1:1, 1:sim%particles%n) => sim%particles%c(1:sim%particles%n)
+      case (34); if (allocated(sim%particles%tie_xi)) p(1:1, 1:sim%particles%n) => sim%particles%tie_xi(1:sim%particles%n)
+      end select
+  end function real_view
+
+  !> Rank-2 view (rows, cols) of integer array `id` (null if not allocated).
+  function int_view(id) result(p)
+    integer, intent(in) :: id
+    integer, pointer :: p(:, :)
+    p => null()
+      select case (id)
+      case (1); if (allocated(sim%elements%conn)) p => sim%elements%conn
+      case (2); if (allocated(sim%elements%mat)) p(1:1, 1:sim%elements%n) => sim%elements%mat
+      case (3); if (allocated(sim%elements%body)) p(1:1, 1:sim%elements%n) => sim%elements%body
+      case (4); if (allocated(sim%elements%group)) p(1:1, 1:sim%elements%n) => sim%elements%group
+      case (5); if (allocated(sim%nodes%on_axis_int)) p(1:1, 1:sim%nodes%n) => sim%nodes%on_axis_int
+      case (6); if (allocated(sim%particles%mat)) p(1:1, 1:sim%particles%n) => sim%particles%mat(1:sim%particles%n)
+      case (7); if (allocated(sim%particles%body)) p(1:1, 1:sim%particles%n) => sim%particles%body(1:sim%particles%n)
+      case (8); if (allocated(sim%particles%continuum)) p(1:1, 1:sim%particles%n) => sim%particles%continuum(1:sim%particles%n)
+      case (9); if (allocated(sim%particles%tie_a)) p(1:1, 1:sim%particles%n) => sim%particles%tie_a(1:sim%particles%n)
+      case (10); if (allocated(sim%particles%tie_b)) p(1:1, 1:sim%particles%n) => sim%particles%tie_b(1:sim%particles%n)
+      case (11); if (allocated(sim%particles%assoc)) p => sim%particles%assoc(:, 1:sim%particles%n)
+      case (12); if (allocated(sim%coupling%edge)) p => sim%coupling%edge(:, 1:sim%coupling%n_edges)
+      end select
+  end function int_view
+
+  !> Clock and books: reals (time, dt, dt_last, dt_initial, conversion heat,
+  !> spare) and integers (cycle, dt_element, dt_particle, n_converted,
+  !> n_events, n_groups, n_edges, n_imag).
+  subroutine get_scalars(r, i)
+    real(wp), intent(out) :: r(n_real_scalars)
+    integer, intent(out) :: i(n_int_scalars)
+    r = [sim%time, sim%dt, sim%dt_last, sim%dt_initial, sim%conversion%heat, 0.0_wp]
+    i = [sim%cycle, sim%dt_element, sim%dt_particle, sim%conversion%n_converted, &
+         sim%conversion%n_events, sim%conversion%n_groups, sim%coupling%n_edges, sim%particles%n_imag]
+  end subroutine get_scalars
+
+  subroutine set_scalars(r, i)
+    real(wp), intent(in) :: r(n_real_scalars)
+    integer, intent(in) :: i(n_int_scalars)
+    sim%time = r(1); sim%dt = r(2); sim%dt_last = r(3); sim%dt_initial = r(4)
+    sim%conversion%heat = r(5)
+    sim%cycle = i(1); sim%dt_element = i(2); sim%dt_particle = i(3)
+    sim%conversion%n_converted = i(4); sim%conversion%n_events = i(5)
+    sim%conversion%n_groups = i(6); sim%coupling%n_edges = i(7); sim%particles%n_imag = 0
+    sim%history_cycle = sim%cycle
+    sim%n_history = 0
+  end subroutine set_scalars
+
+  !> Allocate nodes, elements, particles (with their capacity) and coupling
+  !> edges for the sizes of a checkpoint; the contents follow through the
+  !> views. Materials, planes, control and continua stay as set up.
+  subroutine allocate_for_restart(nn, ne, np, capacity, n_edges)
+    integer, intent(in) :: nn, ne, np, capacity, n_edges
+    if (ne > 0) then
+      call state_allocate(nn, ne)
+    else
+      sim%nodes%n = 0
+      sim%elements%n = 0
+    end if
+    if (capacity > 0) call state_allocate_particles(np, capacity)
+    if (allocated(sim%coupling%edge)) deallocate (sim%coupling%edge)
+    allocate (sim%coupling%edge(2, max(n_edges, 64)))
+    sim%coupling%n_edges = n_edges
+    if (allocated(sim%nodes%on_axis_int)) deallocate (sim%nodes%on_axis_int)
+    allocate (sim%nodes%on_axis_int(max(nn, 1)))
+  end subroutine allocate_for_restart
+
+  !> Before reading integer array 5: the axis flags as integers.
+  subroutine prepare_checkpoint()
+    if (allocated(sim%nodes%on_axis_int)) deallocate (sim%nodes%on_axis_int)
+    allocate (sim%nodes%on_axis_int(max(sim%nodes%n, 1)))
+    sim%nodes%on_axis_int = 0
+    if (sim%nodes%n > 0) sim%nodes%on_axis_int(1:sim%nodes%n) = merge(1, 0, sim%nodes%on_axis)
+  end subroutine prepare_checkpoint
+
+  !> After every array is in: axis flags, the node -> corner map, the
+  !> coupling work arrays and tied masses are derived; the state is ready.
+  subroutine finish_restore()
+    use fsph_topology, only: rebuild_corner_map
+    use fsph_coupling, only: update_tie_masses
+    if (sim%nodes%n > 0) then
+      sim%nodes%on_axis = sim%nodes%on_axis_int(1:sim%nodes%n) /= 0
+      call rebuild_corner_map()
+    end if
+    if (allocated(sim%coupling%sig_sum)) deallocate (sim%coupling%sig_sum, sim%coupling%count)
+    allocate (sim%coupling%sig_sum(4, max(sim%coupling%n_edges, 1)), &
+              sim%coupling%count(max(sim%coupling%n_edges, 1)))
+    if (sim%nodes%n > 0) call update_tie_masses()
+    sim%ready = .true.
+  end subroutine finish_restore
+
+end module fsph_restart
