@@ -24,7 +24,9 @@ def _parser():
     r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     r.add_argument("--restart", help="continue from this checkpoint (checkpoint.h5 of a run "
                                      "of the same deck)")
-    pl = sub.add_parser("plot", help="PNG of the deformed body at chosen times")
+    pl = sub.add_parser("plot", help="PNGs of a run: deformed body at chosen times "
+                                     "(shapes.png) and energy and time-step histories "
+                                     "(history.png)")
     pl.add_argument("run_dir", help="output folder of `fsph run`")
     pl.add_argument("--times", default="10,20,40,60",
                     help="times in microseconds, comma separated (nearest snapshots)")
@@ -45,7 +47,7 @@ def main(argv=None):
             return {"failed": EXIT_RUN_FAILED, "interrupted": EXIT_INTERRUPTED}.get(
                 summary["status"], EXIT_OK)
         if args.command == "plot":
-            from .plot import deformed_shapes
+            from .plot import deformed_shapes, histories
             try:
                 times = [float(t) for t in args.times.split(",") if t.strip()]
             except ValueError:
@@ -59,6 +61,7 @@ def main(argv=None):
                           f"(no {name})", file=sys.stderr)
                     return EXIT_DECK
             print(deformed_shapes(run_dir, times, args.output, args.dpi))
+            print(histories(run_dir, dpi=args.dpi))
             return EXIT_OK
         if args.command == "decks-reference":
             from .deck import reference_markdown

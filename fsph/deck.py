@@ -94,6 +94,15 @@ SCHEMA = {
                                   "The run stops with a diagnostic when the stable step falls "
                                   "below this fraction of the initial step.",
                                   lower=0.0, upper=1.0, lower_open=True, upper_open=True),
+            "dt_drop_ratio": Key("float", 0.0, "-",
+                                 "The run stops with a diagnostic when the stable step falls "
+                                 "below this fraction of the previous cycle's (a collapse in one "
+                                 "cycle). 0: off.", lower=0.0, upper=1.0, upper_open=True),
+            "energy_error_limit": Key("float", None, "-",
+                                      "The run stops with a diagnostic (exit 3) when |total energy "
+                                      "- initial| / initial exceeds this, checked every "
+                                      "few hundred cycles. Unset: off.",
+                                      lower=0.0, lower_open=True),
             "max_cycles": Key("int", 50_000_000, "-", "Hard limit on the number of cycles.",
                               lower=1),
         },

@@ -51,6 +51,18 @@ def _format_metrics(comparison, metrics):
 CYCLES_PER_CALL = 500
 
 
+def _check_energy(sim, limit):
+    """Stop (as a failed run) when the energy error exceeds the deck's limit."""
+    if limit is None:
+        return
+    error = sim.energies()["relative_error"]
+    if abs(error) > limit:
+        raise SimulationError(
+            f"run stopped at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: energy error above "
+            f"the limit (energy_error_limit = {limit:g}): {error:+.3e}",
+            code=12, time=sim.time, cycle=sim.cycle)
+
+
 @contextmanager
 def _interrupt_flag():
     """SIGINT and SIGTERM set a flag (the run then stops at the end of the
@@ -104,6 +116,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
     last_good = sim.snapshot()
     writer.write_snapshot(last_good)
+    writer.energy0 = sim.initial_energy
     writer.append_history(drain_history())
     failure = interrupted = None
     try:
@@ -116,6 +129,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                 land = t >= ctrl["end_time"]
                 while sim.time < t and not flag["signal"]:
                     sim.advance(t, land=land, max_cycles=CYCLES_PER_CALL, partial=True)
+                    _check_energy(sim, ctrl["energy_error_limit"])
                 writer.append_history(drain_history())
                 if flag["signal"]:
                     interrupted = signal.Signals(flag["signal"]).name
@@ -165,7 +179,9 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
         "energy": {"initial_J": sim.initial_energy, "final_J": energies["total"],
                    "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
                    "conversion_heat_J": sim.conversion()["heat_J"],
-                   "relative_error": energies["relative_error"]},
+                   "relative_error": energies["relative_error"],
+                   "max_relative_error": writer.max_energy_error,
+                   "max_relative_error_time_s": writer.max_energy_error_time},
         "metrics": case_metrics,
     }
     if reference:
@@ -177,7 +193,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
     write_summary(outdir, summary)
 
     say(f"fsph: {summary['status']} at t = {sim.time * 1e6:.4g} us after {sim.cycle} cycles, "
-        f"{summary['wall_time_s']:.2f} s wall; energy error {energies['relative_error']:+.3e}")
+        f"{summary['wall_time_s']:.2f} s wall; energy error {energies['relative_error']:+.3e} "
+        f"(largest {writer.max_energy_error:+.3e} at {writer.max_energy_error_time * 1e6:.4g} us)")
     for line in _format_metrics(comparison, case_metrics):
         say(line)
     say(f"fsph: outputs in {outdir}/ (fsph.h5, ParaView .pvd series, summary.json)")

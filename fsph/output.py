@@ -52,15 +52,28 @@ class RunWriter:
             hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
         self.snapshots = self.h5.create_group("snapshots")
         self.n_snapshots = 0
+        self.energy0 = None
+        self.max_energy_error = 0.0
+        self.max_energy_error_time = 0.0
         self.vtu = vtu
         self.pvd_entries = {}
         if vtu:
             (self.outdir / "vtu").mkdir(exist_ok=True)
 
     def append_history(self, records):
-        """records: (k, 5) rows of HISTORY_FIELDS."""
+        """records: (k, 5) rows of HISTORY_FIELDS. Also tracks the largest
+        departure of the total energy from its first recorded value."""
         if len(records) == 0:
             return
+        total = records[:, 3] + records[:, 4]
+        if self.energy0 is None:
+            self.energy0 = total[0]
+        if self.energy0:
+            worst = np.abs(total - self.energy0).argmax()
+            error = (total[worst] - self.energy0) / self.energy0
+            if abs(error) > abs(self.max_energy_error):
+                self.max_energy_error = float(error)
+                self.max_energy_error_time = float(records[worst, 0])
         hist = self.h5["history"]
         n0 = hist["time"].shape[0]
         n1 = n0 + len(records)

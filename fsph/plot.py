@@ -90,3 +90,30 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
         fig.savefig(output, dpi=dpi)
         plt.close(fig)
     return output
+
+
+def histories(run_dir, output=None, dpi=150):
+    """Write a PNG of the time histories of a run: kinetic, internal and
+    total energy, and the time step; returns the PNG path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run_dir = Path(run_dir)
+    output = Path(output) if output else run_dir / "history.png"
+    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+        hist = {k: h5["history"][k][...] for k in h5["history"]}
+    t = hist["time"] * 1e6
+    fig, (ax_e, ax_dt) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    ax_e.plot(t, hist["kinetic"], label="kinetic")
+    ax_e.plot(t, hist["internal"], label="internal")
+    ax_e.plot(t, hist["total"], "k", lw=1.2, label="total")
+    ax_e.set_ylabel("energy [J]")
+    ax_e.legend(frameon=False)
+    ax_dt.plot(t[1:], hist["dt"][1:] * 1e9, lw=0.8)
+    ax_dt.set_ylabel("time step [ns]")
+    ax_dt.set_xlabel("t [us]")
+    fig.tight_layout()
+    fig.savefig(output, dpi=dpi)
+    plt.close(fig)
+    return output

@@ -29,6 +29,8 @@ STATUS_TEXT = {
     8: "cycle limit (max_cycles) reached",
     9: "non-finite state (NaN/Inf) or non-positive density in a particle",
     10: "a particle reached the axis (r <= 0)",
+    11: "time step fell by more than the allowed factor in one cycle (dt_drop_ratio)",
+    12: "energy error above the limit (energy_error_limit)",
 }
 # index conventions of fsph_solver: > 0 element (node for code 3), < 0 particle
 NODE_FAULTS = {3}
@@ -60,7 +62,7 @@ class Simulation:
 
         _api.reset()
         c = self.control
-        _api.set_control(c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"],
+        _api.set_control(c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"], c["dt_drop_ratio"],
                          deck["output"]["history_every"])
         sph = deck["sph"]
         _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"])

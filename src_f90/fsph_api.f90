@@ -45,15 +45,16 @@ contains
   end subroutine threads
 
   !> Numerical parameters of the cycle (see fsph_state control_t).
-  subroutine set_control(dt_safety, c_q, c_l, dt_floor_ratio, history_every)
+  subroutine set_control(dt_safety, c_q, c_l, dt_floor_ratio, dt_drop_ratio, history_every)
     use fsph_state, only: sim
-    real(wp), intent(in) :: dt_safety, c_q, c_l, dt_floor_ratio
+    real(wp), intent(in) :: dt_safety, c_q, c_l, dt_floor_ratio, dt_drop_ratio
     integer, intent(in) :: history_every
     sim%control%history_every = max(history_every, 1)
     sim%control%dt_safety = dt_safety
     sim%control%c_q = c_q
     sim%control%c_l = c_l
     sim%control%dt_floor_ratio = dt_floor_ratio
+    sim%control%dt_drop_ratio = dt_drop_ratio
   end subroutine set_control
 
   !> SPH parameters: viscosity coefficients [-] and the particle contact

@@ -4,7 +4,7 @@
 module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
-                         status_dt_floor, status_particle_axis, status_nonfinite_particle
+                         status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
   use fsph_state, only: sim, history_columns
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
                            strength_elastic, strength_johnson_cook, eos_linear, eos_mie_gruneisen
@@ -279,11 +279,15 @@ contains
     ! 7. conversion of distorted element groups, surface and ties
     call convert_elements(n_new)
     ! 8. next stable step
+    sim%dt_previous = sim%dt
     call solver_stable_step()
     if (mod(sim%cycle, sim%control%history_every) == 0) call record_history()
     if (sim%dt < sim%control%dt_floor_ratio*sim%dt_initial) then
       ierr = status_dt_floor
       ifault = sim%dt_element - sim%dt_particle   ! particle faults are negative
+    else if (sim%dt < sim%control%dt_drop_ratio*sim%dt_previous) then
+      ierr = status_dt_drop
+      ifault = sim%dt_element - sim%dt_particle
     end if
   end subroutine cycle
 

@@ -120,6 +120,7 @@ module fsph_state
     real(wp) :: c_q = 1.5_wp          !< quadratic viscosity coefficient [-]
     real(wp) :: c_l = 0.06_wp         !< linear viscosity coefficient [-]
     real(wp) :: dt_floor_ratio = 1.0e-3_wp !< stop when dt < ratio * initial dt [-]
+    real(wp) :: dt_drop_ratio = 0.0_wp !< stop when dt < ratio * previous stable dt (0: off) [-]
     integer :: history_every = 10     !< cycles between time-history records
     real(wp) :: sph_c_q = 1.0_wp      !< SPH quadratic viscosity coefficient [-]
     real(wp) :: sph_c_l = 0.2_wp      !< SPH linear viscosity coefficient [-]
@@ -149,6 +150,7 @@ module fsph_state
     real(wp) :: dt = 0.0_wp               !< stable step for the next cycle (with safety) [s]
     real(wp) :: dt_last = 0.0_wp          !< step taken by the last cycle [s]
     real(wp) :: dt_initial = 0.0_wp       !< stable step at set-up [s]
+    real(wp) :: dt_previous = 0.0_wp      !< stable step of the previous cycle [s]
     integer :: dt_element = 0             !< element controlling dt (0: a particle does)
     integer :: dt_particle = 0            !< particle controlling dt (0: an element does)
     integer :: n_history = 0              !< records waiting in history

@@ -28,4 +28,7 @@ module fsph_status
   integer, parameter, public :: status_nonfinite_particle = 9
   !> A particle reached the axis (r <= 0). Index: particle.
   integer, parameter, public :: status_particle_axis = 10
+  !> The stable step fell by more than the allowed factor in one cycle.
+  !> Index: the element (> 0) or particle (< 0) that sets the step.
+  integer, parameter, public :: status_dt_drop = 11
 end module fsph_status

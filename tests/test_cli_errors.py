@@ -120,3 +120,20 @@ def test_eos_range_stops_cleanly(tmp_path):
                            material="name='steel'\n library='armco_iron'",
                            body="velocity_z = -3000.0"),
         code=5, what="equation of state")
+
+
+def test_collapse_in_one_cycle_stops_cleanly(tmp_path):
+    """dt_drop_ratio: the impact makes the stable step fall; a ratio of 0.999
+    per cycle is crossed at once."""
+    run_failing(
+        tmp_path, rod_deck(control="end_time = 3.0e-6\n dt_drop_ratio = 0.999",
+                           material="name='steel'\n library='armco_iron'",
+                           body="velocity_z = -400.0"),
+        code=11, what="fell by more than the allowed factor")
+
+
+def test_energy_error_limit_stops_cleanly(tmp_path):
+    """energy_error_limit far below the drift of the impact run."""
+    run_failing(
+        tmp_path, rod_deck(control="end_time = 1.0e-6\n energy_error_limit = 1.0e-9"),
+        code=12, what="energy error above the limit")

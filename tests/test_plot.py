@@ -21,6 +21,8 @@ def test_plot_writes_png(tmp_path, write_deck):
     png = out / "shapes.png"
     assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert png.stat().st_size > 20_000
+    hist = out / "history.png"
+    assert hist.is_file() and hist.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_plot_of_a_non_run_folder_is_a_clean_error(tmp_path):

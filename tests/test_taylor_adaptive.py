@@ -41,5 +41,14 @@ def test_adaptive_mean_error(adaptive):
     assert mean * 100.0 <= BANDS["mean_percent"]
 
 
-def test_adaptive_energy(adaptive):
+def test_adaptive_energy_at_end(adaptive):
     assert abs(adaptive["energy"]["relative_error"]) * 100.0 < BANDS["energy_percent"]
+
+
+@pytest.mark.xfail(strict=True, reason="measured +5.6 % at 11 us (the end error is -0.6 %): energy "
+                   "enters through the element-particle coupling while the rod is converting and "
+                   "leaves later; the coupling is not energy-consistent yet")
+def test_adaptive_energy_throughout(adaptive):
+    """The energy error stays within the band during the whole run, not
+    only at its end."""
+    assert abs(adaptive["energy"]["max_relative_error"]) * 100.0 < BANDS["energy_percent"]
