@@ -11,7 +11,9 @@ from fsph.driver import run
 from conftest import CASES, reference
 
 
-# deck -> (plateau tolerance [relative], front tolerance [mm])
+# deck -> (plateau tolerance [relative], front tolerance [mm]): the bars of the
+# foundation (FEM), SPH and coupling issues; the 1 % energy drift of the foundation applies
+# to all
 BARS = {"elastic_bar": (0.03, 0.5), "elastic_bar_sph": (0.05, 0.7),
         "elastic_bar_coupled": (0.05, 0.7)}
 
@@ -59,7 +61,7 @@ def test_bar_crosses_coupling_interface(tmp_path):
 
 def test_bar_energy_drift(bar_run):
     summary, _ = bar_run
-    assert abs(summary["energy"]["relative_error"]) < 0.01
+    assert abs(summary["energy"]["max_relative_error"]) < 0.01
 
 
 def test_bar_outputs(bar_run):
