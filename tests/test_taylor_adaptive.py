@@ -45,9 +45,6 @@ def test_adaptive_energy_at_end(adaptive):
     assert abs(adaptive["energy"]["relative_error"]) * 100.0 < BANDS["energy_percent"]
 
 
-@pytest.mark.xfail(strict=True, reason="measured +5.6 % at 11 us (the end error is -0.6 %): energy "
-                   "enters through the element-particle coupling while the rod is converting and "
-                   "leaves later; the traction coupling of seed 000 eqs 6-8 is not energy-consistent")
 def test_adaptive_energy_throughout(adaptive):
     """The energy error stays within the band during the whole run, not
     only at its end."""
