@@ -255,6 +255,10 @@ SCHEMA = {
             "checkpoint": Key("bool", True, "-",
                               "Write checkpoint.h5 at every snapshot and on SIGINT/SIGTERM "
                               "(fsph run DECK --restart DIR/checkpoint.h5 continues bit for bit)."),
+            "checkpoint_minutes": Key("float", 0.0, "-",
+                                      "Also write the checkpoint whenever this many minutes of "
+                                      "wall time have passed since the last one (0: only at "
+                                      "snapshots and interrupts).", lower=0.0),
             "reference": Key("str", None, "-",
                              "JSON file of reference (experimental or analytic) values, "
                              "relative to the deck's folder."),

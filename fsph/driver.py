@@ -119,6 +119,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
     writer.energy0 = sim.initial_energy
     writer.append_history(drain_history())
     failure = interrupted = None
+    last_checkpoint = wallclock.perf_counter()
     try:
         with _interrupt_flag() as flag:
             for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
@@ -130,6 +131,11 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                 while sim.time < t and not flag["signal"]:
                     sim.advance(t, land=land, max_cycles=CYCLES_PER_CALL, partial=True)
                     _check_energy(sim, ctrl["energy_error_limit"])
+                    if (out["checkpoint"] and out["checkpoint_minutes"] > 0.0
+                            and wallclock.perf_counter() - last_checkpoint
+                            >= 60.0 * out["checkpoint_minutes"]):
+                        checkpoint_module.save(sim, checkpoint_path)
+                        last_checkpoint = wallclock.perf_counter()
                 writer.append_history(drain_history())
                 if flag["signal"]:
                     interrupted = signal.Signals(flag["signal"]).name
@@ -143,6 +149,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                     writer.write_snapshot(last_good)
                     if out["checkpoint"]:
                         checkpoint_module.save(sim, checkpoint_path)
+                        last_checkpoint = wallclock.perf_counter()
             if progress_due:
                 say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
                     f"{sim.energies()['relative_error']:+11.3e} "

@@ -90,3 +90,35 @@ def test_interrupted_run_restarts_to_the_same_end(tmp_path):
     assert a.keys() == b.keys()
     for key in a:
         assert np.array_equal(a[key], b[key]), key
+
+
+def test_wall_clock_checkpoints(tmp_path):
+    """checkpoint_minutes: a checkpoint appears before the first snapshot is
+    due when the wall-clock interval is short (500-cycle granularity)."""
+    from fsph.driver import run
+    from fsph import deck as deck_module
+    import h5py
+    text = (CASES / "taylor_armco.nml").read_text().replace(
+        "  n_snapshots = 16", "  n_snapshots = 1\n  checkpoint_minutes = 1.0e-9")
+    text = text.replace("end_time = 60.0e-6", "end_time = 4.0e-6")
+    deck = tmp_path / "taylor.nml"
+    deck.write_text(text)
+    (tmp_path / "references").mkdir()
+    (tmp_path / "references" / "taylor_armco.json").write_text(
+        (CASES / "references" / "taylor_armco.json").read_text())
+    seen = []
+    original = checkpoint.save
+
+    def spy(sim, path):
+        seen.append(sim.cycle)
+        return original(sim, path)
+
+    checkpoint.save = spy
+    try:
+        summary = run(deck, tmp_path / "out", quiet=True)
+    finally:
+        checkpoint.save = original
+    assert summary["status"] == "completed"
+    assert len(seen) >= 2 and seen[0] < summary["cycles"]
+    with h5py.File(tmp_path / "out" / "checkpoint.h5") as h5:
+        assert h5.attrs["format"] == 1

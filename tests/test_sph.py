@@ -219,3 +219,18 @@ def test_particle_bodies_collide_without_interpenetration(write_deck):
     assert abs(p1 - p0) < 1e-10 * np.sum(m * 100.0)
     # the bodies have met: both carry compressive axial stress at the contact
     assert part["stress"][:, 1].min() < -0.5e9
+
+
+def test_particle_on_the_axis_is_refused(rod):
+    """No particle may sit at r <= 0: set-up reports the particle (status 10
+    with its index, negative for particles)."""
+    from fsph.simulation import _api
+    part = rod.snapshot()["particles"]
+    x = part["x"].copy()
+    x[5, 0] = 0.0
+    ierr = _api.set_particles(np.asfortranarray(x.T), np.asfortranarray(part["velocity"].T),
+                              part["mass"], part["h"], (part["material"] + 1).astype(np.int32),
+                              (part["body"] + 1).astype(np.int32))
+    assert ierr == 0
+    ierr, ifault = _api.initialise()
+    assert ierr == 10 and ifault == -6
