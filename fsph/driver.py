@@ -150,11 +150,11 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                     if out["checkpoint"]:
                         checkpoint_module.save(sim, checkpoint_path)
                         last_checkpoint = wallclock.perf_counter()
-            if progress_due:
-                say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
-                    f"{sim.energies()['relative_error']:+11.3e} "
-                    f"{wallclock.perf_counter() - t_wall0:9.2f} {sim.n_elements:9d} "
-                    f"{sim.n_particles:9d}")
+                if progress_due:
+                    say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
+                        f"{sim.energies()['relative_error']:+11.3e} "
+                        f"{wallclock.perf_counter() - t_wall0:9.2f} {sim.n_elements:9d} "
+                        f"{sim.n_particles:9d}")
     except SimulationError as err:
         failure = err
         writer.append_history(drain_history())

@@ -137,3 +137,16 @@ def test_energy_error_limit_stops_cleanly(tmp_path):
     run_failing(
         tmp_path, rod_deck(control="end_time = 1.0e-6\n energy_error_limit = 1.0e-9"),
         code=12, what="energy error above the limit")
+
+
+def test_progress_lines_and_quiet(tmp_path):
+    """Not on a terminal: periodic plain progress lines (n_progress of them);
+    --quiet: none."""
+    deck = tmp_path / "deck.nml"
+    deck.write_text(rod_deck(output="n_progress = 5"))
+    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "a")], tmp_path)
+    assert res.returncode == 0
+    rows = [line for line in res.stdout.splitlines() if line.strip() and line.split()[0].isdigit()]
+    assert len(rows) == 5
+    quiet = fsph_cli(["run", str(deck), "-o", str(tmp_path / "b"), "--quiet"], tmp_path)
+    assert quiet.returncode == 0 and quiet.stdout == ""
