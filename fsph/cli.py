@@ -1,5 +1,5 @@
-"""Command line: `fsph run DECK [-o DIR]`, `fsph plot DIR`, `fsph decks-reference`,
-`fsph info`.
+"""Command line: `fsph run DECK [-o DIR]`, `fsph plot DIR`, `fsph report`,
+`fsph decks-reference`, `fsph info`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
 to the last good snapshot are kept); 4 interrupted by SIGINT/SIGTERM (a
@@ -32,6 +32,12 @@ def _parser():
                     help="times in microseconds, comma separated (nearest snapshots)")
     pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png)")
     pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
+    rp = sub.add_parser("report", help="run the validation decks (or reuse their outputs) and "
+                                       "write a report with errors against the references")
+    rp.add_argument("--cases", default="cases", help="folder of the decks (default cases)")
+    rp.add_argument("-o", "--output", default="out/report", help="report folder")
+    rp.add_argument("--decks", help="comma-separated deck names (default: the validation set)")
+    rp.add_argument("--rerun", action="store_true", help="run again even where outputs exist")
     d = sub.add_parser("decks-reference", help="print the deck reference (markdown)")
     d.add_argument("-o", "--output", help="write to this file instead")
     sub.add_parser("info", help="version and OpenMP threads")
@@ -62,6 +68,15 @@ def main(argv=None):
                     return EXIT_DECK
             print(deformed_shapes(run_dir, times, args.output, args.dpi))
             print(histories(run_dir, dpi=args.dpi))
+            return EXIT_OK
+        if args.command == "report":
+            from .report import VALIDATION_DECKS, write_report
+            decks = tuple(d.strip() for d in args.decks.split(",")) if args.decks else VALIDATION_DECKS
+            for name in decks:
+                if not (Path(args.cases) / f"{name}.nml").is_file():
+                    print(f"fsph: error: {args.cases}: expected a deck {name}.nml", file=sys.stderr)
+                    return EXIT_DECK
+            print(write_report(args.cases, args.output, decks, args.rerun))
             return EXIT_OK
         if args.command == "decks-reference":
             from .deck import reference_markdown

@@ -30,3 +30,29 @@ def test_plot_of_a_non_run_folder_is_a_clean_error(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert res.returncode == 2
     assert "Traceback" not in res.stderr and "fsph.h5" in res.stderr
+
+
+def test_report_tables_errors_against_references(tmp_path):
+    """`fsph report` on two small decks: a table row per referenced metric
+    with the computed value, the reference and the error, and a picture of
+    the Taylor-type case."""
+    cases = tmp_path / "cases"
+    (cases / "references").mkdir(parents=True)
+    (cases / "references" / "rod.json").write_text(
+        '{"source": "test", "taylor": {"L_mm": 3.9, "D_mm": 2.0, "W_mm": 2.0}}')
+    (cases / "rod.nml").write_text(
+        rod_deck(control="end_time = 1e-6", output="reference = 'references/rod.json'")
+        + "&metrics\n kind = 'taylor'\n/\n")
+    (cases / "bar.nml").write_text(rod_deck(control="end_time = 1e-6"))
+    res = subprocess.run([sys.executable, "-m", "fsph", "report", "--cases", str(cases),
+                          "--decks", "rod,bar", "-o", str(tmp_path / "rep")],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    text = (tmp_path / "rep" / "report.md").read_text()
+    rows = [line for line in text.splitlines() if line.startswith("| rod |")]
+    assert len(rows) == 3 and "taylor.L_mm" in rows[0] and "%" in rows[0]
+    assert (tmp_path / "rep" / "rod.png").is_file()
+    missing = subprocess.run([sys.executable, "-m", "fsph", "report", "--cases", str(cases),
+                              "--decks", "nothere"], capture_output=True, text=True,
+                             cwd=tmp_path, timeout=300)
+    assert missing.returncode == 2 and "nothere.nml" in missing.stderr
