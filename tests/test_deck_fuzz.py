@@ -64,7 +64,6 @@ def mutated_deck(draw):
             tgt = nml[gk[0]] if not isinstance(nml[gk[0]], list) else nml[gk[0]][0]
             tgt[gk[1]] = draw(VALUES)
     elif kind == "dup_group":
-        nml.create_cogroup(g) if hasattr(nml, "create_cogroup") else None
         text = text + "\n" + text[text.find("&" + g):].split("/", 1)[0] + "/\n"
         return path.name, text
     try:
