@@ -394,7 +394,8 @@ contains
       call compact(nd%x, keep_node); call compact(nd%x0, keep_node); call compact(nd%v, keep_node)
       call compact(nd%f, keep_node); call compact(nd%x_old, keep_node)
       call compact(nd%x_mid, keep_node); call compact(nd%mass, keep_node)
-      call compact(nd%mass_tie, keep_node); call compact(nd%on_axis, keep_node)
+      call compact(nd%mass_tie, keep_node); call compact(nd%mass_total, keep_node)
+      call compact(nd%on_axis, keep_node)
       nd%n = m
     end associate
   end subroutine remove_nodes

@@ -152,6 +152,7 @@ contains
         nd%mass_tie(pt%tie_a(i)) = nd%mass_tie(pt%tie_a(i)) + (1.0_wp - pt%tie_xi(i))*pt%mass(i)
         nd%mass_tie(pt%tie_b(i)) = nd%mass_tie(pt%tie_b(i)) + pt%tie_xi(i)*pt%mass(i)
       end do
+      nd%mass_total = nd%mass + nd%mass_tie
     end associate
   end subroutine update_tie_masses
 

@@ -351,14 +351,7 @@ contains
     real(wp), intent(in) :: dt_v  !< velocity step: mean of the two position steps [s]
     integer :: n
     associate (nd => sim%nodes, pt => sim%particles)
-      if (nd%n > 0) then
-        if (any(nd%mass_tie > 0.0_wp)) then
-          nd%x_old(1, :) = nd%mass + nd%mass_tie   ! work array: mass with tied particles
-          call integrate_velocities(nd%n, nd%x_old(1, :), nd%f, dt_v, nd%v)
-        else
-          call integrate_velocities(nd%n, nd%mass, nd%f, dt_v, nd%v)
-        end if
-      end if
+      if (nd%n > 0) call integrate_velocities(nd%n, nd%mass_total, nd%f, dt_v, nd%v)
       n = pt%n
       if (n > 0) then
         pt%v_bar(:, 1:n) = pt%v(:, 1:n)   ! velocity before the kick

@@ -17,6 +17,7 @@ module fsph_state
     real(wp), allocatable :: f(:, :)      !< internal force [N]
     real(wp), allocatable :: mass(:)      !< lumped ring mass [kg]
     real(wp), allocatable :: mass_tie(:)  !< mass of particles tied to the node's edges [kg]
+    real(wp), allocatable :: mass_total(:) !< mass + mass_tie: the mass the kick divides by [kg]
     logical, allocatable :: on_axis(:)    !< node lies on r = 0 (v_r held at 0)
     integer, allocatable :: on_axis_int(:) !< the same as 0/1, for checkpoints
     integer, allocatable :: corner_ptr(:) !< CSR into corner_list, size n+1
@@ -174,7 +175,8 @@ contains
     sim%nodes%n = nn
     allocate (sim%nodes%x(2, nn), sim%nodes%x0(2, nn), sim%nodes%v(2, nn), sim%nodes%f(2, nn), &
               sim%nodes%x_old(2, nn), sim%nodes%x_mid(2, nn), sim%nodes%mass(nn), &
-              sim%nodes%on_axis(nn), sim%nodes%corner_ptr(nn + 1), sim%nodes%mass_tie(nn))
+              sim%nodes%on_axis(nn), sim%nodes%corner_ptr(nn + 1), sim%nodes%mass_tie(nn), &
+              sim%nodes%mass_total(nn))
     sim%nodes%f = 0.0_wp
     sim%nodes%mass_tie = 0.0_wp
     sim%elements%n = ne

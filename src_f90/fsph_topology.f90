@@ -52,6 +52,7 @@ contains
           nd%mass(el%conn(k, ie)) = nd%mass(el%conn(k, ie)) + el%mass(ie)/3.0_wp
         end do
       end do
+      nd%mass_total = nd%mass + nd%mass_tie
     end associate
   end subroutine nodal_masses
 
