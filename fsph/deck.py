@@ -231,6 +231,32 @@ SCHEMA = {
                          lower=1.0, lower_open=True),
         },
     ),
+    "contact": Group(
+        "Contact between bodies (ALGORITHMS.md section 5): element-element slide lines "
+        "(every surface node against the other bodies' surface segments, so each surface is "
+        "master and slave in turn, after Johnson & Stryk 2001) and particle-element contact "
+        "(seed 002 eqs 1-3, the particle radius as contact thickness), as momentum-conserving "
+        "corrections of the half-step velocities; particle-particle contact between bodies is "
+        "the penalty of &sph contact_penalty. Surfaces follow the element region as elements "
+        "are converted. The kinetic energy the corrections remove is reported "
+        "(contact_dissipation_J) and counted in the energy balance.",
+        {
+            "enabled": Key("bool", True, "-",
+                           "Contact on. It only acts where two bodies (or a particle and an "
+                           "element surface) meet, so leaving it on costs little."),
+            "passes": Key("int", 3, "-",
+                          "Correction passes per cycle (seed 002: 3 to 5 give satisfactory "
+                          "results; the pairs share master nodes, so one pass does not remove "
+                          "every penetration).", lower=1, upper=20),
+            "friction": Key("float", 0.0, "-",
+                            "Coulomb friction coefficient of element and particle contact "
+                            "(0: frictionless, the default of the seeds).", lower=0.0, upper=2.0),
+            "own_particles": Key("bool", True, "-",
+                                 "Untied particles may not cross into their own body's element "
+                                 "region either (zero contact thickness; nearer than that the "
+                                 "SPH sums with the imaginary particles act)."),
+        },
+    ),
     "boundary": Group(
         "A rigid, fixed, frictionless plane (e.g. the Taylor anvil). Repeatable. Bodies stay "
         "on the side the normal points to.",

@@ -81,6 +81,9 @@ class Simulation:
         if part_bodies:
             self._set_particles(part_bodies, rho0, sph["alpha_h"])
         self._set_coupling(deck, bool(elem_bodies), bool(part_bodies))
+        ct = deck["contact"]
+        self._call(_api.set_contact(int(ct["enabled"]), ct["passes"], ct["friction"],
+                                    int(ct["own_particles"])), "contact")
         for bc in deck["boundary"]:
             self._call(_api.add_rigid_plane(np.array(bc["point"]), np.array(bc["normal"])),
                        "rigid plane")
@@ -278,13 +281,30 @@ class Simulation:
         """Stable step of the next cycle [s]."""
         return float(_api.get_clock()[1])
 
+    def contact(self):
+        """Contact books: kinetic energy removed by the corrections so far
+        [J], pairs corrected in the last cycle, surface segments and nodes."""
+        dissipated, n_active, n_seg, n_snode = _api.get_contact_stats()
+        return {"dissipated_J": float(dissipated), "n_active": int(n_active),
+                "n_segments": int(n_seg), "n_surface_nodes": int(n_snode)}
+
+    def penetration(self):
+        """Deepest interpenetration of bodies at the current positions [m]
+        and relative to the penetrated segment's length [-]."""
+        depth, relative = _api.get_contact_penetration()
+        return {"depth": float(depth), "relative": float(relative)}
+
     def energies(self):
-        """Kinetic, internal and total energy [J] and the relative error of
-        the total against the initial energy. Rigid planes are fixed and do
-        no work, so the total is conserved by the continuum problem."""
+        """Kinetic, internal, contact-dissipated and total energy [J] and
+        the relative error of the total against the initial energy. Rigid
+        planes are fixed and do no work; contact corrections remove kinetic
+        energy as perfectly inelastic collisions of the surface masses,
+        which is booked, so the total is conserved by the method."""
         ke, ie = _api.get_energies()
-        total = ke + ie
-        return {"kinetic": float(ke), "internal": float(ie), "total": float(total),
+        dissipated = float(_api.get_contact_stats()[0])
+        total = ke + ie + dissipated
+        return {"kinetic": float(ke), "internal": float(ie), "contact": dissipated,
+                "total": float(total),
                 "relative_error": float((total - self.initial_energy) / self.initial_energy)
                 if self.initial_energy else 0.0}
 

@@ -17,6 +17,7 @@ module fsph_api
   public :: convert_now, set_stress_state, get_forces
   public :: checkpoint_layout, checkpoint_sizes, get_real_state, get_int_state, set_real_state
   public :: set_int_state, get_scalar_state, restore_begin, restore_end
+  public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
 
 contains
 
@@ -211,6 +212,53 @@ contains
     if (ne /= sim%elements%n .or. ne == 0) return
     group = sim%elements%group(1:ne)
   end subroutine get_element_groups
+
+  !> Contact between bodies: on/off, correction passes per cycle, Coulomb
+  !> friction coefficient [-], untied particles also against their own
+  !> body's element surface (1/0).
+  subroutine set_contact(enabled, n_passes, friction, own_particles, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: enabled, n_passes, own_particles
+    real(wp), intent(in) :: friction
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (n_passes < 1 .or. .not. (friction >= 0.0_wp)) return
+    sim%contact%enabled = enabled /= 0
+    sim%contact%n_passes = n_passes
+    sim%contact%friction = friction
+    sim%contact%own_particles = own_particles /= 0
+    ierr = status_ok
+  end subroutine set_contact
+
+  !> Contact books: kinetic energy removed by the corrections so far [J],
+  !> pairs corrected in the last cycle, surface segments and nodes.
+  subroutine get_contact_stats(dissipated, n_active, n_seg, n_snode)
+    use fsph_state, only: sim
+    real(wp), intent(out) :: dissipated
+    integer, intent(out) :: n_active, n_seg, n_snode
+    dissipated = sim%contact%dissipated
+    n_active = sim%contact%n_active
+    n_seg = sim%contact%n_seg
+    n_snode = sim%contact%n_snode
+  end subroutine get_contact_stats
+
+  !> Deepest interpenetration at the current positions [m] and relative to
+  !> the penetrated segment's length [-].
+  subroutine get_contact_penetration(depth, relative)
+    use fsph_contact, only: contact_penetration
+    real(wp), intent(out) :: depth, relative
+    call contact_penetration(depth, relative)
+  end subroutine get_contact_penetration
+
+  !> The correction of one contact pair (seed 002 eqs 1-3), for
+  !> verification: normal velocity changes of slave and master nodes [m/s].
+  subroutine contact_pair_values(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
+    use fsph_contact, only: pair_correction
+    real(wp), intent(in) :: delta, dt, m_s, m_1, m_2, r_1, r_2
+    real(wp), intent(out) :: dv_s, dv_1, dv_2
+    call pair_correction(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
+  end subroutine contact_pair_values
 
   !> Elements converted, conversion events, kinetic energy turned into
   !> heat at conversion [J], coupling edges in use.

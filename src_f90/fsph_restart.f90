@@ -86,12 +86,12 @@ contains
   end function int_view
 
   !> Clock and books: reals (time, dt, dt_last, dt_initial, conversion heat,
-  !> spare) and integers (cycle, dt_element, dt_particle, n_converted,
+  !> contact dissipation) and integers (cycle, dt_element, dt_particle, n_converted,
   !> n_events, n_groups, n_edges, n_imag).
   subroutine get_scalars(r, i)
     real(wp), intent(out) :: r(n_real_scalars)
     integer, intent(out) :: i(n_int_scalars)
-    r = [sim%time, sim%dt, sim%dt_last, sim%dt_initial, sim%conversion%heat, 0.0_wp]
+    r = [sim%time, sim%dt, sim%dt_last, sim%dt_initial, sim%conversion%heat, sim%contact%dissipated]
     i = [sim%cycle, sim%dt_element, sim%dt_particle, sim%conversion%n_converted, &
          sim%conversion%n_events, sim%conversion%n_groups, sim%coupling%n_edges, sim%particles%n_imag]
   end subroutine get_scalars
@@ -101,6 +101,7 @@ contains
     integer, intent(in) :: i(n_int_scalars)
     sim%time = r(1); sim%dt = r(2); sim%dt_last = r(3); sim%dt_initial = r(4)
     sim%conversion%heat = r(5)
+    sim%contact%dissipated = r(6)
     sim%cycle = i(1); sim%dt_element = i(2); sim%dt_particle = i(3)
     sim%conversion%n_converted = i(4); sim%conversion%n_events = i(5)
     sim%conversion%n_groups = i(6); sim%coupling%n_edges = i(7); sim%particles%n_imag = 0
@@ -140,6 +141,7 @@ contains
   subroutine finish_restore()
     use fsph_topology, only: rebuild_corner_map
     use fsph_coupling, only: update_tie_masses
+    use fsph_contact, only: contact_rebuild_surface
     if (sim%nodes%n > 0) then
       sim%nodes%on_axis = sim%nodes%on_axis_int(1:sim%nodes%n) /= 0
       call rebuild_corner_map()
@@ -148,6 +150,7 @@ contains
     allocate (sim%coupling%sig_sum(4, max(sim%coupling%n_edges, 1)), &
               sim%coupling%count(max(sim%coupling%n_edges, 1)))
     if (sim%nodes%n > 0) call update_tie_masses()
+    call contact_rebuild_surface()
     sim%ready = .true.
   end subroutine finish_restore
 

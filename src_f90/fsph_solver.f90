@@ -20,6 +20,7 @@ module fsph_solver
                            update_tie_masses, stage_start, stage_mid
   use fsph_convert, only: assign_groups, convert_elements, associate_particles, association_reach
   use fsph_topology, only: rebuild_corner_map, nodal_masses
+  use fsph_contact, only: contact_rebuild_surface, contact_correct
   implicit none
   private
 
@@ -57,6 +58,8 @@ contains
       call associate_particles(association_reach)
       call update_tie_masses()
     end if
+    call contact_rebuild_surface()
+    sim%contact%dissipated = 0.0_wp
 
     sim%time = 0.0_wp
     sim%cycle = 0
@@ -259,8 +262,9 @@ contains
     call compute_forces(dt_step)
     ! 2. central difference: velocities to t^(n+1/2)
     call update_velocities(0.5_wp*(sim%dt_last + dt_step))
-    ! 3. boundary conditions on the half-step velocities; tied particles
-    !    follow their edges
+    ! 3. contact between bodies, then boundary conditions on the half-step
+    !    velocities; tied particles follow their edges
+    call contact_correct(dt_step, 0.5_wp*(sim%dt_last + dt_step))
     call apply_boundaries(dt_step)
     call finish_particle_kick(0.5_wp*(sim%dt_last + dt_step), dt_step)
     ! 4. positions to t^(n+1); the clock moves with them, so a failure in
@@ -278,6 +282,7 @@ contains
     if (ierr /= status_ok) return
     ! 7. conversion of distorted element groups, surface and ties
     call convert_elements(n_new)
+    if (n_new > 0) call contact_rebuild_surface()
     ! 8. next stable step
     sim%dt_previous = sim%dt
     call solver_stable_step()

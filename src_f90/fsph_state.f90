@@ -108,6 +108,26 @@ module fsph_state
     real(wp) :: heat = 0.0_wp             !< kinetic energy turned into heat at conversion [J]
   end type conversion_t
 
+  !> Contact between bodies (ALGORITHMS.md section 5): the element-region
+  !> surfaces (segments and their nodes), rebuilt at set-up and after every
+  !> conversion, and the books of the corrections.
+  type, public :: contact_t
+    logical :: enabled = .false.
+    integer :: n_passes = 3               !< correction passes per cycle (seed 002: 3-5)
+    real(wp) :: friction = 0.0_wp         !< Coulomb friction coefficient [-]
+    logical :: own_particles = .true.     !< untied particles also against their own body's surface
+    real(wp) :: dissipated = 0.0_wp       !< kinetic energy removed by the corrections [J]
+    integer :: n_active = 0               !< contact pairs corrected in the last cycle
+    integer :: n_seg = 0
+    integer, allocatable :: seg(:, :)     !< (2, n_seg) surface edges, element region on the left
+    integer, allocatable :: seg_cont(:)   !< continuum of each segment's body
+    integer :: n_snode = 0
+    integer, allocatable :: snode(:)      !< surface nodes (slaves of the slide lines)
+    integer, allocatable :: snode_cont(:) !< continuum of each surface node
+    integer, allocatable :: cell_start(:), cell_items(:) !< work: segment buckets
+    real(wp), allocatable :: v_node0(:, :), v_part0(:, :) !< work: velocities before the corrections [m/s]
+  end type contact_t
+
   !> Rigid, fixed, frictionless plane: points x with (x - point).normal >= 0
   !> are outside it.
   type, public :: rigid_plane_t
@@ -137,6 +157,7 @@ module fsph_state
     type(particle_set_t) :: particles
     type(coupling_t) :: coupling
     type(conversion_t) :: conversion
+    type(contact_t) :: contact
     integer, allocatable :: continuum_of_body(:) !< bodies joined into one continuum share it
     logical, allocatable :: body_coupled(:) !< the body's elements act as imaginary particles
     integer :: n_materials = 0

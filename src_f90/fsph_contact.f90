@@ -1,0 +1,467 @@
+!> Contact between bodies (ALGORITHMS.md section 5; seed 002 section 3.2.3):
+!> element-element slide lines and particle-element contact, as
+!> momentum-conserving corrections of the half-step velocities, so that
+!> the predicted positions x + dt v do not interpenetrate.
+!>
+!>  - Surfaces: edges used by one element only (the element-region
+!>    boundary, which follows conversion), without edges lying on the axis.
+!>  - Slide lines, node on segment: every surface node is a slave of the
+!>    segments of the other continua, so each surface is master and slave
+!>    in turn (symmetric, in the manner of Johnson & Stryk 2001).
+!>  - Particle on segment: a particle (radius r_p as contact thickness)
+!>    against the segments of the other continua; an untied particle also
+!>    against its own continuum's surface, with zero thickness (it may not
+!>    cross into the element region; nearer than that, the SPH sums with
+!>    the imaginary particles and the coupling tractions act).
+!>  - Cases of seed 002 fig 2: (a) one penetrated segment; (b) several: the
+!>    deepest; (c) the projection falls beyond two adjacent segments: the
+!>    shared node.
+!>  - Correction of one pair (seed 002 eqs 1-3), along the contact normal:
+!>    dV_s = (delta/dt) / (1 + R1^2 M_s/M_1 + R2^2 M_s/M_2),
+!>    dV_1 = -R1 M_s dV_s/M_1, dV_2 = -R2 M_s dV_s/M_2 (R1, R2 the linear
+!>    weights of the contact point), which removes the predicted
+!>    penetration delta of the pair and conserves its momentum. Pairs are
+!>    corrected one after another (Gauss-Seidel, in a fixed order) in
+!>    n_passes passes (seed 002: 3-5). Optional Coulomb friction: the
+!>    tangential impulse that stops the relative sliding, at most mu times
+!>    the normal impulse.
+!>  - A tied particle moves with its edge: its correction goes to the two
+!>    edge nodes with the tie weights (effective mass of the tie point).
+!>  - Search in stages: buckets of segment midpoints (cell size the longest
+!>    segment plus the largest particle radius, so the 3 x 3 cells around a
+!>    point hold every segment it can touch), candidates, distance, then
+!>    the correction; O(N) per pass.
+module fsph_contact
+  use fsph_kinds, only: wp
+  use fsph_state, only: sim
+  use fsph_topology, only: elements_with_edge
+  implicit none
+  private
+
+  public :: contact_rebuild_surface, contact_correct, contact_penetration, pair_correction
+
+  !> A point counts as penetrating a segment only down to this fraction of
+  !> the segment's length below it (deeper, it belongs to the other side of
+  !> the body or to another segment) [-].
+  real(wp), parameter :: capture_depth = 0.5_wp
+
+  !> Slave kinds.
+  integer, parameter :: slave_node = 1, slave_particle = 2
+
+  !> The contact found for one slave.
+  type :: contact_pair_t
+    logical :: found = .false.
+    real(wp) :: delta = 0.0_wp          !< predicted penetration [m]
+    real(wp) :: normal(2) = 0.0_wp      !< unit normal, from master to slave
+    integer :: master(2) = 0            !< master nodes (second 0 for a node contact)
+    real(wp) :: weight(2) = 0.0_wp      !< R1, R2
+    real(wp) :: length = 0.0_wp         !< master segment length [m]
+  end type contact_pair_t
+
+  ! bucket grid of segment midpoints
+  integer :: grid_nr = 0, grid_nz = 0
+  real(wp) :: grid_origin(2) = 0.0_wp, grid_cell = 1.0_wp
+
+contains
+
+  !> Momentum-weighted correction of one contact pair (seed 002 eqs 1-3):
+  !> normal velocity changes [m/s] of the slave and of the two master nodes
+  !> that remove the predicted penetration delta [m] in one step dt [s].
+  pure subroutine pair_correction(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
+    real(wp), intent(in) :: delta, dt, m_s, m_1, m_2, r_1, r_2
+    real(wp), intent(out) :: dv_s, dv_1, dv_2
+    real(wp) :: denominator
+    denominator = 1.0_wp
+    if (r_1 > 0.0_wp) denominator = denominator + r_1**2*m_s/m_1
+    if (r_2 > 0.0_wp) denominator = denominator + r_2**2*m_s/m_2
+    dv_s = (delta/dt)/denominator
+    dv_1 = 0.0_wp
+    dv_2 = 0.0_wp
+    if (r_1 > 0.0_wp) dv_1 = -r_1*m_s*dv_s/m_1
+    if (r_2 > 0.0_wp) dv_2 = -r_2*m_s*dv_s/m_2
+  end subroutine pair_correction
+
+  !> Surface segments and nodes of the element region, from the current
+  !> mesh (after set-up, a conversion or a restart).
+  subroutine contact_rebuild_surface()
+    integer :: ie, k, a, b, n_seg
+    logical, allocatable :: on_surface(:)
+    integer, allocatable :: cont_of_node(:)
+    associate (ct => sim%contact, el => sim%elements, nd => sim%nodes)
+      ct%n_seg = 0
+      ct%n_snode = 0
+      if (.not. ct%enabled .or. el%n == 0) return
+      if (allocated(ct%seg)) deallocate (ct%seg, ct%seg_cont)
+      allocate (ct%seg(2, 3*el%n), ct%seg_cont(3*el%n), on_surface(nd%n), cont_of_node(nd%n))
+      on_surface = .false.
+      cont_of_node = 0
+      n_seg = 0
+      do ie = 1, el%n
+        do k = 1, 3
+          a = el%conn(k, ie)
+          b = el%conn(modulo(k, 3) + 1, ie)
+          if (nd%on_axis(a) .and. nd%on_axis(b)) cycle
+          if (elements_with_edge(a, b, ie) /= 0) cycle
+          n_seg = n_seg + 1
+          ct%seg(:, n_seg) = [a, b]
+          ct%seg_cont(n_seg) = sim%continuum_of_body(el%body(ie))
+          on_surface(a) = .true.
+          on_surface(b) = .true.
+          cont_of_node(a) = ct%seg_cont(n_seg)
+          cont_of_node(b) = ct%seg_cont(n_seg)
+        end do
+      end do
+      ct%n_seg = n_seg
+      ct%n_snode = count(on_surface)
+      if (allocated(ct%snode)) deallocate (ct%snode, ct%snode_cont)
+      ct%snode = pack([(a, a = 1, nd%n)], on_surface)
+      ct%snode_cont = cont_of_node(ct%snode)
+    end associate
+  end subroutine contact_rebuild_surface
+
+  !> Predicted position x + dt v of node a [m].
+  pure function node_predicted(a, dt) result(p)
+    integer, intent(in) :: a
+    real(wp), intent(in) :: dt
+    real(wp) :: p(2)
+    p = sim%nodes%x(:, a) + dt*sim%nodes%v(:, a)
+  end function node_predicted
+
+  !> Predicted position of particle i [m]; a tied particle moves with the
+  !> tie point of its edge.
+  pure function particle_predicted(i, dt) result(p)
+    integer, intent(in) :: i
+    real(wp), intent(in) :: dt
+    real(wp) :: p(2), xi
+    associate (pt => sim%particles, nd => sim%nodes)
+      if (pt%tie_a(i) > 0) then
+        xi = pt%tie_xi(i)
+        p = pt%x(:, i) + dt*((1.0_wp - xi)*nd%v(:, pt%tie_a(i)) + xi*nd%v(:, pt%tie_b(i)))
+      else
+        p = pt%x(:, i) + dt*pt%v(:, i)
+      end if
+    end associate
+  end function particle_predicted
+
+  !> Bucket the segments by their predicted midpoints; cell size the
+  !> longest segment plus the largest particle radius (and so at least the
+  !> reach of any contact: half a segment, plus its capture depth, plus the
+  !> thickness).
+  subroutine build_buckets(dt)
+    real(wp), intent(in) :: dt
+    !> At most this many cells per segment (widely scattered surfaces get
+    !> bigger cells instead of a huge grid) [-].
+    integer, parameter :: cells_per_segment = 4
+    real(wp) :: lo(2), hi(2), mid(2), l_max, r_max
+    integer :: k, ic, n_cells
+    integer, allocatable :: cell_of(:), fill(:)
+    associate (ct => sim%contact, pt => sim%particles)
+      lo = huge(1.0_wp)
+      hi = -huge(1.0_wp)
+      l_max = 0.0_wp
+      do k = 1, ct%n_seg
+        mid = 0.5_wp*(node_predicted(ct%seg(1, k), dt) + node_predicted(ct%seg(2, k), dt))
+        lo = min(lo, mid)
+        hi = max(hi, mid)
+        l_max = max(l_max, norm2(node_predicted(ct%seg(2, k), dt) - node_predicted(ct%seg(1, k), dt)))
+      end do
+      r_max = 0.0_wp
+      if (pt%n > 0) r_max = maxval(pt%radius(1:pt%n))
+      grid_cell = max(l_max + r_max, tiny(1.0_wp))
+      do
+        grid_nr = int((hi(1) - lo(1))/grid_cell) + 1
+        grid_nz = int((hi(2) - lo(2))/grid_cell) + 1
+        if (real(grid_nr, wp)*real(grid_nz, wp) <= real(cells_per_segment*ct%n_seg + 64, wp)) exit
+        grid_cell = 2.0_wp*grid_cell
+      end do
+      grid_origin = lo
+      n_cells = grid_nr*grid_nz
+      if (allocated(ct%cell_start)) deallocate (ct%cell_start)
+      if (allocated(ct%cell_items)) deallocate (ct%cell_items)
+      allocate (ct%cell_start(n_cells + 1), ct%cell_items(max(ct%n_seg, 1)), cell_of(ct%n_seg), &
+                fill(n_cells + 1))
+      fill = 0
+      do k = 1, ct%n_seg
+        mid = 0.5_wp*(node_predicted(ct%seg(1, k), dt) + node_predicted(ct%seg(2, k), dt))
+        cell_of(k) = cell_index(mid)
+        fill(cell_of(k) + 1) = fill(cell_of(k) + 1) + 1
+      end do
+      ct%cell_start(1) = 1
+      do ic = 1, n_cells
+        ct%cell_start(ic + 1) = ct%cell_start(ic) + fill(ic + 1)
+      end do
+      fill(1:n_cells) = ct%cell_start(1:n_cells)
+      do k = 1, ct%n_seg
+        ct%cell_items(fill(cell_of(k))) = k
+        fill(cell_of(k)) = fill(cell_of(k)) + 1
+      end do
+    end associate
+  end subroutine build_buckets
+
+  pure integer function cell_index(p) result(ic)
+    real(wp), intent(in) :: p(2)
+    integer :: ir, iz
+    ir = min(max(int((p(1) - grid_origin(1))/grid_cell), 0), grid_nr - 1)
+    iz = min(max(int((p(2) - grid_origin(2))/grid_cell), 0), grid_nz - 1)
+    ic = iz*grid_nr + ir + 1
+  end function cell_index
+
+  !> Deepest contact of point p (predicted) with thickness tau [m] among
+  !> the segments near it. Segments of continuum `own` are skipped unless
+  !> own_allowed; segments holding node `self` are skipped.
+  subroutine find_contact(p, tau, own, own_allowed, self, dt, best)
+    real(wp), intent(in) :: p(2), tau, dt
+    integer, intent(in) :: own, self
+    logical, intent(in) :: own_allowed
+    type(contact_pair_t), intent(out) :: best
+    real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2)
+    integer :: ir0, iz0, ir, iz, ic, m, k, a, b
+    associate (ct => sim%contact)
+      if (p(1) < grid_origin(1) - 2.0_wp*grid_cell .or. p(2) < grid_origin(2) - 2.0_wp*grid_cell) return
+      ir0 = int((p(1) - grid_origin(1))/grid_cell)
+      iz0 = int((p(2) - grid_origin(2))/grid_cell)
+      if (ir0 > grid_nr + 1 .or. iz0 > grid_nz + 1) return
+      do iz = max(iz0 - 1, 0), min(iz0 + 1, grid_nz - 1)
+        do ir = max(ir0 - 1, 0), min(ir0 + 1, grid_nr - 1)
+          ic = iz*grid_nr + ir + 1
+          do m = ct%cell_start(ic), ct%cell_start(ic + 1) - 1
+            k = ct%cell_items(m)
+            a = ct%seg(1, k)
+            b = ct%seg(2, k)
+            if (a == self .or. b == self) cycle
+            thick = tau
+            if (ct%seg_cont(k) == own) then
+              if (.not. own_allowed) cycle
+              thick = 0.0_wp
+            end if
+            xa = node_predicted(a, dt)
+            xb = node_predicted(b, dt)
+            t = xb - xa
+            l = norm2(t)
+            if (.not. (l > 0.0_wp)) cycle
+            t = t/l
+            nrm = [t(2), -t(1)]           ! outward: the element region is on the left
+            s = dot_product(p - xa, t)
+            g = dot_product(p - xa, nrm)
+            if (s >= 0.0_wp .and. s <= l) then
+              ! case (a): onto the segment
+              delta = thick - g
+              if (delta <= 0.0_wp .or. g <= -capture_depth*l) cycle
+              if (best%found .and. delta <= best%delta) cycle   ! case (b): the deepest
+              best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l)
+            else if (thick > 0.0_wp .and. g > 0.0_wp) then
+              ! case (c): beyond the segment's end, on its outer side: the node
+              if (s < 0.0_wp) then
+                e = xa
+              else
+                e = xb
+              end if
+              d = norm2(p - e)
+              delta = thick - d
+              if (delta <= 0.0_wp .or. .not. (d > 0.0_wp)) cycle
+              if (best%found .and. delta <= best%delta) cycle
+              best = contact_pair_t(.true., delta, (p - e)/d, [merge(a, b, s < 0.0_wp), 0], &
+                                    [1.0_wp, 0.0_wp], l)
+            end if
+          end do
+        end do
+      end do
+    end associate
+  end subroutine find_contact
+
+  !> Correct the half-step velocities of nodes and particles so that no
+  !> predicted position x + dt v penetrates another body's surface, and
+  !> book the work of the contact impulses. dt_v is the step of the kick
+  !> that produced the velocities (mean of the two position steps) [s].
+  subroutine contact_correct(dt, dt_v)
+    real(wp), intent(in) :: dt, dt_v
+    integer :: pass, j, a, i, n_pairs
+    type(contact_pair_t) :: pair
+    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
+      ct%n_active = 0
+      if (.not. ct%enabled .or. ct%n_seg == 0) return
+      call keep_start_velocities()
+      call build_buckets(dt)
+      do pass = 1, ct%n_passes
+        n_pairs = 0
+        ! slide lines: surface nodes on the other continua's segments
+        do j = 1, ct%n_snode
+          a = ct%snode(j)
+          call find_contact(node_predicted(a, dt), 0.0_wp, ct%snode_cont(j), .false., a, dt, pair)
+          if (.not. pair%found) cycle
+          call apply_pair(pair, dt, slave_node, a)
+          n_pairs = n_pairs + 1
+        end do
+        ! particles on segments: other continua with thickness r_p; their
+        ! own continuum's surface (untied particles) with zero thickness
+        do i = 1, pt%n
+          call find_contact(particle_predicted(i, dt), pt%radius(i), pt%continuum(i), &
+                            ct%own_particles .and. pt%tie_a(i) == 0, 0, dt, pair)
+          if (.not. pair%found) cycle
+          call apply_pair(pair, dt, slave_particle, i)
+          n_pairs = n_pairs + 1
+        end do
+        if (pass == 1) ct%n_active = n_pairs
+        if (n_pairs == 0) exit
+      end do
+      ct%dissipated = ct%dissipated - impulse_work(dt_v)
+    end associate
+  end subroutine contact_correct
+
+  !> Velocities of nodes and free particles before the corrections.
+  subroutine keep_start_velocities()
+    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
+      if (allocated(ct%v_node0)) then
+        if (size(ct%v_node0, 2) < nd%n) deallocate (ct%v_node0)
+      end if
+      if (.not. allocated(ct%v_node0)) allocate (ct%v_node0(2, max(nd%n, 1)))
+      if (allocated(ct%v_part0)) then
+        if (size(ct%v_part0, 2) < pt%n) deallocate (ct%v_part0)
+      end if
+      if (.not. allocated(ct%v_part0)) allocate (ct%v_part0(2, max(pt%n, 1)))
+      if (nd%n > 0) ct%v_node0(:, 1:nd%n) = nd%v(:, 1:nd%n)
+      if (pt%n > 0) ct%v_part0(:, 1:pt%n) = pt%v(:, 1:pt%n)
+    end associate
+  end subroutine keep_start_velocities
+
+  !> Work of this cycle's contact impulses J = m dv [J], charged at the
+  !> mean of the velocities before and after the whole kick (the measure
+  !> under which the central difference balances kinetic energy against
+  !> the work of the forces): surfaces that stay together do no work, an
+  !> inelastic closing of a gap removes kinetic energy.
+  real(wp) function impulse_work(dt_v) result(work)
+    real(wp), intent(in) :: dt_v
+    real(wp) :: dv(2), v_before(2)
+    integer :: a, i
+    work = 0.0_wp
+    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
+      do a = 1, nd%n
+        dv = nd%v(:, a) - ct%v_node0(:, a)
+        if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
+        v_before = ct%v_node0(:, a) - (dt_v/nd%mass_total(a))*nd%f(:, a)
+        work = work + nd%mass_total(a)*dot_product(dv, 0.5_wp*(v_before + nd%v(:, a)))
+      end do
+      do i = 1, pt%n
+        if (pt%tie_a(i) > 0) cycle
+        dv = pt%v(:, i) - ct%v_part0(:, i)
+        if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
+        v_before = ct%v_part0(:, i) - dt_v*pt%acc(:, i)
+        work = work + pt%mass(i)*dot_product(dv, 0.5_wp*(v_before + pt%v(:, i)))
+      end do
+    end associate
+  end function impulse_work
+
+  !> Apply the correction of one pair to the slave (node or particle; a
+  !> tied particle through its edge nodes) and its master nodes.
+  subroutine apply_pair(pair, dt, kind, is)
+    type(contact_pair_t), intent(in) :: pair
+    real(wp), intent(in) :: dt
+    integer, intent(in) :: kind, is
+    real(wp) :: m_s, m_1, m_2, dv_s, dv_1, dv_2, v_s(2), v_m(2), t(2), w_s(2), p_t, p_max, inv_m
+    integer :: ta, tb
+    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
+      ta = 0
+      tb = 0
+      w_s = [1.0_wp, 0.0_wp]
+      if (kind == slave_node) then
+        m_s = nd%mass_total(is)
+      else if (pt%tie_a(is) > 0) then
+        ta = pt%tie_a(is)
+        tb = pt%tie_b(is)
+        w_s = [1.0_wp - pt%tie_xi(is), pt%tie_xi(is)]
+        m_s = 1.0_wp/(w_s(1)**2/nd%mass_total(ta) + w_s(2)**2/nd%mass_total(tb))
+      else
+        m_s = pt%mass(is)
+      end if
+      m_1 = nd%mass_total(pair%master(1))
+      m_2 = 1.0_wp
+      if (pair%master(2) > 0) m_2 = nd%mass_total(pair%master(2))
+      call pair_correction(pair%delta, dt, m_s, m_1, m_2, pair%weight(1), pair%weight(2), &
+                           dv_s, dv_1, dv_2)
+      call kick_slave(kind, is, ta, tb, w_s, m_s, dv_s*pair%normal)
+      nd%v(:, pair%master(1)) = nd%v(:, pair%master(1)) + dv_1*pair%normal
+      if (pair%master(2) > 0) nd%v(:, pair%master(2)) = nd%v(:, pair%master(2)) + dv_2*pair%normal
+
+      if (ct%friction <= 0.0_wp) return
+      ! Coulomb friction: the tangential impulse that stops the relative
+      ! sliding, capped by mu times the normal impulse of this correction
+      t = [-pair%normal(2), pair%normal(1)]
+      v_s = slave_velocity(kind, is, ta, tb, w_s)
+      v_m = pair%weight(1)*nd%v(:, pair%master(1))
+      if (pair%master(2) > 0) v_m = v_m + pair%weight(2)*nd%v(:, pair%master(2))
+      inv_m = 1.0_wp/m_s + pair%weight(1)**2/m_1
+      if (pair%master(2) > 0) inv_m = inv_m + pair%weight(2)**2/m_2
+      p_t = dot_product(v_s - v_m, t)/inv_m
+      p_max = ct%friction*m_s*abs(dv_s)
+      p_t = sign(min(abs(p_t), p_max), p_t)
+      call kick_slave(kind, is, ta, tb, w_s, m_s, -(p_t/m_s)*t)
+      nd%v(:, pair%master(1)) = nd%v(:, pair%master(1)) + (pair%weight(1)*p_t/m_1)*t
+      if (pair%master(2) > 0) nd%v(:, pair%master(2)) = nd%v(:, pair%master(2)) + &
+                                                     (pair%weight(2)*p_t/m_2)*t
+    end associate
+  end subroutine apply_pair
+
+  !> Velocity change dv of a slave of effective mass m_s: a node or free
+  !> particle directly; a tied particle as the impulse m_s dv shared by its
+  !> edge nodes with weights w_s.
+  subroutine kick_slave(kind, is, ta, tb, w_s, m_s, dv)
+    integer, intent(in) :: kind, is, ta, tb
+    real(wp), intent(in) :: w_s(2), m_s, dv(2)
+    associate (nd => sim%nodes, pt => sim%particles)
+      if (kind == slave_node) then
+        nd%v(:, is) = nd%v(:, is) + dv
+      else if (ta > 0) then
+        nd%v(:, ta) = nd%v(:, ta) + (w_s(1)*m_s/nd%mass_total(ta))*dv
+        nd%v(:, tb) = nd%v(:, tb) + (w_s(2)*m_s/nd%mass_total(tb))*dv
+      else
+        pt%v(:, is) = pt%v(:, is) + dv
+      end if
+    end associate
+  end subroutine kick_slave
+
+  function slave_velocity(kind, is, ta, tb, w_s) result(v)
+    integer, intent(in) :: kind, is, ta, tb
+    real(wp), intent(in) :: w_s(2)
+    real(wp) :: v(2)
+    if (kind == slave_node) then
+      v = sim%nodes%v(:, is)
+    else if (ta > 0) then
+      v = w_s(1)*sim%nodes%v(:, ta) + w_s(2)*sim%nodes%v(:, tb)
+    else
+      v = sim%particles%v(:, is)
+    end if
+  end function slave_velocity
+
+  !> Deepest interpenetration at the current positions: the largest
+  !> penetration [m] of a surface node or particle (with the thickness the
+  !> contact uses), and the same relative to the length of the segment
+  !> penetrated [-] (the local element size).
+  subroutine contact_penetration(depth, relative)
+    real(wp), intent(out) :: depth, relative
+    integer :: j, i
+    type(contact_pair_t) :: pair
+    depth = 0.0_wp
+    relative = 0.0_wp
+    associate (ct => sim%contact, pt => sim%particles)
+      if (.not. ct%enabled .or. ct%n_seg == 0) return
+      call build_buckets(0.0_wp)
+      do j = 1, ct%n_snode
+        call find_contact(sim%nodes%x(:, ct%snode(j)), 0.0_wp, ct%snode_cont(j), .false., &
+                          ct%snode(j), 0.0_wp, pair)
+        if (pair%found) call keep_deepest(pair)
+      end do
+      do i = 1, pt%n
+        call find_contact(pt%x(:, i), pt%radius(i), pt%continuum(i), &
+                          ct%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair)
+        if (pair%found) call keep_deepest(pair)
+      end do
+    end associate
+  contains
+    subroutine keep_deepest(found)
+      type(contact_pair_t), intent(in) :: found
+      depth = max(depth, found%delta)
+      relative = max(relative, found%delta/found%length)
+    end subroutine keep_deepest
+  end subroutine contact_penetration
+
+end module fsph_contact
