@@ -82,7 +82,8 @@ contains
   end subroutine pair_correction
 
   !> Surface segments and nodes of the element region, from the current
-  !> mesh (after set-up, a conversion or a restart).
+  !> mesh (after set-up, a conversion or a restart); built with contact off
+  !> too, so penetration can still be measured.
   subroutine contact_rebuild_surface()
     integer :: ie, k, a, b, n_seg
     logical, allocatable :: on_surface(:)
@@ -90,7 +91,7 @@ contains
     associate (ct => sim%contact, el => sim%elements, nd => sim%nodes)
       ct%n_seg = 0
       ct%n_snode = 0
-      if (.not. ct%enabled .or. el%n == 0) return
+      if (el%n == 0) return
       if (allocated(ct%seg)) deallocate (ct%seg, ct%seg_cont)
       allocate (ct%seg(2, 3*el%n), ct%seg_cont(3*el%n), on_surface(nd%n), cont_of_node(nd%n))
       on_surface = .false.
@@ -443,7 +444,7 @@ contains
     depth = 0.0_wp
     relative = 0.0_wp
     associate (ct => sim%contact, pt => sim%particles)
-      if (.not. ct%enabled .or. ct%n_seg == 0) return
+      if (ct%n_seg == 0) return
       call build_buckets(0.0_wp)
       do j = 1, ct%n_snode
         call find_contact(sim%nodes%x(:, ct%snode(j)), 0.0_wp, ct%snode_cont(j), .false., &
