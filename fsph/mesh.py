@@ -240,6 +240,252 @@ def mapped_lattice(X, Z):
                            area=np.abs(area).ravel())
 
 
+def _graded_unit(n, ratio):
+    """n + 1 points from 0 to 1 whose cell widths grow geometrically so the
+    last cell is `ratio` times the first (uniform for ratio = 1)."""
+    if ratio <= 0.0:
+        raise ValueError(f"grading ratio must be positive, got {ratio}")
+    if n == 1 or ratio == 1.0:
+        return np.linspace(0.0, 1.0, n + 1)
+    w = ratio ** (np.arange(n) / (n - 1))
+    s = np.concatenate([[0.0], np.cumsum(w)])
+    s /= s[-1]
+    s[-1] = 1.0
+    return s
+
+
+@dataclass
+class OgiveProfile:
+    """Outline of a tangent-ogive-nose rod, truncated at a flat tip (meplat).
+
+    Derivation. The nose of caliber-radius-head crh = psi is an arc of a
+    circle of radius S = psi D (the ogive radius) whose centre lies in the
+    plane of the nose/shank junction at r = R0 - S (R0 = D/2; the centre is
+    on the far side of the axis for psi > 1/2), so the arc meets the shank
+    with a common tangent. With x the axial distance from the junction
+    towards the tip, the outer radius is
+
+        R(x) = R0 - S + sqrt(S^2 - x^2),
+
+    and the ideal (sharp) tip, R = 0, is at x = l_n with
+    S^2 - l_n^2 = (S - R0)^2, i.e. the nose length
+
+        l_n = sqrt(S^2 - (S - R0)^2) = sqrt(2 S R0 - R0^2) = R0 sqrt(4 psi - 1).
+
+    (psi = 1/2 is the hemispherical nose, l_n = R0.) The tip is cut by a
+    flat of radius r_m (meplat_radius), at x_m = sqrt(S^2 - (r_m + S - R0)^2);
+    the length cut off is meplat_height = l_n - x_m.
+
+    With a = R0 - S, the volume of the nose from the junction to x is
+    pi F(x), F(x) = (S^2 + a^2) x - x^3/3 + a (x sqrt(S^2 - x^2) + S^2 asin(x/S)),
+    so the ideal nose holds pi (S^2 l_n - l_n^3/3 + a S^2 asin(l_n/S)) (using
+    sqrt(S^2 - l_n^2) = -a) and the meplat removes pi (F(l_n) - F(x_m)).
+
+    Attributes are in metres: radius R0, ogive_radius S, nose_length l_n,
+    length (of the ideal, untruncated body: nose + shank), shank_length,
+    meplat_radius r_m, meplat_height.
+    """
+
+    radius: float
+    ogive_radius: float
+    nose_length: float
+    length: float
+    meplat_radius: float
+
+    @property
+    def shank_length(self):
+        return self.length - self.nose_length
+
+    @property
+    def _a(self):
+        return self.radius - self.ogive_radius
+
+    @property
+    def meplat_x(self):
+        """Distance of the flat from the junction, x_m [m]."""
+        return float(np.sqrt(max(self.ogive_radius ** 2 - (self.meplat_radius - self._a) ** 2,
+                                 0.0)))
+
+    @property
+    def meplat_height(self):
+        """Length of the ideal tip removed by the flat, l_n - x_m [m]."""
+        return self.nose_length - self.meplat_x
+
+    @property
+    def body_length(self):
+        """Length of the truncated body, flat to base [m]."""
+        return self.length - self.meplat_height
+
+    def radius_at(self, zeta):
+        """Outer radius R [m] at axial distance zeta [m] from the flat
+        (0 <= zeta <= body_length): the ogive, then the shank."""
+        zeta = np.asarray(zeta, dtype=float)
+        x = np.clip(self.meplat_x - zeta, 0.0, None)
+        return self._a + np.sqrt(self.ogive_radius ** 2 - x * x)
+
+    def _nose_volume(self, x):
+        S, a = self.ogive_radius, self._a
+        return np.pi * ((S * S + a * a) * x - x ** 3 / 3.0
+                        + a * (x * np.sqrt(max(S * S - x * x, 0.0)) + S * S * np.arcsin(x / S)))
+
+    @property
+    def ideal_volume(self):
+        """Volume of the untruncated body [m^3]."""
+        return float(np.pi * self.radius ** 2 * self.shank_length
+                     + self._nose_volume(self.nose_length))
+
+    @property
+    def meplat_volume(self):
+        """Volume of the tip removed by the flat [m^3]."""
+        return float(self._nose_volume(self.nose_length) - self._nose_volume(self.meplat_x))
+
+    @property
+    def volume(self):
+        """Volume of the truncated body [m^3] (ideal_volume - meplat_volume)."""
+        return float(np.pi * self.radius ** 2 * self.shank_length
+                     + self._nose_volume(self.meplat_x))
+
+    def _nose_measure(self, zeta):
+        """Cumulative integral of dzeta / R(zeta) over the nose, sampled at
+        zeta (sorted, from 0), by trapezoids on a fine graded sampling."""
+        xm = self.meplat_x
+        fine = np.unique(np.concatenate([
+            np.linspace(0.0, xm, 4001),
+            xm * np.geomspace(1e-7, 1.0, 4001),
+            np.asarray(zeta, dtype=float)]))
+        g = 1.0 / self.radius_at(fine)
+        cum = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(fine))])
+        return fine, cum
+
+    def nose_cells(self, n_radial):
+        """Smallest number of axial nose cells for which the cells, spaced
+        as in ogive_projectile, are nowhere taller than the mean radial cell
+        width R(zeta)/n_radial of their station: ceil(n_radial * integral of
+        dzeta/R over the nose)."""
+        _, cum = self._nose_measure([0.0])
+        return max(1, int(np.ceil(n_radial * cum[-1] - 1e-9)))
+
+    def nose_stations(self, n_axial_nose):
+        """Axial positions zeta [m] (from the flat) of the n_axial_nose + 1
+        nose stations: equal steps of the integral of dzeta / R(zeta), so the
+        axial spacing is proportional to the local radius (geometric near
+        the tip) and every nose cell has the same height-to-width ratio."""
+        fine, cum = self._nose_measure([0.0])
+        target = np.linspace(0.0, cum[-1], n_axial_nose + 1)
+        zeta = np.interp(target, cum, fine)
+        zeta[0], zeta[-1] = 0.0, self.meplat_x
+        return zeta
+
+
+def ogive_profile(diameter, length, crh, meplat_radius):
+    """OgiveProfile of a tangent-ogive-nose rod (see its docstring for the
+    geometry). diameter D, length (ideal tip to base) [m], crh = psi >= 1/2
+    (ogive radius psi D), 0 < meplat_radius < D/2 [m]. Raises ValueError
+    when the rod is shorter than its nose."""
+    if diameter <= 0.0:
+        raise ValueError(f"ogive diameter must be positive, got {diameter}")
+    if crh < 0.5:
+        raise ValueError(f"crh must be >= 0.5 (0.5 is a hemispherical nose), got {crh}")
+    r0 = 0.5 * diameter
+    s = crh * diameter
+    nose = float(np.sqrt(s * s - (s - r0) ** 2))
+    if length < nose * (1.0 - 1e-12):
+        raise ValueError(f"ogive length {length} m is shorter than its nose "
+                         f"({nose} m for D = {diameter} m, crh = {crh})")
+    if not 0.0 < meplat_radius < r0:
+        raise ValueError(f"meplat radius must lie in (0, D/2 = {r0}) m, got {meplat_radius}")
+    return OgiveProfile(radius=r0, ogive_radius=s, nose_length=nose,
+                        length=max(float(length), nose), meplat_radius=float(meplat_radius))
+
+
+def _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose, z_tip,
+                meplat_fraction, nose_down, radial_grading, meplat_radius):
+    if n_radial < 1:
+        raise ValueError(f"n_radial must be >= 1, got {n_radial}")
+    if meplat_radius is None:
+        meplat_radius = meplat_fraction * 0.5 * diameter / n_radial
+    prof = ogive_profile(diameter, length, crh, meplat_radius)
+    if n_axial_nose is None:
+        n_axial_nose = prof.nose_cells(n_radial)
+    if n_axial_nose < 1:
+        raise ValueError(f"n_axial_nose must be >= 1, got {n_axial_nose}")
+    shank = prof.shank_length
+    if shank > 1e-12 * diameter and n_axial_shank < 1:
+        raise ValueError(f"n_axial_shank must be >= 1 for a shank of {shank} m")
+    if shank <= 1e-12 * diameter:
+        n_axial_shank = 0
+    zeta = np.concatenate([
+        prof.nose_stations(n_axial_nose),
+        prof.meplat_x + np.linspace(0.0, shank, n_axial_shank + 1)[1:]])
+    outer = prof.radius_at(zeta)
+    outer[n_axial_nose:] = prof.radius           # the shank, exactly
+    s = _graded_unit(n_radial, radial_grading)
+    X = outer[:, None] * s[None, :]
+    Z = np.broadcast_to(zeta[:, None], X.shape).copy()
+    if nose_down:
+        Z = z_tip + Z
+    else:                                         # mirrored: tip up, rows still upwards
+        X, Z = X[::-1].copy(), (z_tip - Z)[::-1].copy()
+    return X, Z, prof
+
+
+def ogive_projectile(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                     z_tip=0.0, meplat_fraction=0.5, nose_down=True, radial_grading=1.0,
+                     meplat_radius=None):
+    """Crossed-triangle mesh of a tangent-ogive-nose rod on the axis r = 0.
+
+    diameter D [m]; length [m]: the ideal body, sharp tip to base (nose +
+    shank); crh: caliber radius head psi, ogive radius S = psi D, nose length
+    l_n = (D/2) sqrt(4 psi - 1) (derived in OgiveProfile); the shank,
+    length - l_n, must be >= 0.
+
+    Structured grid of n_radial cells across and n_axial_nose +
+    n_axial_shank along, each cell crossed into four triangles
+    (crossed_mapped): 4 n_radial (n_axial_nose + n_axial_shank) triangles
+    and (n_radial + 1)(n_stations) + cells nodes. At each axial station the
+    nodes run from r = 0 to the local outer radius R(z), uniformly or,
+    with radial_grading = g, with cell widths growing geometrically outwards
+    so the outermost cell is g times the innermost.
+
+    The sharp tip is cut by a flat (meplat) so that no element degenerates:
+    its radius is meplat_radius or, by default, meplat_fraction times the
+    mean shank radial spacing, (D/2)/n_radial (half of it by default), so
+    the first station is about half a shank cell wide. The flat is the
+    lowest point of the body and lies at z = z_tip with nose_down (the body
+    occupies z_tip <= z <= z_tip + length - meplat_height); with nose_down
+    False the body is mirrored (flat at z = z_tip pointing up, body below).
+    The cut removes OgiveProfile.meplat_volume, a few 1e-6 of the body for
+    the default flat.
+
+    Axial spacing: the shank is uniform; the nose stations are spaced in
+    proportion to the local radius (equal steps of the integral of dz/R), so
+    every nose cell has the same height-to-width ratio and the cells get
+    finer towards the tip; n_axial_nose = None picks the smallest count for
+    which no nose cell is taller than its mean radial width
+    (OgiveProfile.nose_cells). Shank cells are square for n_axial_shank ~
+    n_radial * shank_length / (D/2).
+
+    Boundary nodes lie on the exact profile; the outline between them is
+    straight, so the mesh volume falls short of the truncated body by the
+    chord error, O(R'' dz^3) per nose segment.
+    """
+    X, Z, _ = _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                          z_tip, meplat_fraction, nose_down, radial_grading, meplat_radius)
+    return crossed_mapped(X, Z)
+
+
+def ogive_projectile_particles(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                               z_tip=0.0, meplat_fraction=0.5, nose_down=True,
+                               radial_grading=1.0, meplat_radius=None):
+    """The ogive_projectile grid (same arguments and layout) as particles:
+    one per cell at its area centroid with its planar area
+    (ParticleLattice, mapped_lattice), for pure-SPH bodies; the ring
+    volumes 2 pi r area sum to the volume of the meshed outline."""
+    X, Z, _ = _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                          z_tip, meplat_fraction, nose_down, radial_grading, meplat_radius)
+    return mapped_lattice(X, Z)
+
+
 GENERATORS = {
     ("rod", "elements"): lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
                                        b["z_base"], b["inner_radius"]),

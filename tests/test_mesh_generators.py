@@ -112,3 +112,174 @@ def test_mesh_quality_of_a_square_grid():
     assert q["min_edge"] == pytest.approx(0.25e-3 / np.sqrt(2.0), rel=1e-12)
     assert q["min_altitude"] == pytest.approx(0.125e-3, rel=1e-12)
     assert q["volume"] == pytest.approx(np.pi * 1e-6 * 2e-3, rel=1e-13)
+
+
+# -- ogive-nose projectile --------------------------------------------------
+
+D, L, CRH = 12.9e-3, 88.9e-3, 3.0          # the validation projectile
+
+
+def ogive_radius(x, diameter=D, crh=CRH):
+    """Tangent-ogive outer radius at distance x from the nose/shank
+    junction towards the tip (arc of radius S = crh D centred at r = R0 - S
+    in the junction plane)."""
+    r0, s = 0.5 * diameter, crh * diameter
+    return r0 - s + np.sqrt(s * s - np.asarray(x, dtype=float) ** 2)
+
+
+def gauss_volume(f, a, b, n=200, pieces=50):
+    """pi * integral of f(x)^2 over [a, b] by composite Gauss-Legendre."""
+    t, w = np.polynomial.legendre.leggauss(n)
+    edges = np.linspace(a, b, pieces + 1)
+    total = 0.0
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        x = 0.5 * (hi - lo) * t + 0.5 * (hi + lo)
+        total += 0.5 * (hi - lo) * np.sum(w * f(x) ** 2)
+    return np.pi * total
+
+
+def outline(m, z_tip):
+    """Outer profile of a nose-down ogive mesh: the boundary corner nodes
+    with r > 0 that are on neither the flat nor the base."""
+    nodes = np.unique(mesh.boundary_edges(m.conn))
+    r, z = m.x[nodes, 0], m.x[nodes, 1]
+    keep = (r > 0.0) & (z > z_tip) & (z < z.max())
+    order = np.argsort(z[keep])
+    return r[keep][order], z[keep][order]
+
+
+def test_ogive_nose_length_and_counts():
+    r0, s = 0.5 * D, CRH * D
+    nose = np.sqrt(s * s - (s - r0) ** 2)
+    assert nose == pytest.approx(r0 * np.sqrt(4.0 * CRH - 1.0), rel=1e-14)
+    assert ogive_radius(nose) == pytest.approx(0.0, abs=1e-15)
+    prof = mesh.ogive_profile(D, L, CRH, 0.4e-3)
+    assert prof.nose_length == pytest.approx(nose, rel=1e-14)
+    assert prof.shank_length == pytest.approx(L - nose, rel=1e-14)
+    m = mesh.ogive_projectile(D, L, CRH, 6, 40, 20)
+    assert m.n_elements == 4 * 6 * 60
+    assert m.n_nodes == 7 * 61 + 6 * 60
+    assert_valid(m)
+
+
+@pytest.mark.parametrize("n_radial, n_shank, n_nose", [(4, 20, 12), (8, 84, None), (6, 30, 25)])
+def test_ogive_volume_matches_analytic(n_radial, n_shank, n_nose):
+    m = mesh.ogive_projectile(D, L, CRH, n_radial, n_shank, n_nose, z_tip=1e-3)
+    assert_valid(m)
+    r0, s = 0.5 * D, CRH * D
+    nose = np.sqrt(s * s - (s - r0) ** 2)
+    r_m = 0.5 * r0 / n_radial                              # the default flat
+    x_m = np.sqrt(s * s - (r_m + s - r0) ** 2)
+    # analytic ideal body: cylinder + tangent-ogive solid, against quadrature
+    a = r0 - s
+    v_ogive = np.pi * (s * s * nose - nose ** 3 / 3.0 + a * s * s * np.arcsin(nose / s))
+    assert gauss_volume(ogive_radius, 0.0, nose) == pytest.approx(v_ogive, rel=1e-12)
+    v_ideal = np.pi * r0 ** 2 * (L - nose) + v_ogive
+    v_cap = gauss_volume(ogive_radius, x_m, nose)            # removed by the flat
+    assert 0.0 < v_cap < np.pi * r_m ** 2 * (nose - x_m)     # inside its cylinder
+    v_exact = v_ideal - v_cap
+    prof = mesh.ogive_profile(D, L, CRH, r_m)
+    assert prof.volume == pytest.approx(v_exact, rel=1e-12)
+    assert prof.meplat_volume == pytest.approx(v_cap, rel=1e-9)
+
+    # the mesh is the stack of frustums through its outline, exactly
+    r, z = outline(m, 1e-3)
+    zs = np.concatenate([[1e-3], z, [m.x[:, 1].max()]])
+    rs = np.concatenate([[r_m], r, [r0]])
+    assert rs[0] == pytest.approx(m.x[m.x[:, 1] == 1e-3, 0].max(), rel=1e-14)
+    dz = np.diff(zs)
+    frustums = np.pi / 3.0 * np.sum(dz * (rs[:-1] ** 2 + rs[:-1] * rs[1:] + rs[1:] ** 2))
+    v_mesh = mesh.ring_volume(m)
+    assert v_mesh == pytest.approx(frustums, rel=1e-12)
+    # ... short of the body by the chord error only: the profile is concave,
+    # so chords lie inside, and each segment loses at most
+    # 2 pi R_max max|R''| dz^3 / 12 with |R''| = S^2 / (S^2 - x^2)^(3/2),
+    # largest at the tip end of the segment
+    x_lo = np.clip(x_m - (zs[:-1] - 1e-3), 0.0, None)          # tip end of each segment
+    curv = s * s / (s * s - x_lo ** 2) ** 1.5
+    bound = np.sum(2.0 * np.pi * rs[1:] * curv * dz ** 3 / 12.0)
+    deficit = v_exact - v_mesh
+    assert 0.0 <= deficit <= bound
+    assert deficit / v_exact < 1e-3
+
+
+def test_ogive_boundary_on_profile_and_flat():
+    n_radial, z_tip = 8, -2e-3
+    m = mesh.ogive_projectile(D, L, CRH, n_radial, 84, None, z_tip=z_tip)
+    prof = mesh.ogive_profile(D, L, CRH, 0.5 * 0.5 * D / n_radial)
+    r, z = outline(m, z_tip)
+    x = prof.meplat_x - (z - z_tip)                            # distance from the junction
+    expect = np.where(x > 0.0, ogive_radius(np.clip(x, 0.0, None)), 0.5 * D)
+    assert np.allclose(r, expect, rtol=0.0, atol=1e-12 * D)
+    # one outline node per station strictly inside the nose
+    assert np.sum(x > 0.0) == prof.nose_cells(n_radial) - 1
+    # the flat: the lowest point, at z_tip, of radius r_m = half a shank cell
+    assert m.x[:, 1].min() == z_tip
+    flat = m.x[m.x[:, 1] == z_tip]
+    assert flat[:, 0].max() == pytest.approx(0.25 * D / n_radial, rel=1e-14)
+    assert len(flat) == n_radial + 1
+    assert m.x[:, 1].max() == pytest.approx(z_tip + L - prof.meplat_height, rel=1e-14)
+    assert m.x[:, 0].min() == 0.0
+    assert m.x[:, 0].max() == pytest.approx(0.5 * D, rel=1e-15)
+
+
+def test_ogive_aspect_ratio_bounded():
+    # shank cells square, nose count automatic: every cell near square
+    for n_radial in (4, 8):
+        prof = mesh.ogive_profile(D, L, CRH, 0.25 * D / n_radial)
+        n_shank = round(n_radial * prof.shank_length / (0.5 * D))
+        q = mesh.mesh_quality(mesh.ogive_projectile(D, L, CRH, n_radial, n_shank, None))
+        assert q["max_aspect"] < 3.0
+        # the smallest cells are at the flat: r_m / n_radial wide
+        assert q["min_altitude"] > 0.3 * prof.meplat_radius / n_radial
+    # half the nose cells: twice as tall, the aspect ratio about doubles
+    prof = mesh.ogive_profile(D, L, CRH, 0.25 * D / 8)
+    q = mesh.mesh_quality(mesh.ogive_projectile(D, L, CRH, 8, 84, prof.nose_cells(8) // 2))
+    assert q["max_aspect"] < 6.0
+
+
+def test_ogive_nose_stations_graded_towards_tip():
+    prof = mesh.ogive_profile(D, L, CRH, 0.4e-3)
+    zeta = prof.nose_stations(30)
+    dz = np.diff(zeta)
+    assert np.all(dz > 0.0) and np.all(np.diff(dz) > -1e-15)   # growing away from the tip
+    # equal height-to-width ratio: dz / R at mid-cell nearly constant
+    ratio = dz / prof.radius_at(0.5 * (zeta[1:] + zeta[:-1]))
+    assert ratio.max() / ratio.min() < 1.05
+
+
+def test_ogive_nose_up_radial_grading_and_particles():
+    z_tip = 0.1
+    up = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, z_tip=z_tip, nose_down=False)
+    down = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, z_tip=z_tip)
+    assert_valid(up)
+    assert up.x[:, 1].max() == z_tip
+    assert mesh.ring_volume(up) == pytest.approx(mesh.ring_volume(down), rel=1e-12)
+    assert np.allclose(np.sort(up.x[:, 1]), np.sort(2.0 * z_tip - down.x[:, 1]), atol=1e-15)
+
+    graded = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, radial_grading=3.0)
+    assert_valid(graded)
+    base = graded.x[np.isclose(graded.x[:, 1], graded.x[:, 1].max(), atol=1e-15)]
+    w = np.diff(np.unique(base[:, 0]))
+    assert w[-1] / w[0] == pytest.approx(3.0, rel=1e-12)
+    assert mesh.ring_volume(graded) == pytest.approx(mesh.ring_volume(down), rel=1e-12)
+
+    parts = mesh.ogive_projectile_particles(D, L, CRH, 6, 30, 20, z_tip=z_tip)
+    assert parts.n_particles == 6 * 50
+    assert np.all(parts.area > 0.0)
+    assert parts.ring_volume.sum() == pytest.approx(mesh.ring_volume(down), rel=1e-12)
+    assert np.all(parts.x[:, 0] > 0.0) and parts.x[:, 1].min() > z_tip
+
+
+def test_ogive_rejects_bad_geometry():
+    with pytest.raises(ValueError, match="shorter than its nose"):
+        mesh.ogive_projectile(D, 10e-3, CRH, 4, 5, 5)
+    with pytest.raises(ValueError, match="crh"):
+        mesh.ogive_projectile(D, L, 0.3, 4, 5, 5)
+    with pytest.raises(ValueError, match="meplat"):
+        mesh.ogive_projectile(D, L, CRH, 4, 5, 5, meplat_radius=D)
+    # a pure nose (no shank) needs no shank cells
+    prof = mesh.ogive_profile(D, L, CRH, 1e-4)
+    m = mesh.ogive_projectile(D, prof.nose_length, CRH, 4, 0, 10)
+    assert m.n_elements == 4 * 4 * 10
+    assert_valid(m)
