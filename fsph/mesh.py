@@ -486,6 +486,103 @@ def ogive_projectile_particles(diameter, length, crh, n_radial, n_axial_shank, n
     return mapped_lattice(X, Z)
 
 
+def geometric_ratio(first, total, n):
+    """Growth ratio q > 0 of n cells whose widths first, first q, ...,
+    first q^(n-1) add up to total: the root of
+    first (1 + q + ... + q^(n-1)) = total, found by bisection (the sum grows
+    monotonically with q) to round-off. q > 1 when total > n first, q < 1
+    when total < n first. Raises ValueError when no such ratio exists
+    (total < first, or n = 1 and total != first)."""
+    first, total = float(first), float(total)
+    if n < 1 or first <= 0.0 or total <= 0.0:
+        raise ValueError(f"geometric_ratio needs n >= 1 and positive widths, got first = "
+                         f"{first}, total = {total}, n = {n}")
+    target = total / first
+    if n == 1:
+        if abs(target - 1.0) > 1e-12:
+            raise ValueError(f"a single cell of width {total} cannot start with width {first}")
+        return 1.0
+    if target < 1.0:
+        raise ValueError(f"{n} cells starting at width {first} cannot fit in {total}")
+    k = np.arange(n)
+
+    def excess(q):
+        return np.sum(q ** k) - target
+
+    lo, hi = 0.0, max(1.0, target ** (1.0 / (n - 1)))
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if excess(mid) > 0.0:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= 4e-16 * hi:
+            break
+    return 0.5 * (lo + hi)
+
+
+def plate_growth_ratio(radius, r_fine, n_fine, n_coarse):
+    """Growth ratio of the coarse radial cells of plate(): n_coarse cells
+    from r_fine to radius, the first as wide as the fine cells,
+    r_fine / n_fine (1.0 when there is no coarse zone)."""
+    if n_coarse == 0:
+        return 1.0
+    return geometric_ratio(r_fine / n_fine, radius - r_fine, n_coarse)
+
+
+def plate_r_edges(radius, r_fine, n_fine, n_coarse):
+    """Radial cell edges of plate(): n_fine uniform cells over [0, r_fine],
+    then n_coarse cells growing geometrically (plate_growth_ratio) out to
+    radius, the first of them as wide as a fine cell. The last edge is
+    radius exactly."""
+    if not 0.0 < r_fine <= radius:
+        raise ValueError(f"plate needs 0 < r_fine <= radius, got r_fine = {r_fine}, "
+                         f"radius = {radius}")
+    if n_fine < 1 or n_coarse < 0:
+        raise ValueError(f"plate needs n_fine >= 1 and n_coarse >= 0, got {n_fine}, {n_coarse}")
+    fine = np.linspace(0.0, r_fine, n_fine + 1)
+    if r_fine >= radius * (1.0 - 1e-12):
+        if n_coarse:
+            raise ValueError(f"r_fine = radius = {radius}: no room for {n_coarse} coarse cells")
+        fine[-1] = radius
+        return fine
+    if n_coarse == 0:
+        raise ValueError(f"the plate beyond r_fine = {r_fine} (out to {radius}) needs "
+                         "n_coarse >= 1")
+    q = plate_growth_ratio(radius, r_fine, n_fine, n_coarse)
+    widths = (r_fine / n_fine) * q ** np.arange(n_coarse)
+    coarse = r_fine + np.cumsum(widths)
+    coarse[-1] = radius
+    return np.concatenate([fine, coarse])
+
+
+def plate(radius, thickness, n_thickness, r_fine, n_fine, n_coarse, z_top=0.0):
+    """Crossed-triangle mesh of a disc (target plate) 0 <= r <= radius,
+    z_top - thickness <= z <= z_top [m].
+
+    Radially: n_fine uniform cells of width r_fine / n_fine out to r_fine
+    (the impact zone), then n_coarse cells growing geometrically to radius,
+    the first as wide as a fine cell (ratio: plate_growth_ratio; edges:
+    plate_r_edges). Through the thickness: n_thickness uniform cells.
+    4 (n_fine + n_coarse) n_thickness triangles, nodes and elements laid
+    out as crossed_quads (rows of constant z from the bottom face up)."""
+    if thickness <= 0.0 or n_thickness < 1:
+        raise ValueError(f"plate needs thickness > 0 and n_thickness >= 1, got {thickness}, "
+                         f"{n_thickness}")
+    return crossed_quads(plate_r_edges(radius, r_fine, n_fine, n_coarse),
+                         np.linspace(z_top - thickness, z_top, n_thickness + 1))
+
+
+def plate_particles(radius, thickness, n_thickness, r_fine, n_fine, n_coarse, z_top=0.0):
+    """The plate() cells as particles (ParticleLattice, one per cell at its
+    centre with its planar area), for pure-SPH targets."""
+    if thickness <= 0.0 or n_thickness < 1:
+        raise ValueError(f"plate needs thickness > 0 and n_thickness >= 1, got {thickness}, "
+                         f"{n_thickness}")
+    return lattice(plate_r_edges(radius, r_fine, n_fine, n_coarse),
+                   np.linspace(z_top - thickness, z_top, n_thickness + 1))
+
+
 GENERATORS = {
     ("rod", "elements"): lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
                                        b["z_base"], b["inner_radius"]),

@@ -283,3 +283,59 @@ def test_ogive_rejects_bad_geometry():
     m = mesh.ogive_projectile(D, prof.nose_length, CRH, 4, 0, 10)
     assert m.n_elements == 4 * 4 * 10
     assert_valid(m)
+
+
+# -- graded plate -----------------------------------------------------------
+
+def test_geometric_ratio_reproduces_the_total():
+    for first, total, n in [(1.0, 30.0, 10), (0.5e-3, 0.13, 20), (1.0, 5.0, 5), (1.0, 3.0, 4)]:
+        q = mesh.geometric_ratio(first, total, n)
+        assert first * np.sum(q ** np.arange(n)) == pytest.approx(total, rel=1e-13)
+        if q != 1.0:
+            assert first * (q ** n - 1.0) / (q - 1.0) == pytest.approx(total, rel=1e-10)
+    assert mesh.geometric_ratio(1.0, 5.0, 5) == pytest.approx(1.0, abs=1e-14)
+    assert mesh.geometric_ratio(1.0, 3.0, 4) < 1.0
+    with pytest.raises(ValueError, match="cannot fit"):
+        mesh.geometric_ratio(2.0, 1.0, 3)
+
+
+def test_plate_grading_and_volume():
+    radius, thickness, z_top = 0.152, 26.3e-3, -1e-4
+    r_fine, n_fine, n_coarse, n_t = 16e-3, 24, 20, 30
+    m = mesh.plate(radius, thickness, n_t, r_fine, n_fine, n_coarse, z_top=z_top)
+    assert m.n_elements == 4 * (n_fine + n_coarse) * n_t
+    assert m.n_nodes == (n_fine + n_coarse + 1) * (n_t + 1) + (n_fine + n_coarse) * n_t
+    assert_valid(m)
+    assert mesh.ring_volume(m) == pytest.approx(np.pi * radius ** 2 * thickness, rel=1e-13)
+    assert m.x[:, 1].min() == pytest.approx(z_top - thickness, rel=1e-15)
+    assert m.x[:, 1].max() == z_top
+    # fine zone uniform, first coarse cell as wide, growth ratio to the rim
+    # (the top face holds the cell corners only)
+    edges = np.unique(m.x[np.isclose(m.x[:, 1], z_top, rtol=0.0, atol=1e-15), 0])
+    assert len(edges) == n_fine + n_coarse + 1
+    w = np.diff(edges)
+    h = r_fine / n_fine
+    assert np.allclose(w[:n_fine + 1], h, rtol=1e-10, atol=0.0)
+    q = mesh.plate_growth_ratio(radius, r_fine, n_fine, n_coarse)
+    assert q > 1.0
+    assert np.allclose(w[n_fine + 1:] / w[n_fine:-1], q, rtol=1e-9, atol=0.0)
+    assert r_fine + h * (q ** n_coarse - 1.0) / (q - 1.0) == pytest.approx(radius, rel=1e-12)
+    assert edges[-1] == radius
+    # aspect ratio: crossed a x b cells give 2 max(a/b, b/a)
+    dz = thickness / n_t
+    q_mesh = mesh.mesh_quality(m)
+    assert q_mesh["max_aspect"] == pytest.approx(2.0 * max(w.max() / dz, dz / w.min()), rel=1e-9)
+
+
+def test_plate_particles_and_limits():
+    p = mesh.plate_particles(0.1, 0.02, 10, 0.02, 10, 8, z_top=0.0)
+    assert p.n_particles == 18 * 10
+    assert p.ring_volume.sum() == pytest.approx(np.pi * 0.1 ** 2 * 0.02, rel=1e-13)
+    assert np.all(p.x[:, 1] < 0.0) and np.all(p.x[:, 1] > -0.02)
+    uniform = mesh.plate(0.05, 0.01, 4, 0.05, 10, 0)          # fine all the way
+    assert mesh.plate_growth_ratio(0.05, 0.05, 10, 0) == 1.0
+    assert mesh.ring_volume(uniform) == pytest.approx(np.pi * 0.05 ** 2 * 0.01, rel=1e-13)
+    with pytest.raises(ValueError, match="n_coarse"):
+        mesh.plate(0.1, 0.01, 4, 0.05, 10, 0)
+    with pytest.raises(ValueError, match="r_fine"):
+        mesh.plate(0.1, 0.01, 4, 0.2, 10, 5)
