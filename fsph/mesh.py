@@ -583,6 +583,67 @@ def plate_particles(radius, thickness, n_thickness, r_fine, n_fine, n_coarse, z_
                    np.linspace(z_top - thickness, z_top, n_thickness + 1))
 
 
+def read_gmsh(path, scale=1.0):
+    """Mesh of the 3-node triangles of a 2D gmsh .msh file (read with meshio).
+
+    The first two coordinates of each node, times scale (e.g. 1e-3 for a
+    file drawn in millimetres), are taken as (r, z) [m]; every other cell
+    type (points, lines, quadrilaterals, quadratic triangles) is ignored;
+    each triangle is reordered counter-clockwise in the (r, z) plane; nodes
+    no triangle uses are dropped and the rest renumbered in their file
+    order. Radii within round-off of the axis (|r| <= 1e-12 of the mesh
+    size) are set to 0.
+
+    Raises ValueError, naming the file, when it is not a readable .msh
+    file (OSError, e.g. FileNotFoundError, when it cannot be opened), holds no
+    3-node triangles, has a node used by a triangle at r < 0 beyond
+    round-off, or has a degenerate triangle (|area| <= 1e-12 of its longest
+    edge squared).
+    """
+    from meshio import gmsh    # the reader itself: meshio.read exits the process on failure
+
+    try:
+        msh = gmsh.read(path)
+    except OSError:
+        raise
+    except Exception as exc:  # meshio raises several types for a malformed file
+        raise ValueError(f"{path}: cannot be read as a gmsh .msh file "
+                         f"({type(exc).__name__}: {exc})") from exc
+    tris = [np.asarray(c.data) for c in msh.cells if c.type == "triangle"]
+    if not tris or sum(len(t) for t in tris) == 0:
+        found = sorted({c.type for c in msh.cells}) or ["none"]
+        raise ValueError(f"{path}: expected a 2D mesh of 3-node triangles ('triangle' "
+                         f"cells), found cell types {', '.join(found)}")
+    conn = np.vstack(tris).astype(np.int64)
+    points = np.asarray(msh.points, dtype=float)
+    if points.ndim != 2 or points.shape[1] < 2:
+        raise ValueError(f"{path}: expected nodes with at least 2 coordinates, "
+                         f"got an array of shape {points.shape}")
+    used, inverse = np.unique(conn, return_inverse=True)
+    conn = inverse.reshape(conn.shape).astype(np.int64)
+    x = points[used, :2] * float(scale)
+    size = max(np.ptp(x[:, 0]), np.ptp(x[:, 1]))
+    neg = x[:, 0] < -1e-12 * size
+    if np.any(neg):
+        k = int(np.flatnonzero(neg)[0])
+        raise ValueError(f"{path}: {int(neg.sum())} node(s) at r < 0, e.g. file node "
+                         f"{int(used[k])} at (r, z) = ({x[k, 0]:.6g}, {x[k, 1]:.6g}) m; "
+                         "expected the body on the r >= 0 side of the axis")
+    x[:, 0] = np.maximum(x[:, 0], 0.0)
+    m = Mesh(x=x, conn=conn)
+    area = triangle_areas(m)
+    p = x[conn]
+    lmax2 = np.max(np.sum((p[:, [1, 2, 0]] - p) ** 2, axis=2), axis=1)
+    flat = np.abs(area) <= 1e-12 * lmax2
+    if np.any(flat):
+        k = int(np.flatnonzero(flat)[0])
+        raise ValueError(f"{path}: {int(flat.sum())} degenerate triangle(s) (zero area), e.g. "
+                         f"triangle {k} on file nodes {used[conn[k]].tolist()}")
+    cw = area < 0.0
+    m.conn[cw] = m.conn[cw][:, [0, 2, 1]]
+    return m
+
+
 GENERATORS = {
     ("rod", "elements"): lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
                                        b["z_base"], b["inner_radius"]),

@@ -339,3 +339,71 @@ def test_plate_particles_and_limits():
         mesh.plate(0.1, 0.01, 4, 0.05, 10, 0)
     with pytest.raises(ValueError, match="r_fine"):
         mesh.plate(0.1, 0.01, 4, 0.2, 10, 5)
+
+
+# -- gmsh import ------------------------------------------------------------
+
+def write_msh(path, points, cells, fmt="gmsh22"):
+    """A .msh file written by meshio (points (n, 2) padded with z = 0)."""
+    import meshio
+
+    points = np.column_stack([points, np.zeros(len(points))])
+    cell_data = {"gmsh:physical": [np.ones(len(c[1]), dtype=int) for c in cells],
+                 "gmsh:geometrical": [np.ones(len(c[1]), dtype=int) for c in cells]}
+    meshio.write(path, meshio.Mesh(points, cells, cell_data=cell_data), file_format=fmt,
+                 binary=False)
+    return path
+
+
+def test_read_gmsh_round_trip(tmp_path):
+    pytest.importorskip("meshio")
+    ref = mesh.ogive_projectile(D, L, CRH, 3, 8, 6, z_tip=2e-3)
+    conn = ref.conn.copy()
+    conn[::3] = conn[::3][:, [0, 2, 1]]                   # a third clockwise in the file
+    # in millimetres, with a stray node no triangle uses and a boundary line
+    points = np.vstack([ref.x * 1e3, [[50.0, 50.0]]])
+    path = write_msh(tmp_path / "ogive.msh", points,
+                     [("line", np.array([[0, 1]])), ("triangle", conn)])
+    m = mesh.read_gmsh(path, scale=1e-3)
+    assert m.n_nodes == ref.n_nodes and m.n_elements == ref.n_elements
+    assert np.allclose(m.x, ref.x, rtol=1e-14, atol=1e-18)
+    assert np.array_equal(m.conn, ref.conn)                # counter-clockwise again
+    assert np.all(mesh.triangle_areas(m) > 0.0)
+    assert mesh.ring_volume(m) == pytest.approx(mesh.ring_volume(ref), rel=1e-13)
+
+    # gmsh 4.1 with the unused node first: renumbered, order kept
+    pts = np.array([[9.0, 9.0], [0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    tri = np.array([[1, 3, 2], [1, 3, 4]])                 # clockwise, counter-clockwise
+    import meshio
+    meshio.write(tmp_path / "square.msh",
+                 meshio.Mesh(np.column_stack([pts, np.zeros(5)]), [("triangle", tri)]),
+                 file_format="gmsh", binary=False)
+    sq = mesh.read_gmsh(tmp_path / "square.msh")
+    assert np.array_equal(sq.x, pts[1:])
+    assert np.array_equal(sq.conn, [[0, 1, 2], [0, 2, 3]])
+    assert mesh.ring_volume(sq) == pytest.approx(np.pi, rel=1e-14)
+
+
+def test_read_gmsh_errors(tmp_path):
+    pytest.importorskip("meshio")
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    lines = write_msh(tmp_path / "lines.msh", square, [("line", np.array([[0, 1], [1, 2]]))])
+    with pytest.raises(ValueError, match=r"lines\.msh.*expected a 2D mesh of 3-node triangles"):
+        mesh.read_gmsh(lines)
+    left = write_msh(tmp_path / "left.msh", square - [0.5, 0.0],
+                     [("triangle", np.array([[0, 1, 2], [0, 2, 3]]))])
+    with pytest.raises(ValueError, match=r"left\.msh.*r < 0"):
+        mesh.read_gmsh(left)
+    flat = write_msh(tmp_path / "flat.msh", np.vstack([square, [[2.0, 0.0]]]),
+                     [("triangle", np.array([[0, 1, 2], [0, 1, 4]]))])
+    with pytest.raises(ValueError, match=r"flat\.msh.*degenerate"):
+        mesh.read_gmsh(flat)
+    junk = tmp_path / "junk.msh"
+    junk.write_text("not a mesh\n")
+    with pytest.raises(ValueError, match=r"junk\.msh.*cannot be read"):
+        mesh.read_gmsh(junk)
+    # round-off on the axis is forgiven and snapped to r = 0
+    near = write_msh(tmp_path / "near.msh", square - [1e-17, 0.0],
+                     [("triangle", np.array([[0, 1, 2], [0, 2, 3]]))])
+    m = mesh.read_gmsh(near)
+    assert m.x[:, 0].min() == 0.0
