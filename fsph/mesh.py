@@ -3,6 +3,13 @@
 Each quadrilateral is split into four triangles through a centre node: the
 pattern that keeps constant-strain triangles from locking in nearly
 incompressible plastic flow (ALGORITHMS.md section 1).
+
+Generators (each with a particle twin returning a ParticleLattice for
+pure-SPH bodies): crossed_quads / lattice (tensor grids), crossed_mapped /
+mapped_lattice (structured curvilinear grids), rod, ogive_projectile
+(tangent-ogive nose, OgiveProfile for its exact outline), plate (graded
+disc). read_gmsh imports triangles drawn in gmsh; triangle_areas,
+ring_volume and mesh_quality measure a mesh.
 """
 
 from dataclasses import dataclass
@@ -441,8 +448,9 @@ def ogive_projectile(diameter, length, crh, n_radial, n_axial_shank, n_axial_nos
 
     Structured grid of n_radial cells across and n_axial_nose +
     n_axial_shank along, each cell crossed into four triangles
-    (crossed_mapped): 4 n_radial (n_axial_nose + n_axial_shank) triangles
-    and (n_radial + 1)(n_stations) + cells nodes. At each axial station the
+    (crossed_mapped): with n = n_axial_nose + n_axial_shank cells along,
+    4 n_radial n triangles and (n_radial + 1)(n + 1) + n_radial n nodes
+    (corners, then cell centres). At each axial station the
     nodes run from r = 0 to the local outer radius R(z), uniformly or,
     with radial_grading = g, with cell widths growing geometrically outwards
     so the outermost cell is g times the innermost.
@@ -454,8 +462,11 @@ def ogive_projectile(diameter, length, crh, n_radial, n_axial_shank, n_axial_nos
     lowest point of the body and lies at z = z_tip with nose_down (the body
     occupies z_tip <= z <= z_tip + length - meplat_height); with nose_down
     False the body is mirrored (flat at z = z_tip pointing up, body below).
-    The cut removes OgiveProfile.meplat_volume, a few 1e-6 of the body for
-    the default flat.
+    The cut removes OgiveProfile.meplat_volume, which scales as the cube
+    of the meplat radius: 1e-5 of the body for D = 12.9 mm, L = 88.9 mm,
+    crh 3 with n_radial = 8 and the default flat. The smallest cells are at
+    the flat, meplat_radius / n_radial wide: they set the explicit time
+    step of the body (a larger meplat_fraction relaxes it).
 
     Axial spacing: the shank is uniform; the nose stations are spaced in
     proportion to the local radius (equal steps of the integral of dz/R), so

@@ -49,6 +49,16 @@ def polygon_ring_volume(X, Z):
 
 # -- mapped crossed quads ---------------------------------------------------
 
+def test_crossed_quads_layout_is_pinned():
+    # corners row by row, then centres; the four triangles of a cell together
+    m = mesh.crossed_quads([0.0, 1.0, 3.0], [0.0, 2.0])
+    assert np.array_equal(m.x, [[0, 0], [1, 0], [3, 0], [0, 2], [1, 2], [3, 2],
+                                [0.5, 1], [2, 1]])
+    assert np.array_equal(m.conn, [[0, 1, 6], [1, 4, 6], [4, 3, 6], [3, 0, 6],
+                                   [1, 2, 7], [2, 5, 7], [5, 4, 7], [4, 1, 7]])
+    assert m.conn.dtype == np.int64
+
+
 def test_crossed_mapped_reduces_to_crossed_quads():
     r = np.array([0.0, 0.1, 0.35, 0.7, 1.3]) * 1e-3
     z = np.array([-3.0, -1.1, 0.2, 0.5]) * 1e-3
