@@ -3,6 +3,13 @@
 Each quadrilateral is split into four triangles through a centre node: the
 pattern that keeps constant-strain triangles from locking in nearly
 incompressible plastic flow (ALGORITHMS.md section 1).
+
+Generators (each with a particle twin returning a ParticleLattice for
+pure-SPH bodies): crossed_quads / lattice (tensor grids), crossed_mapped /
+mapped_lattice (structured curvilinear grids), rod, ogive_projectile
+(tangent-ogive nose, OgiveProfile for its exact outline), plate (graded
+disc). read_gmsh imports triangles drawn in gmsh; triangle_areas,
+ring_volume and mesh_quality measure a mesh.
 """
 
 from dataclasses import dataclass
@@ -38,8 +45,15 @@ def crossed_quads(r_edges, z_edges):
     zc = 0.5 * (z_edges[:-1] + z_edges[1:])
     rcc, zcc = np.meshgrid(rc, zc)                            # (nz, nr)
     centres = np.column_stack([rcc.ravel(), zcc.ravel()])
-    x = np.vstack([corners, centres])
+    return _crossed(corners, centres, nr, nz)
 
+
+def _crossed(corners, centres, nr, nz):
+    """Crossed triangles of a structured grid: corners ((nz+1)(nr+1), 2)
+    row by row (index j*(nr+1) + i), then one centre per cell (nz*nr, 2)
+    (index j*nr + i); the four triangles of a cell are stored together
+    (bottom, right, top, left)."""
+    x = np.vstack([corners, centres])
     j, i = np.meshgrid(np.arange(nz), np.arange(nr), indexing="ij")
     i, j = i.ravel(), j.ravel()
     c00 = j * (nr + 1) + i
@@ -56,6 +70,117 @@ def crossed_quads(r_edges, z_edges):
     # order elements quad by quad (the four triangles of a quad together)
     order = np.arange(len(conn)).reshape(4, -1).T.ravel()
     return Mesh(x=x, conn=conn[order].astype(np.int64))
+
+
+def _grid(X, Z):
+    """Validated float copies of the corner arrays of a structured grid."""
+    X = np.array(X, dtype=float)
+    Z = np.array(Z, dtype=float)
+    if X.ndim != 2 or X.shape != Z.shape or min(X.shape) < 2:
+        raise ValueError("X and Z must be arrays of the same shape (nz+1, nr+1) with "
+                         f"nz, nr >= 1; got shapes {X.shape} and {Z.shape}")
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Z))):
+        raise ValueError("X and Z must be finite")
+    return X, Z
+
+
+def _cell_geometry(X, Z):
+    """Signed areas (nz, nr) and area centroids (r, z) of the quadrilateral
+    cells (corners 00, 10, 11, 01 in that order) of a structured grid."""
+    px = [X[:-1, :-1], X[:-1, 1:], X[1:, 1:], X[1:, :-1]]
+    pz = [Z[:-1, :-1], Z[:-1, 1:], Z[1:, 1:], Z[1:, :-1]]
+    area = np.zeros_like(px[0])
+    cr = np.zeros_like(px[0])
+    cz = np.zeros_like(px[0])
+    for k in range(4):
+        x0, z0, x1, z1 = px[k], pz[k], px[(k + 1) % 4], pz[(k + 1) % 4]
+        cross = x0 * z1 - x1 * z0
+        area += cross
+        cr += (x0 + x1) * cross
+        cz += (z0 + z1) * cross
+    area *= 0.5
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cr /= 6.0 * area
+        cz /= 6.0 * area
+    return area, cr, cz
+
+
+def crossed_mapped(X, Z):
+    """Crossed-triangle mesh of a structured curvilinear grid.
+
+    X, Z: (nz+1, nr+1) arrays of corner positions r and z [m]; index i
+    (second axis) runs across the body (normally outwards in r) and index j
+    (first axis) along it (normally upwards in z), so cell (j, i) has the
+    corners (j, i), (j, i+1), (j+1, i+1), (j+1, i). Each cell is split into
+    four triangles through a centre node at the mean of its four corners.
+
+    Node order: the corners row by row (node j*(nr+1) + i), then the cell
+    centres (node (nz+1)(nr+1) + j*nr + i); elements: the four triangles of
+    cell j*nr + i at 4*(j*nr + i) ... +3 (bottom, right, top, left), the same
+    layout as crossed_quads (which is the tensor-grid special case, its
+    centres computed as edge midpoints).
+
+    The triangles are counter-clockwise when the grid is right-handed (i
+    towards +r, j towards +z); a left-handed grid (every triangle clockwise)
+    is accepted and its triangles reversed. A folded grid (triangles of
+    both signs, or of zero area) raises ValueError.
+    """
+    X, Z = _grid(X, Z)
+    nz, nr = X.shape[0] - 1, X.shape[1] - 1
+    corners = np.column_stack([X.ravel(), Z.ravel()])
+    cx = 0.25 * (X[:-1, :-1] + X[:-1, 1:] + X[1:, 1:] + X[1:, :-1])
+    cz = 0.25 * (Z[:-1, :-1] + Z[:-1, 1:] + Z[1:, 1:] + Z[1:, :-1])
+    mesh = _crossed(corners, np.column_stack([cx.ravel(), cz.ravel()]), nr, nz)
+    area = triangle_areas(mesh)
+    scale = max(np.ptp(X), np.ptp(Z))
+    tol = 1e-14 * scale * scale
+    if np.all(area < -tol):
+        mesh.conn = mesh.conn[:, [0, 2, 1]]
+    elif not np.all(area > tol):
+        majority = 1.0 if np.sum(area > 0) >= np.sum(area < 0) else -1.0
+        bad = int(np.flatnonzero(majority * area <= tol)[0])
+        raise ValueError(f"folded or degenerate grid: triangle {bad} (cell {bad // 4}) has "
+                         f"signed area {area[bad]:.3e} m^2, against the majority sign")
+    return mesh
+
+
+def triangle_areas(mesh):
+    """Signed planar areas (m,) [m^2] of the triangles (> 0 counter-clockwise)."""
+    p = mesh.x[mesh.conn]
+    d1 = p[:, 1] - p[:, 0]
+    d2 = p[:, 2] - p[:, 0]
+    return 0.5 * (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+
+
+def ring_volume(mesh):
+    """Volume [m^3] of the body of revolution: 2 pi sum(r_centroid * area),
+    exact for triangles with straight sides (Pappus)."""
+    rbar = mesh.x[mesh.conn, 0].mean(axis=1)
+    return float(2.0 * np.pi * np.sum(rbar * triangle_areas(mesh)))
+
+
+def mesh_quality(mesh):
+    """Summary of a triangle mesh: counts, smallest edge [m], smallest
+    altitude [m] (the length that sets the explicit time step), largest
+    aspect ratio, smallest area [m^2] and ring volume [m^3].
+
+    The aspect ratio of a triangle is its longest edge over its smallest
+    altitude, L_max^2 / (2 A): 2/sqrt(3) ~ 1.15 for an equilateral
+    triangle, 2 for the crossed triangles of a square cell, and about
+    2 max(a/b, b/a) for those of an a x b rectangle."""
+    p = mesh.x[mesh.conn]
+    edges = np.linalg.norm(p[:, [1, 2, 0]] - p, axis=2)        # (m, 3)
+    area = triangle_areas(mesh)
+    lmax = edges.max(axis=1)
+    return {
+        "n_nodes": mesh.n_nodes,
+        "n_elements": mesh.n_elements,
+        "min_edge": float(edges.min()),
+        "min_altitude": float(np.min(2.0 * area / lmax)),
+        "max_aspect": float(np.max(lmax * lmax / (2.0 * area))),
+        "min_area": float(area.min()),
+        "volume": ring_volume(mesh),
+    }
 
 
 def rod(radius, length, n_radial, n_axial, z_base=0.0, inner_radius=0.0):
@@ -104,6 +229,430 @@ def rod_particles(radius, length, n_radial, n_axial, z_base=0.0, inner_radius=0.
     """Rod (or tube) as an n_radial x n_axial particle lattice."""
     return lattice(np.linspace(inner_radius, radius, n_radial + 1),
                    np.linspace(z_base, z_base + length, n_axial + 1))
+
+
+def mapped_lattice(X, Z):
+    """Particles at the area centroids of the cells of a structured
+    curvilinear grid (X, Z as for crossed_mapped), each with its planar cell
+    area, ordered cell by cell (j*nr + i). By Pappus' theorem 2 pi r area is
+    then exactly the ring volume of the cell. Raises ValueError for a cell
+    of zero area or for cells of both orientations."""
+    X, Z = _grid(X, Z)
+    area, cr, cz = _cell_geometry(X, Z)
+    scale = max(np.ptp(X), np.ptp(Z))
+    tol = 1e-14 * scale * scale
+    if not (np.all(area > tol) or np.all(area < -tol)):
+        raise ValueError("folded or degenerate grid: cells of zero area or of both orientations")
+    return ParticleLattice(x=np.column_stack([cr.ravel(), cz.ravel()]),
+                           area=np.abs(area).ravel())
+
+
+def _graded_unit(n, ratio):
+    """n + 1 points from 0 to 1 whose cell widths grow geometrically so the
+    last cell is `ratio` times the first (uniform for ratio = 1)."""
+    if ratio <= 0.0:
+        raise ValueError(f"grading ratio must be positive, got {ratio}")
+    if n == 1 or ratio == 1.0:
+        return np.linspace(0.0, 1.0, n + 1)
+    w = ratio ** (np.arange(n) / (n - 1))
+    s = np.concatenate([[0.0], np.cumsum(w)])
+    s /= s[-1]
+    s[-1] = 1.0
+    return s
+
+
+@dataclass
+class OgiveProfile:
+    """Outline of a tangent-ogive-nose rod, truncated at a flat tip (meplat).
+
+    Derivation. The nose of caliber-radius-head crh = psi is an arc of a
+    circle of radius S = psi D (the ogive radius) whose centre lies in the
+    plane of the nose/shank junction at r = R0 - S (R0 = D/2; the centre is
+    on the far side of the axis for psi > 1/2), so the arc meets the shank
+    with a common tangent. With x the axial distance from the junction
+    towards the tip, the outer radius is
+
+        R(x) = R0 - S + sqrt(S^2 - x^2),
+
+    and the ideal (sharp) tip, R = 0, is at x = l_n with
+    S^2 - l_n^2 = (S - R0)^2, i.e. the nose length
+
+        l_n = sqrt(S^2 - (S - R0)^2) = sqrt(2 S R0 - R0^2) = R0 sqrt(4 psi - 1).
+
+    (psi = 1/2 is the hemispherical nose, l_n = R0.) The tip is cut by a
+    flat of radius r_m (meplat_radius), at x_m = sqrt(S^2 - (r_m + S - R0)^2);
+    the length cut off is meplat_height = l_n - x_m.
+
+    With a = R0 - S, the volume of the nose from the junction to x is
+    pi F(x), F(x) = (S^2 + a^2) x - x^3/3 + a (x sqrt(S^2 - x^2) + S^2 asin(x/S)),
+    so the ideal nose holds pi (S^2 l_n - l_n^3/3 + a S^2 asin(l_n/S)) (using
+    sqrt(S^2 - l_n^2) = -a) and the meplat removes pi (F(l_n) - F(x_m)).
+
+    Attributes are in metres: radius R0, ogive_radius S, nose_length l_n,
+    length (of the ideal, untruncated body: nose + shank), shank_length,
+    meplat_radius r_m, meplat_height.
+    """
+
+    radius: float
+    ogive_radius: float
+    nose_length: float
+    length: float
+    meplat_radius: float
+
+    @property
+    def shank_length(self):
+        return self.length - self.nose_length
+
+    @property
+    def _a(self):
+        return self.radius - self.ogive_radius
+
+    @property
+    def meplat_x(self):
+        """Distance of the flat from the junction, x_m [m]."""
+        return float(np.sqrt(max(self.ogive_radius ** 2 - (self.meplat_radius - self._a) ** 2,
+                                 0.0)))
+
+    @property
+    def meplat_height(self):
+        """Length of the ideal tip removed by the flat, l_n - x_m [m]."""
+        return self.nose_length - self.meplat_x
+
+    @property
+    def body_length(self):
+        """Length of the truncated body, flat to base [m]."""
+        return self.length - self.meplat_height
+
+    def radius_at(self, zeta):
+        """Outer radius R [m] at axial distance zeta [m] from the flat
+        (0 <= zeta <= body_length): the ogive, then the shank."""
+        zeta = np.asarray(zeta, dtype=float)
+        x = np.clip(self.meplat_x - zeta, 0.0, None)
+        return self._a + np.sqrt(self.ogive_radius ** 2 - x * x)
+
+    def _nose_volume(self, x):
+        S, a = self.ogive_radius, self._a
+        return np.pi * ((S * S + a * a) * x - x ** 3 / 3.0
+                        + a * (x * np.sqrt(max(S * S - x * x, 0.0)) + S * S * np.arcsin(x / S)))
+
+    @property
+    def ideal_volume(self):
+        """Volume of the untruncated body [m^3]."""
+        return float(np.pi * self.radius ** 2 * self.shank_length
+                     + self._nose_volume(self.nose_length))
+
+    @property
+    def meplat_volume(self):
+        """Volume of the tip removed by the flat [m^3]."""
+        return float(self._nose_volume(self.nose_length) - self._nose_volume(self.meplat_x))
+
+    @property
+    def volume(self):
+        """Volume of the truncated body [m^3] (ideal_volume - meplat_volume)."""
+        return float(np.pi * self.radius ** 2 * self.shank_length
+                     + self._nose_volume(self.meplat_x))
+
+    def _nose_measure(self, zeta):
+        """Cumulative integral of dzeta / R(zeta) over the nose, sampled at
+        zeta (sorted, from 0), by trapezoids on a fine graded sampling."""
+        xm = self.meplat_x
+        fine = np.unique(np.concatenate([
+            np.linspace(0.0, xm, 4001),
+            xm * np.geomspace(1e-7, 1.0, 4001),
+            np.asarray(zeta, dtype=float)]))
+        g = 1.0 / self.radius_at(fine)
+        cum = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(fine))])
+        return fine, cum
+
+    def nose_cells(self, n_radial):
+        """Smallest number of axial nose cells for which the cells, spaced
+        as in ogive_projectile, are nowhere taller than the mean radial cell
+        width R(zeta)/n_radial of their station: ceil(n_radial * integral of
+        dzeta/R over the nose)."""
+        _, cum = self._nose_measure([0.0])
+        return max(1, int(np.ceil(n_radial * cum[-1] - 1e-9)))
+
+    def nose_stations(self, n_axial_nose):
+        """Axial positions zeta [m] (from the flat) of the n_axial_nose + 1
+        nose stations: equal steps of the integral of dzeta / R(zeta), so the
+        axial spacing is proportional to the local radius (geometric near
+        the tip) and every nose cell has the same height-to-width ratio."""
+        fine, cum = self._nose_measure([0.0])
+        target = np.linspace(0.0, cum[-1], n_axial_nose + 1)
+        zeta = np.interp(target, cum, fine)
+        zeta[0], zeta[-1] = 0.0, self.meplat_x
+        return zeta
+
+
+def ogive_profile(diameter, length, crh, meplat_radius):
+    """OgiveProfile of a tangent-ogive-nose rod (see its docstring for the
+    geometry). diameter D, length (ideal tip to base) [m], crh = psi >= 1/2
+    (ogive radius psi D), 0 < meplat_radius < D/2 [m]. Raises ValueError
+    when the rod is shorter than its nose."""
+    if diameter <= 0.0:
+        raise ValueError(f"ogive diameter must be positive, got {diameter}")
+    if crh < 0.5:
+        raise ValueError(f"crh must be >= 0.5 (0.5 is a hemispherical nose), got {crh}")
+    r0 = 0.5 * diameter
+    s = crh * diameter
+    nose = float(np.sqrt(s * s - (s - r0) ** 2))
+    if length < nose * (1.0 - 1e-12):
+        raise ValueError(f"ogive length {length} m is shorter than its nose "
+                         f"({nose} m for D = {diameter} m, crh = {crh})")
+    if not 0.0 < meplat_radius < r0:
+        raise ValueError(f"meplat radius must lie in (0, D/2 = {r0}) m, got {meplat_radius}")
+    return OgiveProfile(radius=r0, ogive_radius=s, nose_length=nose,
+                        length=max(float(length), nose), meplat_radius=float(meplat_radius))
+
+
+def _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose, z_tip,
+                meplat_fraction, nose_down, radial_grading, meplat_radius):
+    if n_radial < 1:
+        raise ValueError(f"n_radial must be >= 1, got {n_radial}")
+    if meplat_radius is None:
+        meplat_radius = meplat_fraction * 0.5 * diameter / n_radial
+    prof = ogive_profile(diameter, length, crh, meplat_radius)
+    if n_axial_nose is None:
+        n_axial_nose = prof.nose_cells(n_radial)
+    if n_axial_nose < 1:
+        raise ValueError(f"n_axial_nose must be >= 1, got {n_axial_nose}")
+    shank = prof.shank_length
+    if shank > 1e-12 * diameter and n_axial_shank < 1:
+        raise ValueError(f"n_axial_shank must be >= 1 for a shank of {shank} m")
+    if shank <= 1e-12 * diameter:
+        n_axial_shank = 0
+    zeta = np.concatenate([
+        prof.nose_stations(n_axial_nose),
+        prof.meplat_x + np.linspace(0.0, shank, n_axial_shank + 1)[1:]])
+    outer = prof.radius_at(zeta)
+    outer[n_axial_nose:] = prof.radius           # the shank, exactly
+    s = _graded_unit(n_radial, radial_grading)
+    X = outer[:, None] * s[None, :]
+    Z = np.broadcast_to(zeta[:, None], X.shape).copy()
+    if nose_down:
+        Z = z_tip + Z
+    else:                                         # mirrored: tip up, rows still upwards
+        X, Z = X[::-1].copy(), (z_tip - Z)[::-1].copy()
+    return X, Z, prof
+
+
+def ogive_projectile(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                     z_tip=0.0, meplat_fraction=0.5, nose_down=True, radial_grading=1.0,
+                     meplat_radius=None):
+    """Crossed-triangle mesh of a tangent-ogive-nose rod on the axis r = 0.
+
+    diameter D [m]; length [m]: the ideal body, sharp tip to base (nose +
+    shank); crh: caliber radius head psi, ogive radius S = psi D, nose length
+    l_n = (D/2) sqrt(4 psi - 1) (derived in OgiveProfile); the shank,
+    length - l_n, must be >= 0.
+
+    Structured grid of n_radial cells across and n_axial_nose +
+    n_axial_shank along, each cell crossed into four triangles
+    (crossed_mapped): with n = n_axial_nose + n_axial_shank cells along,
+    4 n_radial n triangles and (n_radial + 1)(n + 1) + n_radial n nodes
+    (corners, then cell centres). At each axial station the
+    nodes run from r = 0 to the local outer radius R(z), uniformly or,
+    with radial_grading = g, with cell widths growing geometrically outwards
+    so the outermost cell is g times the innermost.
+
+    The sharp tip is cut by a flat (meplat) so that no element degenerates:
+    its radius is meplat_radius or, by default, meplat_fraction times the
+    mean shank radial spacing, (D/2)/n_radial (half of it by default), so
+    the first station is about half a shank cell wide. The flat is the
+    lowest point of the body and lies at z = z_tip with nose_down (the body
+    occupies z_tip <= z <= z_tip + length - meplat_height); with nose_down
+    False the body is mirrored (flat at z = z_tip pointing up, body below).
+    The cut removes OgiveProfile.meplat_volume, which scales as the cube
+    of the meplat radius: 1e-5 of the body for D = 12.9 mm, L = 88.9 mm,
+    crh 3 with n_radial = 8 and the default flat. The smallest cells are at
+    the flat, meplat_radius / n_radial wide: they set the explicit time
+    step of the body (a larger meplat_fraction relaxes it).
+
+    Axial spacing: the shank is uniform; the nose stations are spaced in
+    proportion to the local radius (equal steps of the integral of dz/R), so
+    every nose cell has the same height-to-width ratio and the cells get
+    finer towards the tip; n_axial_nose = None picks the smallest count for
+    which no nose cell is taller than its mean radial width
+    (OgiveProfile.nose_cells). Shank cells are square for n_axial_shank ~
+    n_radial * shank_length / (D/2).
+
+    Boundary nodes lie on the exact profile; the outline between them is
+    straight, so the mesh volume falls short of the truncated body by the
+    chord error, O(R'' dz^3) per nose segment.
+    """
+    X, Z, _ = _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                          z_tip, meplat_fraction, nose_down, radial_grading, meplat_radius)
+    return crossed_mapped(X, Z)
+
+
+def ogive_projectile_particles(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                               z_tip=0.0, meplat_fraction=0.5, nose_down=True,
+                               radial_grading=1.0, meplat_radius=None):
+    """The ogive_projectile grid (same arguments and layout) as particles:
+    one per cell at its area centroid with its planar area
+    (ParticleLattice, mapped_lattice), for pure-SPH bodies; the ring
+    volumes 2 pi r area sum to the volume of the meshed outline."""
+    X, Z, _ = _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                          z_tip, meplat_fraction, nose_down, radial_grading, meplat_radius)
+    return mapped_lattice(X, Z)
+
+
+def geometric_ratio(first, total, n):
+    """Growth ratio q > 0 of n cells whose widths first, first q, ...,
+    first q^(n-1) add up to total: the root of
+    first (1 + q + ... + q^(n-1)) = total, found by bisection (the sum grows
+    monotonically with q) to round-off. q > 1 when total > n first, q < 1
+    when total < n first. Raises ValueError when no such ratio exists
+    (total < first, or n = 1 and total != first)."""
+    first, total = float(first), float(total)
+    if n < 1 or first <= 0.0 or total <= 0.0:
+        raise ValueError(f"geometric_ratio needs n >= 1 and positive widths, got first = "
+                         f"{first}, total = {total}, n = {n}")
+    target = total / first
+    if n == 1:
+        if abs(target - 1.0) > 1e-12:
+            raise ValueError(f"a single cell of width {total} cannot start with width {first}")
+        return 1.0
+    if target < 1.0:
+        raise ValueError(f"{n} cells starting at width {first} cannot fit in {total}")
+    k = np.arange(n)
+
+    def excess(q):
+        return np.sum(q ** k) - target
+
+    lo, hi = 0.0, max(1.0, target ** (1.0 / (n - 1)))
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if excess(mid) > 0.0:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= 4e-16 * hi:
+            break
+    return 0.5 * (lo + hi)
+
+
+def plate_growth_ratio(radius, r_fine, n_fine, n_coarse):
+    """Growth ratio of the coarse radial cells of plate(): n_coarse cells
+    from r_fine to radius, the first as wide as the fine cells,
+    r_fine / n_fine (1.0 when there is no coarse zone)."""
+    if n_coarse == 0:
+        return 1.0
+    return geometric_ratio(r_fine / n_fine, radius - r_fine, n_coarse)
+
+
+def plate_r_edges(radius, r_fine, n_fine, n_coarse):
+    """Radial cell edges of plate(): n_fine uniform cells over [0, r_fine],
+    then n_coarse cells growing geometrically (plate_growth_ratio) out to
+    radius, the first of them as wide as a fine cell. The last edge is
+    radius exactly."""
+    if not 0.0 < r_fine <= radius:
+        raise ValueError(f"plate needs 0 < r_fine <= radius, got r_fine = {r_fine}, "
+                         f"radius = {radius}")
+    if n_fine < 1 or n_coarse < 0:
+        raise ValueError(f"plate needs n_fine >= 1 and n_coarse >= 0, got {n_fine}, {n_coarse}")
+    fine = np.linspace(0.0, r_fine, n_fine + 1)
+    if r_fine >= radius * (1.0 - 1e-12):
+        if n_coarse:
+            raise ValueError(f"r_fine = radius = {radius}: no room for {n_coarse} coarse cells")
+        fine[-1] = radius
+        return fine
+    if n_coarse == 0:
+        raise ValueError(f"the plate beyond r_fine = {r_fine} (out to {radius}) needs "
+                         "n_coarse >= 1")
+    q = plate_growth_ratio(radius, r_fine, n_fine, n_coarse)
+    widths = (r_fine / n_fine) * q ** np.arange(n_coarse)
+    coarse = r_fine + np.cumsum(widths)
+    coarse[-1] = radius
+    return np.concatenate([fine, coarse])
+
+
+def plate(radius, thickness, n_thickness, r_fine, n_fine, n_coarse, z_top=0.0):
+    """Crossed-triangle mesh of a disc (target plate) 0 <= r <= radius,
+    z_top - thickness <= z <= z_top [m].
+
+    Radially: n_fine uniform cells of width r_fine / n_fine out to r_fine
+    (the impact zone), then n_coarse cells growing geometrically to radius,
+    the first as wide as a fine cell (ratio: plate_growth_ratio; edges:
+    plate_r_edges). Through the thickness: n_thickness uniform cells.
+    4 (n_fine + n_coarse) n_thickness triangles, nodes and elements laid
+    out as crossed_quads (rows of constant z from the bottom face up)."""
+    if thickness <= 0.0 or n_thickness < 1:
+        raise ValueError(f"plate needs thickness > 0 and n_thickness >= 1, got {thickness}, "
+                         f"{n_thickness}")
+    return crossed_quads(plate_r_edges(radius, r_fine, n_fine, n_coarse),
+                         np.linspace(z_top - thickness, z_top, n_thickness + 1))
+
+
+def plate_particles(radius, thickness, n_thickness, r_fine, n_fine, n_coarse, z_top=0.0):
+    """The plate() cells as particles (ParticleLattice, one per cell at its
+    centre with its planar area), for pure-SPH targets."""
+    if thickness <= 0.0 or n_thickness < 1:
+        raise ValueError(f"plate needs thickness > 0 and n_thickness >= 1, got {thickness}, "
+                         f"{n_thickness}")
+    return lattice(plate_r_edges(radius, r_fine, n_fine, n_coarse),
+                   np.linspace(z_top - thickness, z_top, n_thickness + 1))
+
+
+def read_gmsh(path, scale=1.0):
+    """Mesh of the 3-node triangles of a 2D gmsh .msh file (read with meshio).
+
+    The first two coordinates of each node, times scale (e.g. 1e-3 for a
+    file drawn in millimetres), are taken as (r, z) [m]; every other cell
+    type (points, lines, quadrilaterals, quadratic triangles) is ignored;
+    each triangle is reordered counter-clockwise in the (r, z) plane; nodes
+    no triangle uses are dropped and the rest renumbered in their file
+    order. Radii within round-off of the axis (|r| <= 1e-12 of the mesh
+    size) are set to 0.
+
+    Raises ValueError, naming the file, when it is not a readable .msh
+    file (OSError, e.g. FileNotFoundError, when it cannot be opened), holds no
+    3-node triangles, has a node used by a triangle at r < 0 beyond
+    round-off, or has a degenerate triangle (|area| <= 1e-12 of its longest
+    edge squared).
+    """
+    from meshio import gmsh    # the reader itself: meshio.read exits the process on failure
+
+    try:
+        msh = gmsh.read(path)
+    except OSError:
+        raise
+    except Exception as exc:  # meshio raises several types for a malformed file
+        raise ValueError(f"{path}: cannot be read as a gmsh .msh file "
+                         f"({type(exc).__name__}: {exc})") from exc
+    tris = [np.asarray(c.data) for c in msh.cells if c.type == "triangle"]
+    if not tris or sum(len(t) for t in tris) == 0:
+        found = sorted({c.type for c in msh.cells}) or ["none"]
+        raise ValueError(f"{path}: expected a 2D mesh of 3-node triangles ('triangle' "
+                         f"cells), found cell types {', '.join(found)}")
+    conn = np.vstack(tris).astype(np.int64)
+    points = np.asarray(msh.points, dtype=float)
+    if points.ndim != 2 or points.shape[1] < 2:
+        raise ValueError(f"{path}: expected nodes with at least 2 coordinates, "
+                         f"got an array of shape {points.shape}")
+    used, inverse = np.unique(conn, return_inverse=True)
+    conn = inverse.reshape(conn.shape).astype(np.int64)
+    x = points[used, :2] * float(scale)
+    size = max(np.ptp(x[:, 0]), np.ptp(x[:, 1]))
+    neg = x[:, 0] < -1e-12 * size
+    if np.any(neg):
+        k = int(np.flatnonzero(neg)[0])
+        raise ValueError(f"{path}: {int(neg.sum())} node(s) at r < 0, e.g. file node "
+                         f"{int(used[k])} at (r, z) = ({x[k, 0]:.6g}, {x[k, 1]:.6g}) m; "
+                         "expected the body on the r >= 0 side of the axis")
+    x[:, 0] = np.maximum(x[:, 0], 0.0)
+    m = Mesh(x=x, conn=conn)
+    area = triangle_areas(m)
+    p = x[conn]
+    lmax2 = np.max(np.sum((p[:, [1, 2, 0]] - p) ** 2, axis=2), axis=1)
+    flat = np.abs(area) <= 1e-12 * lmax2
+    if np.any(flat):
+        k = int(np.flatnonzero(flat)[0])
+        raise ValueError(f"{path}: {int(flat.sum())} degenerate triangle(s) (zero area), e.g. "
+                         f"triangle {k} on file nodes {used[conn[k]].tolist()}")
+    cw = area < 0.0
+    m.conn[cw] = m.conn[cw][:, [0, 2, 1]]
+    return m
 
 
 GENERATORS = {
