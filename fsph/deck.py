@@ -155,33 +155,61 @@ SCHEMA = {
     ),
     "body": Group(
         "A body: a geometry generator, its resolution, its material and initial velocity. "
-        "Repeatable. The rod generator meshes the rectangle inner_radius <= r <= radius, "
-        "z_base <= z <= z_base + length into n_radial x n_axial quadrilaterals, each split "
-        "into 4 crossed triangles through a centre node.",
+        "Repeatable. Generators (all crossed quadrilaterals: 4 triangles through a centre "
+        "node; particles at the cell centroids with the planar cell area): rod, the "
+        "rectangle inner_radius <= r <= radius, z_base <= z <= z_base + length in n_radial x "
+        "n_axial cells; ogive, a tangent-ogive-nose projectile of radius `radius`, ideal "
+        "length `length` (sharp tip to base), caliber radius head crh, tip pointing to -z at "
+        "z_base, n_radial cells across, n_axial along the shank and n_nose along the nose; "
+        "plate, a disc 0 <= r <= radius, z_base <= z <= z_base + length (the thickness) with "
+        "n_axial cells through the thickness, n_radial uniform cells out to fine_radius and "
+        "n_coarse cells growing geometrically to the rim; gmsh, the triangles of a 2D gmsh "
+        "file (mesh_file, coordinates (r, z) times mesh_scale).",
         {
             "name": Key("str", REQUIRED, "-", "Body name."),
             "material": Key("str", REQUIRED, "-", "Name of a &material."),
-            "geometry": Key("str", "rod", "-", "Geometry generator.", choices=("rod",)),
+            "geometry": Key("str", "rod", "-", "Geometry generator.",
+                            choices=("rod", "ogive", "plate", "gmsh")),
             "discretisation": Key("str", None, "-",
                                   "elements or particles. Unset: particles in mode sph, elements "
                                   "otherwise; mode fem takes only elements, mode sph only "
-                                  "particles. Particles sit at the centres of the n_radial x "
-                                  "n_axial lattice cells, each carrying the ring mass of its cell.",
+                                  "particles. Particles sit at the cell centroids, each carrying "
+                                  "the ring mass of its cell (gmsh: elements only).",
                                   choices=("elements", "particles")),
             "joined_to": Key("str", None, "-",
                              "Name of another body this one is glued to as one continuum (modes "
                              "fixed and adaptive): element and particle parts are coupled through "
                              "imaginary particles and interface tractions; no contact between "
                              "them."),
-            "radius": _pos("Rod (outer) radius.", "m"),
+            "radius": _pos("Outer radius (rod, ogive shank, plate). Required except for gmsh.",
+                           "m", None),
             "inner_radius": Key("float", 0.0, "m",
-                                "Inner radius: 0 for a solid rod, > 0 for a tube.", lower=0.0),
-            "length": _pos("Rod length.", "m"),
-            "z_base": Key("float", 0.0, "m", "Axial position of the lower end face."),
-            "n_radial": Key("int", REQUIRED, "-",
-                            "Quadrilaterals (or particle lattice cells) across the radius.", lower=1),
-            "n_axial": Key("int", REQUIRED, "-",
-                           "Quadrilaterals (or particle lattice cells) along the length.", lower=1),
+                                "rod: inner radius, 0 for a solid rod, > 0 for a tube.", lower=0.0),
+            "length": _pos("rod: length; ogive: ideal length, sharp tip to base; plate: "
+                           "thickness. Required except for gmsh.", "m", None),
+            "z_base": Key("float", 0.0, "m",
+                          "Axial position of the lower end face (ogive: of the tip)."),
+            "n_radial": Key("int", None, "-",
+                            "Cells across the radius (plate: uniform cells out to fine_radius). "
+                            "Required except for gmsh.", lower=1),
+            "n_axial": Key("int", None, "-",
+                           "Cells along the length (ogive: along the shank; plate: through the "
+                           "thickness). Required except for gmsh.", lower=1),
+            "crh": Key("float", 3.0, "-",
+                       "ogive: caliber radius head psi (ogive radius / diameter), >= 0.5.",
+                       lower=0.5),
+            "n_nose": Key("int", None, "-",
+                          "ogive: cells along the nose. Unset: cells about as long as wide.",
+                          lower=1),
+            "fine_radius": _pos("plate: radius of the uniformly meshed impact zone.", "m", None),
+            "n_coarse": Key("int", 0, "-",
+                            "plate: cells from fine_radius to the rim, growing geometrically "
+                            "from the fine cell width (0: uniform to the rim).", lower=0),
+            "mesh_file": Key("str", None, "-",
+                             "gmsh: path of a 2D triangle mesh (.msh), relative to the deck."),
+            "mesh_scale": Key("float", 1.0, "-",
+                              "gmsh: factor from file coordinates to metres (1e-3 for mm).",
+                              lower=0.0, lower_open=True),
             "velocity_z": Key("float", 0.0, "m/s", "Initial axial velocity (negative: towards -z)."),
         },
         repeatable=True, required=True, min_count=1,
@@ -221,6 +249,14 @@ SCHEMA = {
                              choices=("min_angle", "plastic_strain", "equivalent_stress")),
             "theta_c": Key("float", 30.0, "deg", "Critical minimum interior angle (seed 000: 30).",
                            lower=0.0, upper=60.0, lower_open=True, upper_open=True),
+            "relative_angle": Key("float", 0.75, "-",
+                                  "min_angle criterion for elements that start below theta_c "
+                                  "(graded or mapped meshes, e.g. the wide cells at a plate's "
+                                  "rim or next to an ogive tip): such an element converts when "
+                                  "its minimum angle is below both theta_c and relative_angle "
+                                  "times its initial minimum angle. Elements that start at or "
+                                  "above theta_c (crossed squares: 45 deg) see theta_c alone, "
+                                  "as in seed 000.", lower=0.0, upper=1.0, lower_open=True),
             "eps_c": Key("float", 0.4, "-",
                          "Critical equivalent plastic strain (seed 002 uses 0.4; 0.3-0.6 usual).",
                          lower=0.0, lower_open=True),
@@ -296,9 +332,15 @@ SCHEMA = {
             "kind": Key("str", "none", "-",
                         "taylor: final length L, maximum diameter D and width W at "
                         "w_height above the impact face; bar_wave: stress plateau and wave "
-                        "front along a line r = probe_radius.",
-                        choices=("none", "taylor", "bar_wave")),
-            "body": Key("str", None, "-", "Body measured (default: the first body)."),
+                        "front along a line r = probe_radius; perforation: the projectile's "
+                        "mass-weighted axial (residual) velocity, penetration depth, whether "
+                        "it has left the target and the hole diameter, with their history at "
+                        "every snapshot.",
+                        choices=("none", "taylor", "bar_wave", "perforation")),
+            "body": Key("str", None, "-", "Body measured (default: the first body; "
+                        "perforation: the projectile)."),
+            "target": Key("str", None, "-", "perforation: the target body (default: the "
+                          "first body other than the projectile)."),
             "w_height": _pos("Height above the impact face at which W is measured "
                              "(default 0.2 L0 of the body).", "m", None),
             "probe_radius": _pos("Radius of the bar_wave sampling line.", "m", None),
@@ -536,6 +578,53 @@ def _unique_names(path, gname, items):
         seen.add(item["name"])
 
 
+#: Keys each geometry generator needs.
+GEOMETRY_KEYS = {
+    "rod": ("radius", "length", "n_radial", "n_axial"),
+    "ogive": ("radius", "length", "n_radial", "n_axial"),
+    "plate": ("radius", "length", "n_radial", "n_axial", "fine_radius"),
+    "gmsh": ("mesh_file",),
+}
+
+
+def _check_geometry(path, where, b):
+    geometry = b["geometry"]
+    for key in GEOMETRY_KEYS[geometry]:
+        if b[key] is None:
+            raise DeckError(path, where, key, f"a value (needed by geometry '{geometry}')",
+                            "missing key")
+    if geometry == "gmsh":
+        if b["discretisation"] != "elements":
+            raise DeckError(path, where, "discretisation",
+                            "'elements' for geometry 'gmsh'", b["discretisation"])
+        mesh_path = Path(b["mesh_file"])
+        if not mesh_path.is_absolute():
+            mesh_path = Path(path).parent / mesh_path
+        if not mesh_path.is_file():
+            raise DeckError(path, where, "mesh_file", "an existing gmsh file", str(mesh_path))
+        b["mesh_file"] = str(mesh_path)
+    if geometry == "ogive":
+        nose = b["radius"] * math.sqrt(4.0 * b["crh"] - 1.0)     # (D/2) sqrt(4 psi - 1)
+        if not b["length"] > nose:
+            raise DeckError(path, where, "length",
+                            f"more than the ogive nose length {nose:.6g} m (crh {b['crh']})",
+                            b["length"])
+    if geometry == "plate" and not b["fine_radius"] <= b["radius"]:
+        raise DeckError(path, where, "fine_radius", f"at most radius = {b['radius']} m",
+                        b["fine_radius"])
+
+
+def _cell_estimate(b):
+    """Cells a body's generator makes (before the 4 triangles per cell)."""
+    if b["geometry"] == "gmsh":
+        return 0
+    if b["geometry"] == "plate":
+        return (b["n_radial"] + b["n_coarse"]) * b["n_axial"]
+    if b["geometry"] == "ogive":
+        return b["n_radial"] * (b["n_axial"] + (b["n_nose"] or 8 * b["n_radial"]))
+    return b["n_radial"] * b["n_axial"]
+
+
 def _cross_check(path, deck):
     mode = deck["control"]["mode"]
     default_disc = "particles" if mode == "sph" else "elements"
@@ -546,9 +635,11 @@ def _cross_check(path, deck):
             raise DeckError(path, f"body #{i + 1}", "discretisation",
                             f"'{default_disc}' in mode '{mode}' (mixed bodies need mode 'fixed' "
                             "or 'adaptive')", b["discretisation"])
+    for i, b in enumerate(deck["body"]):
+        _check_geometry(path, f"body #{i + 1}", b)
     entities = 0
     for i, b in enumerate(deck["body"]):
-        entities += b["n_radial"] * b["n_axial"] * (4 if b["discretisation"] == "elements" else 1)
+        entities += _cell_estimate(b) * (4 if b["discretisation"] == "elements" else 1)
         if entities > MAX_ENTITIES:
             raise DeckError(path, f"body #{i + 1}", "n_axial",
                             f"a resolution with at most {MAX_ENTITIES} elements and particles "
@@ -569,7 +660,7 @@ def _cross_check(path, deck):
         raise DeckError(path, "convert", "sigma_c",
                         "a value (needed by criterion 'equivalent_stress')", "missing key")
     for i, b in enumerate(deck["body"]):
-        if not b["inner_radius"] < b["radius"]:
+        if b["geometry"] == "rod" and not b["inner_radius"] < b["radius"]:
             raise DeckError(path, f"body #{i + 1}", "inner_radius",
                             f"a value below radius = {b['radius']} m", b["inner_radius"])
     _unique_names(path, "material", deck["material"])
@@ -587,6 +678,13 @@ def _cross_check(path, deck):
                             list(bc["normal"]))
     met = deck["metrics"]
     bodies = [b["name"] for b in deck["body"]]
+    if met["target"] is not None and (met["target"] not in bodies
+                                      or met["target"] == met["body"]):
+        raise DeckError(path, "metrics", "target", "the name of another &body: "
+                        + ", ".join(bodies), met["target"])
+    if met["kind"] == "perforation" and len(bodies) < 2:
+        raise DeckError(path, "metrics", "kind", "a deck with a projectile and a target body "
+                        "for kind 'perforation'", met["kind"])
     if met["body"] is not None and met["body"] not in bodies:
         raise DeckError(path, "metrics", "body", "the name of a &body: " + ", ".join(bodies),
                         met["body"])

@@ -116,6 +116,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
     last_good = sim.snapshot()
     writer.write_snapshot(last_good)
+    series = [r for r in [metrics_module.snapshot_series(last_good, deck)] if r]
     writer.energy0 = sim.initial_energy
     writer.append_history(drain_history())
     failure = interrupted = None
@@ -147,6 +148,9 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                 if snap_due:
                     last_good = sim.snapshot()
                     writer.write_snapshot(last_good)
+                    record = metrics_module.snapshot_series(last_good, deck)
+                    if record:
+                        series.append(record)
                     if out["checkpoint"]:
                         checkpoint_module.save(sim, checkpoint_path)
                         last_checkpoint = wallclock.perf_counter()
@@ -165,6 +169,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
 
     energies = sim.energies()
     case_metrics = metrics_module.case_metrics(last_good, deck)
+    if series:
+        case_metrics["series"] = {key: [r[key] for r in series] for key in series[0]}
     comparison = metrics_module.compare(case_metrics, reference) if reference else {}
     summary = {
         "case": deck_path.stem,
@@ -186,6 +192,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
         "energy": {"initial_J": sim.initial_energy, "final_J": energies["total"],
                    "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
                    "conversion_heat_J": sim.conversion()["heat_J"],
+                   "contact_dissipation_J": energies["contact"],
                    "relative_error": energies["relative_error"],
                    "max_relative_error": writer.max_energy_error,
                    "max_relative_error_time_s": writer.max_energy_error_time},

@@ -655,11 +655,26 @@ def read_gmsh(path, scale=1.0):
     return m
 
 
+def _ogive_args(b):
+    return (2.0 * b["radius"], b["length"], b["crh"], b["n_radial"], b["n_axial"], b["n_nose"])
+
+
+def _plate_args(b):
+    return (b["radius"], b["length"], b["n_axial"], b["fine_radius"], b["n_radial"],
+            b["n_coarse"], b["z_base"] + b["length"])
+
+
 GENERATORS = {
     ("rod", "elements"): lambda b: rod(b["radius"], b["length"], b["n_radial"], b["n_axial"],
                                        b["z_base"], b["inner_radius"]),
     ("rod", "particles"): lambda b: rod_particles(b["radius"], b["length"], b["n_radial"],
                                                   b["n_axial"], b["z_base"], b["inner_radius"]),
+    ("ogive", "elements"): lambda b: ogive_projectile(*_ogive_args(b), z_tip=b["z_base"]),
+    ("ogive", "particles"): lambda b: ogive_projectile_particles(*_ogive_args(b),
+                                                                 z_tip=b["z_base"]),
+    ("plate", "elements"): lambda b: plate(*_plate_args(b)),
+    ("plate", "particles"): lambda b: plate_particles(*_plate_args(b)),
+    ("gmsh", "elements"): lambda b: read_gmsh(b["mesh_file"], b["mesh_scale"]),
 }
 
 

@@ -199,6 +199,66 @@ def _merge_bodies(snap, bodies):
     return out
 
 
+def _body_points(snap, body_index):
+    """Positions, initial positions, velocities and masses (nodes, then
+    particles) and particle radii (0 for nodes) of one body."""
+    xs, x0s, vs, ms, rs = [], [], [], [], []
+    if "conn" in snap:
+        nodes = np.unique(snap["conn"][snap["body"] == body_index])
+        xs.append(snap["x"][nodes]); x0s.append(snap["x0"][nodes])
+        vs.append(snap["velocity"][nodes]); ms.append(snap["node_mass"][nodes])
+        rs.append(np.zeros(len(nodes)))
+    if "particles" in snap:
+        part = snap["particles"]
+        keep = part["body"] == body_index
+        xs.append(part["x"][keep]); x0s.append(part["x0"][keep])
+        vs.append(part["velocity"][keep]); ms.append(part["mass"][keep])
+        rs.append(part["radius"][keep])
+    if not xs:
+        return EMPTY, EMPTY, EMPTY, np.zeros(0), np.zeros(0)
+    return (np.vstack(xs), np.vstack(x0s), np.vstack(vs), np.concatenate(ms),
+            np.concatenate(rs))
+
+
+def perforation(snap, projectile, target):
+    """Projectile against a target (body indices): the projectile's
+    mass-weighted axial velocity [m/s] (its residual velocity once it has
+    left the target, or at the time of the snapshot), penetration depth of
+    its lowest point below the target's initial top face [mm], whether it
+    has left the target (its lowest point below the target's lowest
+    material), and the hole diameter [mm]: twice the smallest radius of
+    target material (nodes, particles less their radius) within the
+    plate's initial thickness."""
+    xp, _, vp, mp, rp = _body_points(snap, projectile)
+    xt, xt0, _, _, rt = _body_points(snap, target)
+    velocity = float((mp * vp[:, 1]).sum() / mp.sum())
+    top0, bottom0 = xt0[:, 1].max(), xt0[:, 1].min()
+    tip = (xp[:, 1] - rp).min()
+    in_plate = (xt[:, 1] <= top0) & (xt[:, 1] >= bottom0)
+    hole = 2.0 * max((xt[in_plate, 0] - rt[in_plate]).min(initial=np.inf), 0.0)
+    return {"velocity_z_m_s": velocity, "residual_velocity_m_s": abs(velocity),
+            "penetration_mm": float((top0 - tip) * 1e3),
+            "exited": bool(xp[:, 1].max() < (xt[:, 1] - rt).min()),
+            "hole_diameter_mm": float(hole * 1e3) if np.isfinite(hole) else None,
+            "time_us": float(snap["time"] * 1e6)}
+
+
+def _projectile_and_target(deck):
+    met = deck["metrics"]
+    names = [b["name"] for b in deck["body"]]
+    ib = names.index(met["body"]) if met["body"] else 0
+    it = names.index(met["target"]) if met["target"] else (1 if ib == 0 else 0)
+    return ib, it
+
+
+def snapshot_series(snap, deck):
+    """Per-snapshot record of the case metric that has a history
+    (perforation: velocity, penetration, hole), or None."""
+    if deck["metrics"]["kind"] != "perforation" or len(deck["body"]) < 2:
+        return None
+    return perforation(snap, *_projectile_and_target(deck))
+
+
 def case_metrics(snap, deck):
     """Metrics named by the deck's &metrics kind ({} for 'none')."""
     met = deck["metrics"]
@@ -208,6 +268,8 @@ def case_metrics(snap, deck):
     if met["kind"] == "taylor":
         return {"taylor": taylor(_merge_bodies(snap, joined), deck["body"][ib], joined[0],
                                  met["w_height"])}
+    if met["kind"] == "perforation":
+        return {"perforation": perforation(snap, *_projectile_and_target(deck))}
     if met["kind"] == "bar_wave":
         return {"bar_wave": bar_wave(snap, joined, met["probe_radius"], met["plateau_from"],
                                      met["plateau_to"], met["interface"])}

@@ -160,7 +160,7 @@ class Simulation:
         conv = deck["convert"]
         criteria = {"min_angle": 1, "plastic_strain": 2, "equivalent_stress": 3}
         _api.set_conversion(int(mode == "adaptive"), criteria[conv["criterion"]],
-                            np.radians(conv["theta_c"]), conv["eps_c"], conv["sigma_c"] or 0.0,
+                            np.radians(conv["theta_c"]), conv["relative_angle"], conv["eps_c"], conv["sigma_c"] or 0.0,
                             conv["kappa"], deck["sph"]["alpha_h"])
         if has_elements and not has_particles and mode == "adaptive":
             self._call(_api.reserve_particles(), "particle capacity")

@@ -190,13 +190,14 @@ contains
   !> angle [rad], plastic strain [-], equivalent stress [Pa], group factor
   !> kappa [-] and smoothing-length factor alpha_h [-] (also used for the
   !> imaginary particles of fixed coupling).
-  subroutine set_conversion(enabled, criterion, theta_c, eps_c, sigma_c, kappa, alpha_h)
+  subroutine set_conversion(enabled, criterion, theta_c, theta_relative, eps_c, sigma_c, kappa, alpha_h)
     use fsph_state, only: sim
     integer, intent(in) :: enabled, criterion
-    real(wp), intent(in) :: theta_c, eps_c, sigma_c, kappa, alpha_h
+    real(wp), intent(in) :: theta_c, theta_relative, eps_c, sigma_c, kappa, alpha_h
     sim%conversion%enabled = enabled /= 0
     sim%conversion%criterion = criterion
     sim%conversion%theta_c = theta_c
+    sim%conversion%theta_relative = theta_relative
     sim%conversion%eps_c = eps_c
     sim%conversion%sigma_c = sigma_c
     sim%conversion%kappa = kappa

@@ -27,10 +27,9 @@
 !>    the normal impulse.
 !>  - A tied particle moves with its edge: its correction goes to the two
 !>    edge nodes with the tie weights (effective mass of the tie point).
-!>  - Search in stages: buckets of segment midpoints (cell size the longest
-!>    segment plus the largest particle radius, so the 3 x 3 cells around a
-!>    point hold every segment it can touch), candidates, distance, then
-!>    the correction; O(N) per pass.
+!>  - Search in stages: buckets (each segment registered in the cells its
+!>    reach overlaps), candidates in the point's cell, distance, then the
+!>    correction; O(N) per pass.
 module fsph_contact
   use fsph_kinds, only: wp
   use fsph_state, only: sim
@@ -144,68 +143,93 @@ contains
     end associate
   end function particle_predicted
 
-  !> Bucket the segments by their predicted midpoints; cell size the
-  !> longest segment plus the largest particle radius (and so at least the
-  !> reach of any contact: half a segment, plus its capture depth, plus the
-  !> thickness).
+  !> Bucket the segments: each is registered in every cell that its reach
+  !> (its predicted end points, widened by its capture depth and the
+  !> largest contact thickness) overlaps, so a point looks in its own cell
+  !> only. Cells as wide as the mean segment, so long segments (a graded
+  !> plate's rim) do not coarsen the search near the impact.
   subroutine build_buckets(dt)
     real(wp), intent(in) :: dt
     !> At most this many cells per segment (widely scattered surfaces get
     !> bigger cells instead of a huge grid) [-].
-    integer, parameter :: cells_per_segment = 4
-    real(wp) :: lo(2), hi(2), mid(2), l_max, r_max
-    integer :: k, ic, n_cells
-    integer, allocatable :: cell_of(:), fill(:)
+    integer, parameter :: cells_per_segment = 16
+    real(wp) :: lo(2), hi(2), l_sum, r_max, xa(2), xb(2), seg_lo(2), seg_hi(2), reach
+    integer :: k, ic, n_cells, n_items, ir, iz, c_lo(2), c_hi(2), pass
+    integer, allocatable :: fill(:)
     associate (ct => sim%contact, pt => sim%particles)
-      lo = huge(1.0_wp)
-      hi = -huge(1.0_wp)
-      l_max = 0.0_wp
-      do k = 1, ct%n_seg
-        mid = 0.5_wp*(node_predicted(ct%seg(1, k), dt) + node_predicted(ct%seg(2, k), dt))
-        lo = min(lo, mid)
-        hi = max(hi, mid)
-        l_max = max(l_max, norm2(node_predicted(ct%seg(2, k), dt) - node_predicted(ct%seg(1, k), dt)))
-      end do
       r_max = 0.0_wp
       if (pt%n > 0) r_max = maxval(pt%radius(1:pt%n))
-      grid_cell = max(l_max + r_max, tiny(1.0_wp))
+      lo = huge(1.0_wp)
+      hi = -huge(1.0_wp)
+      l_sum = 0.0_wp
+      do k = 1, ct%n_seg
+        xa = node_predicted(ct%seg(1, k), dt)
+        xb = node_predicted(ct%seg(2, k), dt)
+        reach = capture_depth*norm2(xb - xa) + r_max
+        lo = min(lo, min(xa, xb) - reach)
+        hi = max(hi, max(xa, xb) + reach)
+        l_sum = l_sum + norm2(xb - xa)
+      end do
+      grid_cell = max(l_sum/ct%n_seg, 2.0_wp*r_max, tiny(1.0_wp))
       do
         grid_nr = int((hi(1) - lo(1))/grid_cell) + 1
         grid_nz = int((hi(2) - lo(2))/grid_cell) + 1
-        if (real(grid_nr, wp)*real(grid_nz, wp) <= real(cells_per_segment*ct%n_seg + 64, wp)) exit
+        if (real(grid_nr, wp)*real(grid_nz, wp) <= real(cells_per_segment*ct%n_seg + 1024, wp)) exit
         grid_cell = 2.0_wp*grid_cell
       end do
       grid_origin = lo
       n_cells = grid_nr*grid_nz
-      if (allocated(ct%cell_start)) deallocate (ct%cell_start)
-      if (allocated(ct%cell_items)) deallocate (ct%cell_items)
-      allocate (ct%cell_start(n_cells + 1), ct%cell_items(max(ct%n_seg, 1)), cell_of(ct%n_seg), &
-                fill(n_cells + 1))
+      if (allocated(ct%cell_start)) then
+        if (size(ct%cell_start) < n_cells + 1) deallocate (ct%cell_start)
+      end if
+      if (.not. allocated(ct%cell_start)) allocate (ct%cell_start(n_cells + 1))
+      allocate (fill(n_cells + 1))
+      ! two passes: count the registrations per cell, then store them
       fill = 0
-      do k = 1, ct%n_seg
-        mid = 0.5_wp*(node_predicted(ct%seg(1, k), dt) + node_predicted(ct%seg(2, k), dt))
-        cell_of(k) = cell_index(mid)
-        fill(cell_of(k) + 1) = fill(cell_of(k) + 1) + 1
-      end do
-      ct%cell_start(1) = 1
-      do ic = 1, n_cells
-        ct%cell_start(ic + 1) = ct%cell_start(ic) + fill(ic + 1)
-      end do
-      fill(1:n_cells) = ct%cell_start(1:n_cells)
-      do k = 1, ct%n_seg
-        ct%cell_items(fill(cell_of(k))) = k
-        fill(cell_of(k)) = fill(cell_of(k)) + 1
+      do pass = 1, 2
+        do k = 1, ct%n_seg
+          xa = node_predicted(ct%seg(1, k), dt)
+          xb = node_predicted(ct%seg(2, k), dt)
+          reach = capture_depth*norm2(xb - xa) + r_max
+          seg_lo = min(xa, xb) - reach
+          seg_hi = max(xa, xb) + reach
+          c_lo = cell_coords(seg_lo)
+          c_hi = cell_coords(seg_hi)
+          do iz = c_lo(2), c_hi(2)
+            do ir = c_lo(1), c_hi(1)
+              ic = iz*grid_nr + ir + 1
+              if (pass == 1) then
+                fill(ic + 1) = fill(ic + 1) + 1
+              else
+                ct%cell_items(fill(ic)) = k
+                fill(ic) = fill(ic) + 1
+              end if
+            end do
+          end do
+        end do
+        if (pass == 1) then
+          ct%cell_start(1) = 1
+          do ic = 1, n_cells
+            ct%cell_start(ic + 1) = ct%cell_start(ic) + fill(ic + 1)
+          end do
+          n_items = ct%cell_start(n_cells + 1) - 1
+          if (allocated(ct%cell_items)) then
+            if (size(ct%cell_items) < n_items) deallocate (ct%cell_items)
+          end if
+          if (.not. allocated(ct%cell_items)) allocate (ct%cell_items(max(n_items + n_items/4, 16)))
+          fill(1:n_cells) = ct%cell_start(1:n_cells)
+        end if
       end do
     end associate
   end subroutine build_buckets
 
-  pure integer function cell_index(p) result(ic)
+  !> Cell coordinates (0-based, clamped to the grid) of point p.
+  pure function cell_coords(p) result(c)
     real(wp), intent(in) :: p(2)
-    integer :: ir, iz
-    ir = min(max(int((p(1) - grid_origin(1))/grid_cell), 0), grid_nr - 1)
-    iz = min(max(int((p(2) - grid_origin(2))/grid_cell), 0), grid_nz - 1)
-    ic = iz*grid_nr + ir + 1
-  end function cell_index
+    integer :: c(2)
+    c(1) = min(max(int((p(1) - grid_origin(1))/grid_cell), 0), grid_nr - 1)
+    c(2) = min(max(int((p(2) - grid_origin(2))/grid_cell), 0), grid_nz - 1)
+  end function cell_coords
 
   !> Deepest contact of point p (predicted) with thickness tau [m] among
   !> the segments near it. Segments of continuum `own` are skipped unless
@@ -216,56 +240,51 @@ contains
     logical, intent(in) :: own_allowed
     type(contact_pair_t), intent(out) :: best
     real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2)
-    integer :: ir0, iz0, ir, iz, ic, m, k, a, b
+    integer :: ir, iz, ic, m, k, a, b
     associate (ct => sim%contact)
-      if (p(1) < grid_origin(1) - 2.0_wp*grid_cell .or. p(2) < grid_origin(2) - 2.0_wp*grid_cell) return
-      ir0 = int((p(1) - grid_origin(1))/grid_cell)
-      iz0 = int((p(2) - grid_origin(2))/grid_cell)
-      if (ir0 > grid_nr + 1 .or. iz0 > grid_nz + 1) return
-      do iz = max(iz0 - 1, 0), min(iz0 + 1, grid_nz - 1)
-        do ir = max(ir0 - 1, 0), min(ir0 + 1, grid_nr - 1)
-          ic = iz*grid_nr + ir + 1
-          do m = ct%cell_start(ic), ct%cell_start(ic + 1) - 1
-            k = ct%cell_items(m)
-            a = ct%seg(1, k)
-            b = ct%seg(2, k)
-            if (a == self .or. b == self) cycle
-            thick = tau
-            if (ct%seg_cont(k) == own) then
-              if (.not. own_allowed) cycle
-              thick = 0.0_wp
-            end if
-            xa = node_predicted(a, dt)
-            xb = node_predicted(b, dt)
-            t = xb - xa
-            l = norm2(t)
-            if (.not. (l > 0.0_wp)) cycle
-            t = t/l
-            nrm = [t(2), -t(1)]           ! outward: the element region is on the left
-            s = dot_product(p - xa, t)
-            g = dot_product(p - xa, nrm)
-            if (s >= 0.0_wp .and. s <= l) then
-              ! case (a): onto the segment
-              delta = thick - g
-              if (delta <= 0.0_wp .or. g <= -capture_depth*l) cycle
-              if (best%found .and. delta <= best%delta) cycle   ! case (b): the deepest
-              best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l)
-            else if (thick > 0.0_wp .and. g > 0.0_wp) then
-              ! case (c): beyond the segment's end, on its outer side: the node
-              if (s < 0.0_wp) then
-                e = xa
-              else
-                e = xb
-              end if
-              d = norm2(p - e)
-              delta = thick - d
-              if (delta <= 0.0_wp .or. .not. (d > 0.0_wp)) cycle
-              if (best%found .and. delta <= best%delta) cycle
-              best = contact_pair_t(.true., delta, (p - e)/d, [merge(a, b, s < 0.0_wp), 0], &
-                                    [1.0_wp, 0.0_wp], l)
-            end if
-          end do
-        end do
+      ir = int(floor((p(1) - grid_origin(1))/grid_cell))
+      iz = int(floor((p(2) - grid_origin(2))/grid_cell))
+      if (ir < 0 .or. iz < 0 .or. ir >= grid_nr .or. iz >= grid_nz) return
+      ic = iz*grid_nr + ir + 1
+      do m = ct%cell_start(ic), ct%cell_start(ic + 1) - 1
+        k = ct%cell_items(m)
+        a = ct%seg(1, k)
+        b = ct%seg(2, k)
+        if (a == self .or. b == self) cycle
+        thick = tau
+        if (ct%seg_cont(k) == own) then
+          if (.not. own_allowed) cycle
+          thick = 0.0_wp
+        end if
+        xa = node_predicted(a, dt)
+        xb = node_predicted(b, dt)
+        t = xb - xa
+        l = norm2(t)
+        if (.not. (l > 0.0_wp)) cycle
+        t = t/l
+        nrm = [t(2), -t(1)]           ! outward: the element region is on the left
+        s = dot_product(p - xa, t)
+        g = dot_product(p - xa, nrm)
+        if (s >= 0.0_wp .and. s <= l) then
+          ! case (a): onto the segment
+          delta = thick - g
+          if (delta <= 0.0_wp .or. g <= -capture_depth*l) cycle
+          if (best%found .and. delta <= best%delta) cycle   ! case (b): the deepest
+          best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l)
+        else if (thick > 0.0_wp .and. g > 0.0_wp) then
+          ! case (c): beyond the segment's end, on its outer side: the node
+          if (s < 0.0_wp) then
+            e = xa
+          else
+            e = xb
+          end if
+          d = norm2(p - e)
+          delta = thick - d
+          if (delta <= 0.0_wp .or. .not. (d > 0.0_wp)) cycle
+          if (best%found .and. delta <= best%delta) cycle
+          best = contact_pair_t(.true., delta, (p - e)/d, [merge(a, b, s < 0.0_wp), 0], &
+                                [1.0_wp, 0.0_wp], l)
+        end if
       end do
     end associate
   end subroutine find_contact

@@ -46,6 +46,21 @@ contains
     end do
   end function minimum_angle
 
+  !> Whether a triangle has an interior angle below the angle whose cosine
+  !> is cos_limit (the minimum-angle test without trigonometric calls).
+  pure logical function has_angle_below(xe, cos_limit) result(below)
+    real(wp), intent(in) :: xe(2, 3), cos_limit
+    real(wp) :: u(2), w(2), uw
+    integer :: k
+    below = .false.
+    do k = 1, 3
+      u = xe(:, modulo(k, 3) + 1) - xe(:, k)
+      w = xe(:, modulo(k + 1, 3) + 1) - xe(:, k)
+      uw = sqrt((u(1)**2 + u(2)**2)*(w(1)**2 + w(2)**2))
+      if (u(1)*w(1) + u(2)*w(2) > cos_limit*uw) below = .true.
+    end do
+  end function has_angle_below
+
   !> Element groups of every coupled body from the initial mesh (eqs 9-13):
   !> Delta_s = kappa R_max, R_max = 2 alpha_h sqrt(A0_max); N_r, N_z
   !> rectangles over the body's bounding box; an element belongs to the
@@ -260,8 +275,15 @@ contains
       case (criterion_equivalent_stress)
         meets_criterion = equivalent_stress(el%s(:, ie)) >= cv%sigma_c
       case default
+        ! below theta_c; an element that started below theta_c (graded or
+        ! mapped meshes) also below theta_relative times its initial angle
         xe = sim%nodes%x(:, el%conn(:, ie))
-        meets_criterion = minimum_angle(xe) < cv%theta_c
+        meets_criterion = has_angle_below(xe, cos(cv%theta_c))
+        if (meets_criterion) then
+          xe = sim%nodes%x0(:, el%conn(:, ie))
+          if (has_angle_below(xe, cos(cv%theta_c))) meets_criterion = &
+            minimum_angle(sim%nodes%x(:, el%conn(:, ie))) < cv%theta_relative*minimum_angle(xe)
+        end if
       end select
     end associate
   end function meets_criterion

@@ -42,20 +42,48 @@ contains
     coupled_body = sim%body_coupled(ib)
   end function coupled_body
 
-  !> Refill the imaginary particles from the elements of coupled bodies.
+  !> Refill the imaginary particles from the elements of coupled bodies. At
+  !> stage_start the elements are chosen: those of a continuum with real
+  !> particles whose centroid lies within the kernel reach of the bounding
+  !> box of those particles (an element farther away is no particle's
+  !> neighbour; leaving it out keeps the neighbour grid fine and the search
+  !> O(real particles)). At stage_mid the same elements are refilled, so
+  !> the neighbour lists of the cycle stay valid.
   subroutine fill_imaginary(stage)
+    use fsph_kernel, only: kernel_support
     integer, intent(in) :: stage
-    integer :: ie, k, n0
+    integer :: ie, k, n0, i, c, nc
+    real(wp) :: xe(2), reach
+    real(wp), allocatable :: lo(:, :), hi(:, :), h_max(:)
     associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
       n0 = pt%n
-      k = 0
-      do ie = 1, el%n
-        if (.not. coupled_body(el%body(ie))) cycle
-        k = k + 1
-        if (n0 + k > pt%capacity) exit
-        pt%imag_elem(n0 + k) = ie
-      end do
-      pt%n_imag = min(k, pt%capacity - n0)
+      if (stage == stage_start) then
+        nc = 0
+        if (allocated(sim%continuum_of_body)) nc = maxval(sim%continuum_of_body)
+        allocate (lo(2, nc), hi(2, nc), h_max(nc))
+        lo = huge(1.0_wp)
+        hi = -huge(1.0_wp)
+        h_max = -1.0_wp
+        do i = 1, n0
+          c = pt%continuum(i)
+          lo(:, c) = min(lo(:, c), pt%x(:, i))
+          hi(:, c) = max(hi(:, c), pt%x(:, i))
+          h_max(c) = max(h_max(c), pt%h(i))
+        end do
+        k = 0
+        do ie = 1, el%n
+          if (.not. coupled_body(el%body(ie))) cycle
+          c = sim%continuum_of_body(el%body(ie))
+          if (h_max(c) < 0.0_wp) cycle          ! no real particle in this continuum
+          xe = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
+          reach = kernel_support*0.5_wp*(h_max(c) + sim%conversion%alpha_h*sqrt(el%area(ie)))
+          if (any(xe < lo(:, c) - reach) .or. any(xe > hi(:, c) + reach)) cycle
+          k = k + 1
+          if (n0 + k > pt%capacity) exit
+          pt%imag_elem(n0 + k) = ie
+        end do
+        pt%n_imag = min(k, pt%capacity - n0)
+      end if
     end associate
     call fill_imaginary_entries(n0, stage)
   end subroutine fill_imaginary

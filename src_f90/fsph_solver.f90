@@ -27,6 +27,10 @@ module fsph_solver
   public :: solver_initialise, solver_advance, solver_energies, solver_stable_step, solver_forces
   public :: prepare_particle_sums
 
+  !> Particles may come no closer to the axis than this fraction of their
+  !> radius [-].
+  real(wp), parameter :: axis_wall_fraction = 0.5_wp
+
 contains
 
   !> Derived set-up once nodes, elements, materials and planes are in place:
@@ -370,6 +374,11 @@ contains
     integer :: ip
     associate (nd => sim%nodes, pt => sim%particles)
       if (nd%n > 0) call apply_axis(nd%n, nd%on_axis, nd%v)
+      ! particles keep at least half their radius from the axis: the axis
+      ! acts on them as a frictionless wall (the odd-extension ghosts alone
+      ! let a particle driven hard inwards cross r = 0)
+      if (pt%n > 0) call apply_rigid_plane(pt%n, [0.0_wp, 0.0_wp], [1.0_wp, 0.0_wp], dt_step, pt%x, &
+                                           pt%v, axis_wall_fraction*pt%radius(1:pt%n))
       do ip = 1, sim%n_planes
         if (nd%n > 0) call apply_rigid_plane(nd%n, sim%planes(ip)%point, sim%planes(ip)%normal, &
                                              dt_step, nd%x, nd%v)

@@ -98,6 +98,7 @@ module fsph_state
     logical :: enabled = .false.
     integer :: criterion = 1              !< 1 min angle, 2 plastic strain, 3 equivalent stress
     real(wp) :: theta_c = 0.5235987755982988_wp !< critical minimum angle [rad] (30 deg)
+    real(wp) :: theta_relative = 0.75_wp  !< or this fraction of the initial minimum angle, if lower [-]
     real(wp) :: eps_c = 0.4_wp            !< critical equivalent plastic strain [-]
     real(wp) :: sigma_c = 0.0_wp          !< critical equivalent stress [Pa]
     real(wp) :: kappa = 1.5_wp            !< group size factor of eq 9 [-]
