@@ -231,17 +231,24 @@ contains
     c(2) = min(max(int((p(2) - grid_origin(2))/grid_cell), 0), grid_nz - 1)
   end function cell_coords
 
-  !> Deepest contact of point p (predicted) with thickness tau [m] among
-  !> the segments near it. Segments of continuum `own` are skipped unless
-  !> own_allowed; segments holding node `self` are skipped.
-  subroutine find_contact(p, tau, own, own_allowed, self, dt, best)
-    real(wp), intent(in) :: p(2), tau, dt
+  !> Deepest contact of point p (predicted; p_now its current position)
+  !> with thickness tau [m] among the segments registered in its cell.
+  !> Segments of continuum `own` are skipped unless own_allowed; segments
+  !> holding node `self` are skipped. The penetration to remove is the
+  !> predicted one less any overlap that already exists (a particle made
+  !> by conversion inside another body's thickness, a point that came in
+  !> deeper than the capture depth): an existing overlap only stops
+  !> growing, it is not pushed out in one step, which would put energy in.
+  !> With `whole` the whole penetration is returned (measurement).
+  subroutine find_contact(p, p_now, tau, own, own_allowed, self, dt, best, whole)
+    real(wp), intent(in) :: p(2), p_now(2), tau, dt
     integer, intent(in) :: own, self
     logical, intent(in) :: own_allowed
     type(contact_pair_t), intent(out) :: best
-    real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2)
+    logical, intent(in), optional :: whole
+    real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2), overlap
     integer :: ir, iz, ic, m, k, a, b
-    associate (ct => sim%contact)
+    associate (ct => sim%contact, nd => sim%nodes)
       ir = int(floor((p(1) - grid_origin(1))/grid_cell))
       iz = int(floor((p(2) - grid_origin(2))/grid_cell))
       if (ir < 0 .or. iz < 0 .or. ir >= grid_nr .or. iz >= grid_nz) return
@@ -269,6 +276,10 @@ contains
           ! case (a): onto the segment
           delta = thick - g
           if (delta <= 0.0_wp .or. g <= -capture_depth*l) cycle
+          overlap = thick - gap_now(p_now, nd%x(:, a), nd%x(:, b))
+          if (present(whole)) overlap = 0.0_wp
+          delta = delta - max(overlap, 0.0_wp)
+          if (delta <= 0.0_wp) cycle
           if (best%found .and. delta <= best%delta) cycle   ! case (b): the deepest
           best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l)
         else if (thick > 0.0_wp .and. g > 0.0_wp) then
@@ -281,6 +292,10 @@ contains
           d = norm2(p - e)
           delta = thick - d
           if (delta <= 0.0_wp .or. .not. (d > 0.0_wp)) cycle
+          overlap = thick - norm2(p_now - nd%x(:, merge(a, b, s < 0.0_wp)))
+          if (present(whole)) overlap = 0.0_wp
+          delta = delta - max(overlap, 0.0_wp)
+          if (delta <= 0.0_wp) cycle
           if (best%found .and. delta <= best%delta) cycle
           best = contact_pair_t(.true., delta, (p - e)/d, [merge(a, b, s < 0.0_wp), 0], &
                                 [1.0_wp, 0.0_wp], l)
@@ -288,6 +303,17 @@ contains
       end do
     end associate
   end subroutine find_contact
+
+  !> Signed distance of point p from the line of segment a-b, positive on
+  !> the outer side [m].
+  pure real(wp) function gap_now(p, xa, xb) result(g)
+    real(wp), intent(in) :: p(2), xa(2), xb(2)
+    real(wp) :: t(2), l
+    t = xb - xa
+    l = norm2(t)
+    g = 0.0_wp
+    if (l > 0.0_wp) g = dot_product(p - xa, [t(2), -t(1)])/l
+  end function gap_now
 
   !> Correct the half-step velocities of nodes and particles so that no
   !> predicted position x + dt v penetrates another body's surface, and
@@ -307,7 +333,8 @@ contains
         ! slide lines: surface nodes on the other continua's segments
         do j = 1, ct%n_snode
           a = ct%snode(j)
-          call find_contact(node_predicted(a, dt), 0.0_wp, ct%snode_cont(j), .false., a, dt, pair)
+          call find_contact(node_predicted(a, dt), nd%x(:, a), 0.0_wp, ct%snode_cont(j), .false., &
+                            a, dt, pair)
           if (.not. pair%found) cycle
           call apply_pair(pair, dt, slave_node, a)
           n_pairs = n_pairs + 1
@@ -315,7 +342,7 @@ contains
         ! particles on segments: other continua with thickness r_p; their
         ! own continuum's surface (untied particles) with zero thickness
         do i = 1, pt%n
-          call find_contact(particle_predicted(i, dt), pt%radius(i), pt%continuum(i), &
+          call find_contact(particle_predicted(i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
                             ct%own_particles .and. pt%tie_a(i) == 0, 0, dt, pair)
           if (.not. pair%found) cycle
           call apply_pair(pair, dt, slave_particle, i)
@@ -466,13 +493,13 @@ contains
       if (ct%n_seg == 0) return
       call build_buckets(0.0_wp)
       do j = 1, ct%n_snode
-        call find_contact(sim%nodes%x(:, ct%snode(j)), 0.0_wp, ct%snode_cont(j), .false., &
-                          ct%snode(j), 0.0_wp, pair)
+        call find_contact(sim%nodes%x(:, ct%snode(j)), sim%nodes%x(:, ct%snode(j)), 0.0_wp, &
+                          ct%snode_cont(j), .false., ct%snode(j), 0.0_wp, pair, whole=.true.)
         if (pair%found) call keep_deepest(pair)
       end do
       do i = 1, pt%n
-        call find_contact(pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                          ct%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair)
+        call find_contact(pt%x(:, i), pt%x(:, i), pt%radius(i), pt%continuum(i), &
+                          ct%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair, whole=.true.)
         if (pair%found) call keep_deepest(pair)
       end do
     end associate
