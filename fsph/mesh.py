@@ -247,6 +247,78 @@ def mapped_lattice(X, Z):
                            area=np.abs(area).ravel())
 
 
+def _blocks_to_quads(blocks):
+    """Merge structured blocks (each an (nz+1, nr+1, 2) array of corner
+    positions) into one quadrilateral mesh: nodes (n, 2) in order of first
+    appearance (block by block, row by row) and quads (q, 4) (corners 00,
+    10, 11, 01 of each cell, block by block, row by row). Nodes shared by
+    blocks must be given bitwise equal."""
+    pts, quads, offset = [], [], 0
+    for P in blocks:
+        nz, nr = P.shape[0] - 1, P.shape[1] - 1
+        idx = offset + np.arange((nz + 1) * (nr + 1)).reshape(nz + 1, nr + 1)
+        quads.append(np.stack([idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]],
+                              axis=-1).reshape(-1, 4))
+        pts.append(P.reshape(-1, 2))
+        offset += len(pts[-1])
+    pts, quads = np.vstack(pts), np.vstack(quads)
+    _, first, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)                      # keep the order of first appearance
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return pts[first[order]], rank[inverse.ravel()][quads]
+
+
+def _quad_geometry(x, quads):
+    """Signed areas (q,) and area centroids (q, 2) of quadrilaterals."""
+    p = x[quads]
+    area = np.zeros(len(quads))
+    cen = np.zeros((len(quads), 2))
+    for k in range(4):
+        a, b = p[:, k], p[:, (k + 1) % 4]
+        cross = a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
+        area += cross
+        cen += (a + b) * cross[:, None]
+    area *= 0.5
+    return area, cen / (6.0 * area[:, None])
+
+
+def _crossed_quads_of(x, quads):
+    """Crossed-triangle mesh of a quadrilateral mesh (quads counter-
+    clockwise): the corners, then one centre per quad at the mean of its
+    corners; the four triangles of a quad together (bottom, right, top,
+    left as in crossed_mapped). Raises ValueError for a folded mesh."""
+    centres = x[quads].mean(axis=1)
+    m = len(x) + np.arange(len(quads))
+    conn = np.stack([np.column_stack([quads[:, k], quads[:, (k + 1) % 4], m])
+                     for k in range(4)], axis=1).reshape(-1, 3)
+    mesh = Mesh(x=np.vstack([x, centres]), conn=conn.astype(np.int64))
+    area = triangle_areas(mesh)
+    scale = np.ptp(x, axis=0).max()
+    if not np.all(area > 1e-14 * scale * scale):
+        bad = int(np.argmin(area))
+        raise ValueError(f"folded or degenerate quadrilateral mesh: triangle {bad} "
+                         f"(cell {bad // 4}) has signed area {area[bad]:.3e} m^2")
+    return mesh
+
+
+def _laplace_smooth(x, quads, free, sweeps):
+    """Jacobi Laplacian smoothing of the free nodes of a quad mesh: each
+    moves to the mean of its edge neighbours, `sweeps` times."""
+    x = x.copy()
+    n = len(x)
+    count = np.zeros(n)
+    for k in range(4):
+        np.add.at(count, quads[:, k], 2.0)
+    for _ in range(sweeps):
+        p = x[quads]
+        total = np.zeros_like(x)
+        for k in range(4):
+            np.add.at(total, quads[:, k], p[:, (k + 1) % 4] + p[:, (k + 3) % 4])
+        x[free] = total[free] / count[free, None]
+    return x
+
+
 def _graded_unit(n, ratio):
     """n + 1 points from 0 to 1 whose cell widths grow geometrically so the
     last cell is `ratio` times the first (uniform for ratio = 1)."""
