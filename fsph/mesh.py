@@ -7,8 +7,9 @@ incompressible plastic flow (ALGORITHMS.md section 1).
 Generators (each with a particle twin returning a ParticleLattice for
 pure-SPH bodies): crossed_quads / lattice (tensor grids), crossed_mapped /
 mapped_lattice (structured curvilinear grids), rod, ogive_projectile
-(tangent-ogive nose, OgiveProfile for its exact outline), plate (graded
-disc). read_gmsh imports triangles drawn in gmsh; triangle_areas,
+(tangent-ogive nose, OgiveProfile for its exact outline; by default a
+three-block nose whose cells stay near the shank's size, or the older
+single-grid "fan"), plate (graded disc). read_gmsh imports triangles drawn in gmsh; triangle_areas,
 ring_volume and mesh_quality measure a mesh.
 """
 
@@ -247,6 +248,78 @@ def mapped_lattice(X, Z):
                            area=np.abs(area).ravel())
 
 
+def _blocks_to_quads(blocks):
+    """Merge structured blocks (each an (nz+1, nr+1, 2) array of corner
+    positions) into one quadrilateral mesh: nodes (n, 2) in order of first
+    appearance (block by block, row by row) and quads (q, 4) (corners 00,
+    10, 11, 01 of each cell, block by block, row by row). Nodes shared by
+    blocks must be given bitwise equal."""
+    pts, quads, offset = [], [], 0
+    for P in blocks:
+        nz, nr = P.shape[0] - 1, P.shape[1] - 1
+        idx = offset + np.arange((nz + 1) * (nr + 1)).reshape(nz + 1, nr + 1)
+        quads.append(np.stack([idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]],
+                              axis=-1).reshape(-1, 4))
+        pts.append(P.reshape(-1, 2))
+        offset += len(pts[-1])
+    pts, quads = np.vstack(pts), np.vstack(quads)
+    _, first, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)                      # keep the order of first appearance
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return pts[first[order]], rank[inverse.ravel()][quads]
+
+
+def _quad_geometry(x, quads):
+    """Signed areas (q,) and area centroids (q, 2) of quadrilaterals."""
+    p = x[quads]
+    area = np.zeros(len(quads))
+    cen = np.zeros((len(quads), 2))
+    for k in range(4):
+        a, b = p[:, k], p[:, (k + 1) % 4]
+        cross = a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
+        area += cross
+        cen += (a + b) * cross[:, None]
+    area *= 0.5
+    return area, cen / (6.0 * area[:, None])
+
+
+def _crossed_quads_of(x, quads):
+    """Crossed-triangle mesh of a quadrilateral mesh (quads counter-
+    clockwise): the corners, then one centre per quad at the mean of its
+    corners; the four triangles of a quad together (bottom, right, top,
+    left as in crossed_mapped). Raises ValueError for a folded mesh."""
+    centres = x[quads].mean(axis=1)
+    m = len(x) + np.arange(len(quads))
+    conn = np.stack([np.column_stack([quads[:, k], quads[:, (k + 1) % 4], m])
+                     for k in range(4)], axis=1).reshape(-1, 3)
+    mesh = Mesh(x=np.vstack([x, centres]), conn=conn.astype(np.int64))
+    area = triangle_areas(mesh)
+    scale = np.ptp(x, axis=0).max()
+    if not np.all(area > 1e-14 * scale * scale):
+        bad = int(np.argmin(area))
+        raise ValueError(f"folded or degenerate quadrilateral mesh: triangle {bad} "
+                         f"(cell {bad // 4}) has signed area {area[bad]:.3e} m^2")
+    return mesh
+
+
+def _laplace_smooth(x, quads, free, sweeps):
+    """Jacobi Laplacian smoothing of the free nodes of a quad mesh: each
+    moves to the mean of its edge neighbours, `sweeps` times."""
+    x = x.copy()
+    n = len(x)
+    count = np.zeros(n)
+    for k in range(4):
+        np.add.at(count, quads[:, k], 2.0)
+    for _ in range(sweeps):
+        p = x[quads]
+        total = np.zeros_like(x)
+        for k in range(4):
+            np.add.at(total, quads[:, k], p[:, (k + 1) % 4] + p[:, (k + 3) % 4])
+        x[free] = total[free] / count[free, None]
+    return x
+
+
 def _graded_unit(n, ratio):
     """n + 1 points from 0 to 1 whose cell widths grow geometrically so the
     last cell is `ratio` times the first (uniform for ratio = 1)."""
@@ -405,96 +478,234 @@ def ogive_profile(diameter, length, crh, meplat_radius):
                         length=max(float(length), nose), meplat_radius=float(meplat_radius))
 
 
-def _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose, z_tip,
-                meplat_fraction, nose_down, radial_grading, meplat_radius):
-    if n_radial < 1:
-        raise ValueError(f"n_radial must be >= 1, got {n_radial}")
+NOSE_LAYOUTS = ("cap", "fan")
+CAP_TIP_GRADING = 1.5        # tip-block cells, along the axis and the outline, vs the rest
+CAP_SMOOTHING_SWEEPS = 150   # Laplacian sweeps over the interior nodes of the cap nose
+
+
+def _tfi(left, right, bottom, top):
+    """Transfinite (Coons) interpolation of a block from its four sides:
+    left and right (nz+1, 2) upwards, bottom and top (nr+1, 2) left to
+    right; returns (nz+1, nr+1, 2) with the sides copied exactly."""
+    nz, nr = len(left) - 1, len(bottom) - 1
+    u = np.linspace(0.0, 1.0, nr + 1)[None, :, None]
+    v = np.linspace(0.0, 1.0, nz + 1)[:, None, None]
+    P = ((1.0 - u) * left[:, None] + u * right[:, None]
+         + (1.0 - v) * bottom[None] + v * top[None]
+         - ((1.0 - u) * (1.0 - v) * bottom[0] + u * (1.0 - v) * bottom[-1]
+            + (1.0 - u) * v * top[0] + u * v * top[-1]))
+    P[:, 0], P[:, -1], P[0], P[-1] = left, right, bottom, top
+    return P
+
+
+def _segment(p, q, n):
+    t = np.linspace(0.0, 1.0, n + 1)[:, None]
+    out = (1.0 - t) * p + t * q
+    out[0], out[-1] = p, q
+    return out
+
+
+def _weighted_unit(n, n_first, weight):
+    """n + 1 points from 0 to 1: the first n_first cells `weight` times
+    as long as the others."""
+    w = np.where(np.arange(n) < n_first, weight, 1.0)
+    u = np.concatenate([[0.0], np.cumsum(w)])
+    u /= u[-1]
+    u[-1] = 1.0
+    return u
+
+
+def _cap_counts(prof, n_radial, n_axial_nose):
+    """Split of the cap nose: a cells across the axis strip (and along the
+    tip block's outline, the flat included), b = n_radial - a across the
+    outline strip (and along the tip block's axis), c along both strips;
+    the nose has b + c cells along the axis."""
+    a = (n_radial + 1) // 2
+    b = n_radial - a
+    h = prof.radius / n_radial
+    if n_axial_nose is None:
+        c = max(1, int(round(prof.meplat_x / h - CAP_TIP_GRADING * b)))
+    else:
+        c = n_axial_nose - b
+        if c < 1:
+            raise ValueError(f"n_axial_nose must be >= {b + 1} with nose_layout 'cap' and "
+                             f"n_radial = {n_radial}, got {n_axial_nose}")
+    return a, b, c
+
+
+def _ogive_cap_blocks(prof, n_radial, n_axial_nose, radial_grading):
+    """The three blocks of the cap nose in (r, zeta), zeta from the flat:
+    the tip block (M, Mo, C, Ma), the axis strip (Ma, C, Ms, A) and the
+    outline strip (C, Mo, B, Ms), meeting at the interior node C; M is the
+    centre of the flat, A and B the ends of the shoulder line zeta = x_m,
+    Ma, Mo and Ms the block corners on the axis, the outline and the
+    shoulder line."""
+    a, b, c = _cap_counts(prof, n_radial, n_axial_nose)
+    S, R0, zs, rm = prof.ogive_radius, prof.radius, prof.meplat_x, prof.meplat_radius
+    # outline: flat (one cell) then the ogive from its edge E to the shoulder,
+    # its first a - 1 cells (in the tip block) CAP_TIP_GRADING times longer
+    phi_e = np.arcsin(min(zs / S, 1.0))
+    phi = phi_e * (1.0 - _weighted_unit(a - 1 + c, a - 1, CAP_TIP_GRADING))
+    ogive = np.column_stack([prof._a + S * np.cos(phi), zs - S * np.sin(phi)])
+    ogive[0], ogive[-1] = (rm, 0.0), (R0, zs)
+    bottom = np.vstack([[0.0, 0.0], ogive[:a]])                  # M -> Mo, a cells
+    outer = ogive[a - 1:]                                        # Mo -> B, c cells
+    axis = np.column_stack([np.zeros(b + c + 1),
+                            zs * _weighted_unit(b + c, b, CAP_TIP_GRADING)])
+    axis[-1, 1] = zs
+    shoulder = np.column_stack([R0 * _graded_unit(n_radial, radial_grading),
+                                np.full(n_radial + 1, zs)])
+    ma, mo, ms = axis[b], bottom[-1], shoulder[a]
+    corner = 0.6 * (ma + mo)                                     # C, before smoothing
+    ma_c, mo_c, c_ms = _segment(ma, corner, a), _segment(mo, corner, b), _segment(corner, ms, c)
+    return [_tfi(axis[:b + 1], mo_c, bottom, ma_c),
+            _tfi(axis[b:], c_ms, ma_c, shoulder[:a + 1]),
+            _tfi(c_ms, outer, mo_c[::-1], shoulder[a:])], shoulder
+
+
+def _ogive_body(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose, z_tip,
+                meplat_fraction, nose_down, radial_grading, meplat_radius, nose_layout):
+    """("grid", X, Z, prof) for the fan layout (one structured grid) or
+    ("quads", x, quads, prof) for the cap layout (counter-clockwise quads)."""
+    if nose_layout not in NOSE_LAYOUTS:
+        raise ValueError(f"nose_layout must be one of {NOSE_LAYOUTS}, got {nose_layout!r}")
+    cap = nose_layout == "cap"
+    if n_radial < (2 if cap else 1):
+        raise ValueError(f"n_radial must be >= {2 if cap else 1} with nose_layout "
+                         f"{nose_layout!r}, got {n_radial}")
     if meplat_radius is None:
+        if meplat_fraction is None:
+            meplat_fraction = 1.0 if cap else 0.5
         meplat_radius = meplat_fraction * 0.5 * diameter / n_radial
     prof = ogive_profile(diameter, length, crh, meplat_radius)
-    if n_axial_nose is None:
-        n_axial_nose = prof.nose_cells(n_radial)
-    if n_axial_nose < 1:
-        raise ValueError(f"n_axial_nose must be >= 1, got {n_axial_nose}")
     shank = prof.shank_length
     if shank > 1e-12 * diameter and n_axial_shank < 1:
         raise ValueError(f"n_axial_shank must be >= 1 for a shank of {shank} m")
     if shank <= 1e-12 * diameter:
         n_axial_shank = 0
-    zeta = np.concatenate([
-        prof.nose_stations(n_axial_nose),
-        prof.meplat_x + np.linspace(0.0, shank, n_axial_shank + 1)[1:]])
-    outer = prof.radius_at(zeta)
-    outer[n_axial_nose:] = prof.radius           # the shank, exactly
-    s = _graded_unit(n_radial, radial_grading)
-    X = outer[:, None] * s[None, :]
-    Z = np.broadcast_to(zeta[:, None], X.shape).copy()
+    shank_z = prof.meplat_x + np.linspace(0.0, shank, n_axial_shank + 1)
+
+    if not cap:
+        if n_axial_nose is None:
+            n_axial_nose = prof.nose_cells(n_radial)
+        if n_axial_nose < 1:
+            raise ValueError(f"n_axial_nose must be >= 1, got {n_axial_nose}")
+        zeta = np.concatenate([prof.nose_stations(n_axial_nose), shank_z[1:]])
+        outer = prof.radius_at(zeta)
+        outer[n_axial_nose:] = prof.radius       # the shank, exactly
+        s = _graded_unit(n_radial, radial_grading)
+        X = outer[:, None] * s[None, :]
+        Z = np.broadcast_to(zeta[:, None], X.shape).copy()
+        if nose_down:
+            Z = z_tip + Z
+        else:                                     # mirrored: tip up, rows still upwards
+            X, Z = X[::-1].copy(), (z_tip - Z)[::-1].copy()
+        return "grid", X, Z, prof
+
+    blocks, shoulder = _ogive_cap_blocks(prof, n_radial, n_axial_nose, radial_grading)
+    if n_axial_shank:
+        blocks.append(np.stack(np.broadcast_arrays(shoulder[None, :, 0], shank_z[:, None]),
+                               axis=-1))
+    x, quads = _blocks_to_quads(blocks)
+    # smooth the interior nose nodes (the axis, outline and shoulder stay)
+    edges = np.sort(np.concatenate([quads[:, [k, (k + 1) % 4]] for k in range(4)]), axis=1)
+    edges, counts = np.unique(edges, axis=0, return_counts=True)
+    boundary = np.zeros(len(x), dtype=bool)
+    boundary[edges[counts == 1].ravel()] = True
+    free = ~boundary & (x[:, 1] < prof.meplat_x * (1.0 - 1e-12))
+    x = _laplace_smooth(x, quads, free, CAP_SMOOTHING_SWEEPS)
     if nose_down:
-        Z = z_tip + Z
-    else:                                         # mirrored: tip up, rows still upwards
-        X, Z = X[::-1].copy(), (z_tip - Z)[::-1].copy()
-    return X, Z, prof
+        x[:, 1] = z_tip + x[:, 1]
+    else:
+        x[:, 1] = z_tip - x[:, 1]
+        quads = quads[:, [0, 3, 2, 1]]            # mirrored: counter-clockwise again
+    return "quads", x, quads, prof
 
 
-def ogive_projectile(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
-                     z_tip=0.0, meplat_fraction=0.5, nose_down=True, radial_grading=1.0,
-                     meplat_radius=None):
+def ogive_projectile(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose=None,
+                     z_tip=0.0, meplat_fraction=None, nose_down=True, radial_grading=1.0,
+                     meplat_radius=None, nose_layout="cap"):
     """Crossed-triangle mesh of a tangent-ogive-nose rod on the axis r = 0.
 
     diameter D [m]; length [m]: the ideal body, sharp tip to base (nose +
     shank); crh: caliber radius head psi, ogive radius S = psi D, nose length
     l_n = (D/2) sqrt(4 psi - 1) (derived in OgiveProfile); the shank,
-    length - l_n, must be >= 0.
+    length - l_n, must be >= 0. Every quadrilateral cell is crossed into
+    four triangles through a centre node at the mean of its corners.
 
-    Structured grid of n_radial cells across and n_axial_nose +
-    n_axial_shank along, each cell crossed into four triangles
-    (crossed_mapped): with n = n_axial_nose + n_axial_shank cells along,
-    4 n_radial n triangles and (n_radial + 1)(n + 1) + n_radial n nodes
-    (corners, then cell centres). At each axial station the
-    nodes run from r = 0 to the local outer radius R(z), uniformly or,
-    with radial_grading = g, with cell widths growing geometrically outwards
-    so the outermost cell is g times the innermost.
+    The sharp tip is cut by a flat (meplat) of radius meplat_radius or, by
+    default, meplat_fraction times the mean shank radial spacing h =
+    (D/2)/n_radial. The flat is the lowest point of the body and lies at
+    z = z_tip with nose_down (the body occupies z_tip <= z <= z_tip + length
+    - meplat_height); with nose_down False the body is mirrored (flat at
+    z = z_tip pointing up, body below). The cut removes
+    OgiveProfile.meplat_volume, which scales as the cube of the meplat
+    radius.
 
-    The sharp tip is cut by a flat (meplat) so that no element degenerates:
-    its radius is meplat_radius or, by default, meplat_fraction times the
-    mean shank radial spacing, (D/2)/n_radial (half of it by default), so
-    the first station is about half a shank cell wide. The flat is the
-    lowest point of the body and lies at z = z_tip with nose_down (the body
-    occupies z_tip <= z <= z_tip + length - meplat_height); with nose_down
-    False the body is mirrored (flat at z = z_tip pointing up, body below).
-    The cut removes OgiveProfile.meplat_volume, which scales as the cube
-    of the meplat radius: 1e-5 of the body for D = 12.9 mm, L = 88.9 mm,
-    crh 3 with n_radial = 8 and the default flat. The smallest cells are at
-    the flat, meplat_radius / n_radial wide: they set the explicit time
-    step of the body (a larger meplat_fraction relaxes it).
+    The shank is n_radial x n_axial_shank cells, uniform along and, with
+    radial_grading = g, with widths growing geometrically outwards so the
+    outermost is g times the innermost (uniform for g = 1); its cells are
+    square for n_axial_shank ~ n_radial * shank_length / (D/2).
 
-    Axial spacing: the shank is uniform; the nose stations are spaced in
-    proportion to the local radius (equal steps of the integral of dz/R), so
-    every nose cell has the same height-to-width ratio and the cells get
+    nose_layout "cap" (default): cells of about the shank's size all over
+    the nose, so the nose does not shorten the explicit time step. The flat
+    is a single cell (meplat_fraction 1 by default: one h wide) and the nose
+    is three structured blocks meeting at one interior node C (valence 3):
+    a tip block above the flat (a x b cells, a = ceil(n_radial/2),
+    b = n_radial - a), an axis strip (a cells across) and an outline strip
+    (b cells across) running from the tip block to the shoulder with c cells
+    along; n_axial_nose = b + c is the number of cells along the axis in
+    the nose (None: the axis and outline spacing about h, the tip block's
+    CAP_TIP_GRADING = 1.5 times longer). Outline nodes are spaced evenly in
+    arc length, each block is filled by transfinite interpolation and the
+    interior nose nodes are relaxed by CAP_SMOOTHING_SWEEPS Laplacian
+    sweeps. The nose holds a b + n_radial c cells; the mesh has 4 times as
+    many triangles as cells and the corners plus one centre per cell as
+    nodes (corners of the tip block, axis strip, outline strip and shank,
+    shared ones once, then the centres). For D = 12.9 mm, crh 3,
+    n_radial = 8: smallest altitude about 0.35 of the shank's, smallest
+    triangle angle about 17 degrees (at the edge of the flat).
+
+    nose_layout "fan": one structured grid, n_radial cells across at every
+    station, n_axial_nose + n_axial_shank along (4 n_radial n triangles
+    and (n_radial + 1)(n + 1) + n_radial n nodes for n cells along,
+    corners row by row then centres, as crossed_mapped). The flat is
+    meplat_fraction = 0.5 of h by default, the nose stations are spaced in
+    proportion to the local radius (equal steps of the integral of dz/R),
+    so every nose cell has the same height-to-width ratio and the cells get
     finer towards the tip; n_axial_nose = None picks the smallest count for
     which no nose cell is taller than its mean radial width
-    (OgiveProfile.nose_cells). Shank cells are square for n_axial_shank ~
-    n_radial * shank_length / (D/2).
+    (OgiveProfile.nose_cells). The cells at the flat are meplat_radius /
+    n_radial wide: they set the explicit time step of the body (about 20
+    times shorter than the shank's for the default flat).
 
     Boundary nodes lie on the exact profile; the outline between them is
     straight, so the mesh volume falls short of the truncated body by the
-    chord error, O(R'' dz^3) per nose segment.
+    chord error, O(dz^3 / S) per outline segment.
     """
-    X, Z, _ = _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
-                          z_tip, meplat_fraction, nose_down, radial_grading, meplat_radius)
-    return crossed_mapped(X, Z)
+    kind, a, b, _ = _ogive_body(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                                z_tip, meplat_fraction, nose_down, radial_grading,
+                                meplat_radius, nose_layout)
+    return crossed_mapped(a, b) if kind == "grid" else _crossed_quads_of(a, b)
 
 
-def ogive_projectile_particles(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
-                               z_tip=0.0, meplat_fraction=0.5, nose_down=True,
-                               radial_grading=1.0, meplat_radius=None):
-    """The ogive_projectile grid (same arguments and layout) as particles:
+def ogive_projectile_particles(diameter, length, crh, n_radial, n_axial_shank,
+                               n_axial_nose=None, z_tip=0.0, meplat_fraction=None,
+                               nose_down=True, radial_grading=1.0, meplat_radius=None,
+                               nose_layout="cap"):
+    """The ogive_projectile cells (same arguments and layout) as particles:
     one per cell at its area centroid with its planar area
-    (ParticleLattice, mapped_lattice), for pure-SPH bodies; the ring
-    volumes 2 pi r area sum to the volume of the meshed outline."""
-    X, Z, _ = _ogive_grid(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
-                          z_tip, meplat_fraction, nose_down, radial_grading, meplat_radius)
-    return mapped_lattice(X, Z)
+    (ParticleLattice), for pure-SPH bodies; the ring volumes 2 pi r area sum
+    to the volume of the meshed outline."""
+    kind, a, b, _ = _ogive_body(diameter, length, crh, n_radial, n_axial_shank, n_axial_nose,
+                                z_tip, meplat_fraction, nose_down, radial_grading,
+                                meplat_radius, nose_layout)
+    if kind == "grid":
+        return mapped_lattice(a, b)
+    area, centroid = _quad_geometry(a, b)
+    if not np.all(area > 0.0):
+        raise ValueError("folded or degenerate cap nose: a cell of non-positive area")
+    return ParticleLattice(x=centroid, area=area)
 
 
 def geometric_ratio(first, total, n):

@@ -166,7 +166,7 @@ def test_ogive_nose_length_and_counts():
     prof = mesh.ogive_profile(D, L, CRH, 0.4e-3)
     assert prof.nose_length == pytest.approx(nose, rel=1e-14)
     assert prof.shank_length == pytest.approx(L - nose, rel=1e-14)
-    m = mesh.ogive_projectile(D, L, CRH, 6, 40, 20)
+    m = mesh.ogive_projectile(D, L, CRH, 6, 40, 20, nose_layout="fan")
     assert m.n_elements == 4 * 6 * 60
     assert m.n_nodes == 7 * 61 + 6 * 60
     assert_valid(m)
@@ -174,7 +174,7 @@ def test_ogive_nose_length_and_counts():
 
 @pytest.mark.parametrize("n_radial, n_shank, n_nose", [(4, 20, 12), (8, 84, None), (6, 30, 25)])
 def test_ogive_volume_matches_analytic(n_radial, n_shank, n_nose):
-    m = mesh.ogive_projectile(D, L, CRH, n_radial, n_shank, n_nose, z_tip=1e-3)
+    m = mesh.ogive_projectile(D, L, CRH, n_radial, n_shank, n_nose, z_tip=1e-3, nose_layout="fan")
     assert_valid(m)
     r0, s = 0.5 * D, CRH * D
     nose = np.sqrt(s * s - (s - r0) ** 2)
@@ -215,7 +215,7 @@ def test_ogive_volume_matches_analytic(n_radial, n_shank, n_nose):
 
 def test_ogive_boundary_on_profile_and_flat():
     n_radial, z_tip = 8, -2e-3
-    m = mesh.ogive_projectile(D, L, CRH, n_radial, 84, None, z_tip=z_tip)
+    m = mesh.ogive_projectile(D, L, CRH, n_radial, 84, None, z_tip=z_tip, nose_layout="fan")
     prof = mesh.ogive_profile(D, L, CRH, 0.5 * 0.5 * D / n_radial)
     r, z = outline(m, z_tip)
     x = prof.meplat_x - (z - z_tip)                            # distance from the junction
@@ -238,7 +238,8 @@ def test_ogive_aspect_ratio_bounded():
     for n_radial in (4, 8):
         prof = mesh.ogive_profile(D, L, CRH, 0.25 * D / n_radial)
         n_shank = round(n_radial * prof.shank_length / (0.5 * D))
-        q = mesh.mesh_quality(mesh.ogive_projectile(D, L, CRH, n_radial, n_shank, None))
+        q = mesh.mesh_quality(mesh.ogive_projectile(D, L, CRH, n_radial, n_shank, None,
+                                                    nose_layout="fan"))
         assert q["max_aspect"] < 3.0
         # the smallest cells are at the flat: r_m / n_radial wide
         assert q["min_altitude"] > 0.3 * prof.meplat_radius / n_radial
@@ -260,21 +261,22 @@ def test_ogive_nose_stations_graded_towards_tip():
 
 def test_ogive_nose_up_radial_grading_and_particles():
     z_tip = 0.1
-    up = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, z_tip=z_tip, nose_down=False)
-    down = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, z_tip=z_tip)
+    up = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, z_tip=z_tip, nose_down=False,
+                               nose_layout="fan")
+    down = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, z_tip=z_tip, nose_layout="fan")
     assert_valid(up)
     assert up.x[:, 1].max() == z_tip
     assert mesh.ring_volume(up) == pytest.approx(mesh.ring_volume(down), rel=1e-12)
     assert np.allclose(np.sort(up.x[:, 1]), np.sort(2.0 * z_tip - down.x[:, 1]), atol=1e-15)
 
-    graded = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, radial_grading=3.0)
+    graded = mesh.ogive_projectile(D, L, CRH, 6, 30, 20, radial_grading=3.0, nose_layout="fan")
     assert_valid(graded)
     base = graded.x[np.isclose(graded.x[:, 1], graded.x[:, 1].max(), atol=1e-15)]
     w = np.diff(np.unique(base[:, 0]))
     assert w[-1] / w[0] == pytest.approx(3.0, rel=1e-12)
     assert mesh.ring_volume(graded) == pytest.approx(mesh.ring_volume(down), rel=1e-12)
 
-    parts = mesh.ogive_projectile_particles(D, L, CRH, 6, 30, 20, z_tip=z_tip)
+    parts = mesh.ogive_projectile_particles(D, L, CRH, 6, 30, 20, z_tip=z_tip, nose_layout="fan")
     assert parts.n_particles == 6 * 50
     assert np.all(parts.area > 0.0)
     assert parts.ring_volume.sum() == pytest.approx(mesh.ring_volume(down), rel=1e-12)
@@ -283,14 +285,14 @@ def test_ogive_nose_up_radial_grading_and_particles():
 
 def test_ogive_rejects_bad_geometry():
     with pytest.raises(ValueError, match="shorter than its nose"):
-        mesh.ogive_projectile(D, 10e-3, CRH, 4, 5, 5)
+        mesh.ogive_projectile(D, 10e-3, CRH, 4, 5, 5, nose_layout="fan")
     with pytest.raises(ValueError, match="crh"):
-        mesh.ogive_projectile(D, L, 0.3, 4, 5, 5)
+        mesh.ogive_projectile(D, L, 0.3, 4, 5, 5, nose_layout="fan")
     with pytest.raises(ValueError, match="meplat"):
-        mesh.ogive_projectile(D, L, CRH, 4, 5, 5, meplat_radius=D)
+        mesh.ogive_projectile(D, L, CRH, 4, 5, 5, meplat_radius=D, nose_layout="fan")
     # a pure nose (no shank) needs no shank cells
     prof = mesh.ogive_profile(D, L, CRH, 1e-4)
-    m = mesh.ogive_projectile(D, prof.nose_length, CRH, 4, 0, 10)
+    m = mesh.ogive_projectile(D, prof.nose_length, CRH, 4, 0, 10, nose_layout="fan")
     assert m.n_elements == 4 * 4 * 10
     assert_valid(m)
 
@@ -367,7 +369,7 @@ def write_msh(path, points, cells, fmt="gmsh22"):
 
 def test_read_gmsh_round_trip(tmp_path):
     pytest.importorskip("meshio")
-    ref = mesh.ogive_projectile(D, L, CRH, 3, 8, 6, z_tip=2e-3)
+    ref = mesh.ogive_projectile(D, L, CRH, 3, 8, 6, z_tip=2e-3, nose_layout="fan")
     conn = ref.conn.copy()
     conn[::3] = conn[::3][:, [0, 2, 1]]                   # a third clockwise in the file
     # in millimetres, with a stray node no triangle uses and a boundary line
@@ -417,3 +419,150 @@ def test_read_gmsh_errors(tmp_path):
                      [("triangle", np.array([[0, 1, 2], [0, 2, 3]]))])
     m = mesh.read_gmsh(near)
     assert m.x[:, 0].min() == 0.0
+
+
+# -- ogive-nose projectile, cap nose (the default) ----------------------------
+
+def min_angles(m):
+    """Smallest interior angle [deg] of each triangle."""
+    p = m.x[m.conn]
+    out = []
+    for k in range(3):
+        u, v = p[:, (k + 1) % 3] - p[:, k], p[:, (k + 2) % 3] - p[:, k]
+        out.append(np.degrees(np.arctan2(np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]),
+                                         np.sum(u * v, axis=1))))
+    return np.min(out, axis=0)
+
+
+def boundary_ring_volume(m):
+    """Volume of revolution of the closed outline (the boundary edges,
+    counter-clockwise): (pi/3) sum (r1 + r2)(r1 z2 - r2 z1)."""
+    e = m.x[mesh.boundary_edges(m.conn)]
+    r1, z1, r2, z2 = e[:, 0, 0], e[:, 0, 1], e[:, 1, 0], e[:, 1, 1]
+    return np.pi / 3.0 * np.sum((r1 + r2) * (r1 * z2 - r2 * z1))
+
+
+def shank_quality(m, z_shoulder):
+    shank = m.x[m.conn, 1].min(axis=1) >= z_shoulder - 1e-12
+    return mesh.mesh_quality(mesh.Mesh(x=m.x, conn=m.conn[shank]))
+
+
+def test_ogive_cap_validation_projectile_quality():
+    # D = 12.9 mm, L = 88.9 mm, crh 3, 8 cells across, 84 shank cells of ~0.8 mm
+    m = mesh.ogive_projectile(D, L, CRH, 8, 84, None)
+    assert_valid(m)
+    prof = mesh.ogive_profile(D, L, CRH, 0.5 * D / 8)         # the default flat: one cell
+    a, b, c = mesh._cap_counts(prof, 8, None)
+    assert (a, b) == (4, 4)
+    assert m.n_elements == 4 * (a * b + 8 * c + 8 * 84)
+    q = mesh.mesh_quality(m)
+    qs = shank_quality(m, prof.meplat_x)
+    assert qs["min_altitude"] == pytest.approx(0.5 * 0.5 * D / 8, rel=0.01)
+    # no nose cell much smaller than the shank's: the time step is kept
+    assert q["min_altitude"] >= qs["min_altitude"] / 3.0
+    assert q["max_aspect"] < 6.0
+    # smallest interior angle (at the edge of the flat): 16.7 degrees
+    assert min_angles(m).min() > 15.0
+    # the fan layout, for comparison: tip cells ~20 times thinner
+    fan = mesh.ogive_projectile(D, L, CRH, 8, 84, None, nose_layout="fan")
+    assert mesh.mesh_quality(fan)["min_altitude"] < q["min_altitude"] / 5.0
+
+
+def test_ogive_cap_boundary_on_profile_and_volume():
+    z_tip = -2e-3
+    for crh, n_radial, n_shank in [(CRH, 8, 84), (CRH, 3, 30), (1.0, 6, 40), (6.0, 4, 20)]:
+        m = mesh.ogive_projectile(D, L, crh, n_radial, n_shank, None, z_tip=z_tip)
+        assert_valid(m)
+        prof = mesh.ogive_profile(D, L, crh, 0.5 * D / n_radial)
+        s = crh * D
+        nodes = np.unique(mesh.boundary_edges(m.conn))
+        r, z = m.x[nodes, 0], m.x[nodes, 1]
+        zeta = z - z_tip
+        top = m.x[:, 1].max()
+        assert top == pytest.approx(z_tip + prof.body_length, rel=1e-14)
+        on_axis = r == 0.0
+        on_flat = zeta == 0.0
+        on_base = z == top
+        on_side = ~(on_axis | on_flat | on_base)
+        # the flat is a single cell, the outline on the exact profile
+        assert np.array_equal(np.sort(r[on_flat]), [0.0, prof.meplat_radius])
+        assert np.allclose(r[on_side], prof.radius_at(zeta[on_side]), rtol=0.0, atol=1e-12 * D)
+        # the mesh fills its outline exactly, short of the body by the chord error:
+        # each ogive chord of length l cuts a circular segment S^2 (t - sin t) / 2,
+        # t = 2 asin(l / 2S), from the section, at a radius below the chord's largest
+        v_mesh = mesh.ring_volume(m)
+        assert v_mesh == pytest.approx(boundary_ring_volume(m), rel=1e-12)
+        e = m.x[mesh.boundary_edges(m.conn)]
+        nose = ((e[:, :, 0].min(axis=1) > 0.0) & (e[:, :, 1].max(axis=1) > z_tip)
+                & (e[:, :, 1].max(axis=1) <= z_tip + prof.meplat_x * (1.0 + 1e-12)))
+        chord = np.linalg.norm(e[nose, 1] - e[nose, 0], axis=1)
+        t = 2.0 * np.arcsin(chord / (2.0 * s))
+        bound = np.sum(2.0 * np.pi * e[nose, :, 0].max(axis=1) * s * s * (t - np.sin(t)) / 2.0)
+        deficit = prof.volume - v_mesh
+        assert 0.0 <= deficit <= bound
+        assert deficit / prof.volume < 1e-3
+        # the shank is the plain n_radial x n_shank grid
+        qs = shank_quality(m, z_tip + prof.meplat_x)
+        assert qs["n_elements"] == 4 * n_radial * n_shank
+        assert mesh.mesh_quality(m)["min_altitude"] >= qs["min_altitude"] / 3.0
+
+
+def test_ogive_cap_shapes_and_counts():
+    # blunt to slender noses, coarse to fine: never folded, nose cells near shank size
+    for crh in (0.5, 1.0, 3.0, 6.0):
+        for n_radial in (2, 4, 8, 12):
+            m = mesh.ogive_projectile(D, 5 * D, crh, n_radial, 6 * n_radial, None)
+            assert_valid(m)
+            prof = mesh.ogive_profile(D, 5 * D, crh, 0.5 * D / n_radial)
+            qs = shank_quality(m, prof.meplat_x)
+            assert mesh.mesh_quality(m)["min_altitude"] >= qs["min_altitude"] / 4.0
+            assert min_angles(m).min() > 12.0
+    # n_axial_nose: the cells along the axis in the nose
+    m = mesh.ogive_projectile(D, L, CRH, 6, 40, 30)
+    on_axis = np.sort(m.x[m.x[:, 0] == 0.0, 1])
+    prof = mesh.ogive_profile(D, L, CRH, 0.5 * D / 6)
+    assert np.sum(on_axis < prof.meplat_x * (1.0 - 1e-12)) == 30
+    a, b, c = mesh._cap_counts(prof, 6, 30)
+    assert m.n_elements == 4 * (a * b + 6 * c + 6 * 40)
+    # a pure nose, no shank
+    m = mesh.ogive_projectile(D, prof.nose_length, CRH, 4, 0, None)
+    assert_valid(m)
+
+
+def test_ogive_cap_nose_up_grading_and_particles():
+    z_tip = 0.1
+    down = mesh.ogive_projectile(D, L, CRH, 6, 30, None, z_tip=z_tip)
+    up = mesh.ogive_projectile(D, L, CRH, 6, 30, None, z_tip=z_tip, nose_down=False)
+    assert_valid(up)
+    assert up.x[:, 1].max() == z_tip
+    assert mesh.ring_volume(up) == pytest.approx(mesh.ring_volume(down), rel=1e-12)
+    assert np.allclose(np.sort(up.x[:, 1]), np.sort(2.0 * z_tip - down.x[:, 1]), atol=1e-15)
+
+    graded = mesh.ogive_projectile(D, L, CRH, 6, 30, None, radial_grading=3.0)
+    assert_valid(graded)
+    base = graded.x[np.isclose(graded.x[:, 1], graded.x[:, 1].max(), atol=1e-15)]
+    w = np.diff(np.unique(base[:, 0]))
+    assert w[-1] / w[0] == pytest.approx(3.0, rel=1e-12)
+
+    parts = mesh.ogive_projectile_particles(D, L, CRH, 6, 30, None, z_tip=z_tip)
+    assert parts.n_particles == down.n_elements // 4
+    assert np.all(parts.area > 0.0)
+    # Pappus: the particles' ring volumes are the cells', which the triangles tile
+    assert parts.ring_volume.sum() == pytest.approx(mesh.ring_volume(down), rel=1e-12)
+    cells = mesh.triangle_areas(down).reshape(-1, 4).sum(axis=1)
+    assert np.allclose(parts.area, cells, rtol=1e-12, atol=0.0)
+    assert np.all(parts.x[:, 0] > 0.0) and parts.x[:, 1].min() > z_tip
+    up_parts = mesh.ogive_projectile_particles(D, L, CRH, 6, 30, None, z_tip=z_tip,
+                                               nose_down=False)
+    assert up_parts.ring_volume.sum() == pytest.approx(parts.ring_volume.sum(), rel=1e-12)
+
+
+def test_ogive_cap_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="nose_layout"):
+        mesh.ogive_projectile(D, L, CRH, 8, 84, None, nose_layout="cone")
+    with pytest.raises(ValueError, match="n_radial must be >= 2"):
+        mesh.ogive_projectile(D, L, CRH, 1, 84, None)
+    with pytest.raises(ValueError, match="n_axial_nose must be >= 5"):
+        mesh.ogive_projectile(D, L, CRH, 8, 84, 4)
+    with pytest.raises(ValueError, match="meplat"):
+        mesh.ogive_projectile(D, L, CRH, 8, 84, None, meplat_radius=D)
