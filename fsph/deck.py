@@ -239,8 +239,10 @@ SCHEMA = {
     "convert": Group(
         "Automatic conversion of distorted elements into particles (mode adaptive; seed 000 "
         "section 2.3). Elements are grouped at set-up into rectangles of side kappa * R_max, "
-        "R_max = 2 alpha_h sqrt(A0_max) (&sph alpha_h); when one element of a group meets the "
-        "criterion, the whole group becomes particles.",
+        "R_max = 2 alpha_h sqrt(A0) (&sph alpha_h), A0 the median initial element area of the "
+        "body (eq 9 takes the largest, the same on a uniform mesh; on a graded plate the "
+        "largest would make groups of hundreds of impact-zone elements); when one element of a "
+        "group meets the criterion, the whole group becomes particles.",
         {
             "criterion": Key("str", "min_angle", "-",
                              "min_angle: smallest interior angle below theta_c (seed 000); "

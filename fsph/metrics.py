@@ -236,7 +236,12 @@ def perforation(snap, projectile, target):
     tip = (xp[:, 1] - rp).min()
     in_plate = (xt[:, 1] <= top0) & (xt[:, 1] >= bottom0)
     hole = 2.0 * max((xt[in_plate, 0] - rt[in_plate]).min(initial=np.inf), 0.0)
+    total = sum(_body_points(snap, b)[3] @ _body_points(snap, b)[2][:, 1]
+                for b in range(int(snap.get("n_bodies", max(projectile, target) + 1))))
     return {"velocity_z_m_s": velocity, "residual_velocity_m_s": abs(velocity),
+            "momentum_z": float(total),
+            "penetration_depth_max_mm": float(snap.get("contact_penetration", 0.0) * 1e3),
+            "penetration_relative_max": float(snap.get("contact_penetration_relative", 0.0)),
             "penetration_mm": float((top0 - tip) * 1e3),
             "exited": bool(xp[:, 1].max() < (xt[:, 1] - rt).min()),
             "hole_diameter_mm": float(hole * 1e3) if np.isfinite(hole) else None,

@@ -319,7 +319,10 @@ class Simulation:
         """Current state as plain arrays. Elements: nodes (n, 2), connectivity
         (m, 3) 0-based and element fields; particles (if any) under
         "particles". Stress is the total Cauchy stress (rr, zz, rz, tt)."""
-        snap = {"time": self.time, "cycle": self.cycle}
+        pen = self.penetration()
+        snap = {"time": self.time, "cycle": self.cycle, "n_bodies": len(self.body_names),
+                "contact_penetration": pen["depth"],
+                "contact_penetration_relative": pen["relative"]}
         if self.n_elements:
             nn, ne = _api.get_sizes()
             x, x0, v, mass = _api.get_nodes(nn)
