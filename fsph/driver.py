@@ -51,6 +51,14 @@ def _format_metrics(comparison, metrics):
 CYCLES_PER_CALL = 500
 
 
+def _cycles_this_call(cycle, every):
+    """Cycles of the next call into the solver: CYCLES_PER_CALL, cut so that
+    the call ends on the next multiple of `every` (checkpoint_cycles; 0 off)."""
+    if every <= 0:
+        return CYCLES_PER_CALL
+    return min(CYCLES_PER_CALL, every - cycle % every)
+
+
 def _check_energy(sim, limit):
     """Stop (as a failed run) when the energy error exceeds the deck's limit."""
     if limit is None:
@@ -120,6 +128,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
     writer.append_history(drain_history())
     failure = interrupted = None
     last_checkpoint = wallclock.perf_counter()
+    every = out["checkpoint_cycles"] if out["checkpoint"] else 0
     try:
         with _interrupt_flag() as flag:
             for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
@@ -129,11 +138,16 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                 # intermediate outputs never shorten a step; the run ends on end_time
                 land = t >= ctrl["end_time"]
                 while sim.time < t and not flag["signal"]:
-                    sim.advance(t, land=land, max_cycles=CYCLES_PER_CALL, partial=True)
+                    # a call never crosses a multiple of checkpoint_cycles; where a
+                    # call ends does not alter the trajectory (land=False)
+                    n_cycles = _cycles_this_call(sim.cycle, every)
+                    cycle0 = sim.cycle
+                    sim.advance(t, land=land, max_cycles=n_cycles, partial=True)
                     _check_energy(sim, ctrl["energy_error_limit"])
-                    if (out["checkpoint"] and out["checkpoint_minutes"] > 0.0
-                            and wallclock.perf_counter() - last_checkpoint
-                            >= 60.0 * out["checkpoint_minutes"]):
+                    if ((every and sim.cycle != cycle0 and sim.cycle % every == 0)
+                            or (out["checkpoint"] and out["checkpoint_minutes"] > 0.0
+                                and wallclock.perf_counter() - last_checkpoint
+                                >= 60.0 * out["checkpoint_minutes"])):
                         checkpoint_module.save(sim, checkpoint_path)
                         last_checkpoint = wallclock.perf_counter()
                 writer.append_history(drain_history())

@@ -43,6 +43,11 @@ BAD_DECKS = {
                                ["&material #1", "'yield_stress'", "missing key"]),
     "broken_syntax": ("&control end_time = (1.0e-6, 2 /\n", ["namelist syntax"]),
     "empty_file": ("", ["namelist group"]),
+    "negative_checkpoint_cycles": (rod_deck(output="checkpoint_cycles = -100"),
+                                   ["&output", "'checkpoint_cycles'", "[0, inf)"]),
+    "checkpoint_cycles_without_checkpoint": (
+        rod_deck(output="checkpoint = .false.\n checkpoint_cycles = 100"),
+        ["&output", "'checkpoint_cycles'", "when checkpoint = .false.", "100"]),
     "zero_normal": (rod_deck().replace("normal = 0.0, 1.0", "normal = 0.0, 0.0"),
                     ["&boundary #1", "'normal'", "non-zero"]),
 }
