@@ -266,3 +266,73 @@ def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
     assert " mm, z = " in failure["message"]
     assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
     assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+
+
+def test_progress_bar_text(tmp_path, monkeypatch):
+    """--progress bar: one tqdm bar over simulated time whose last state
+    shows 100 %, the final cycle, the step, elements and particles and the
+    elapsed<remaining times; no plain progress rows."""
+    import io
+    import re
+    from fsph.driver import run
+    monkeypatch.setenv("COLUMNS", "150")
+    monkeypatch.setenv("LINES", "40")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(rod_deck(output="n_progress = 5"))
+    stream = io.StringIO()
+    summary = run(deck, tmp_path / "out", stream=stream, progress="bar")
+    text = stream.getvalue()
+    states = [s.split("\n")[0] for s in text.split("\r") if "%|" in s]
+    assert len(states) >= 2                    # the start and the end at least
+    assert re.search(r"^\s*0%\|.*\| t 0/1 us \[00:00<\?, cycle 0, dt [0-9.]+ ns, 144 elements, "
+                     r"0 particles\]", states[0]), states[0]
+    final = (rf"^100%\|.*\| t 1/1 us \[\d\d:\d\d<\d\d:\d\d, cycle {summary['cycles']}, "
+             rf"dt [0-9.]+ ns, 144 elements, 0 particles\]")
+    assert re.search(final, states[-1]), states[-1]
+    assert all(len(s) <= 150 for s in states)
+    assert not [line for line in text.splitlines() if line.split() and line.split()[0].isdigit()]
+    assert "fsph: completed" in text
+
+
+def test_progress_bar_on_a_pseudo_terminal(tmp_path):
+    """`fsph run` with stdout on a pseudo-terminal (whose size is 0 x 0, as
+    under `script` or some CI runners) draws the bar, short labels for the
+    80-column default; with --quiet nothing is printed."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+    deck = tmp_path / "deck.nml"
+    deck.write_text(rod_deck())
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    env["OMP_NUM_THREADS"] = "1"
+
+    def on_pty(*extra):
+        master, slave = pty.openpty()
+        # a terminal that reports no size: tqdm alone prints nothing there
+        fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 0, 0, 0, 0))
+        proc = subprocess.Popen([sys.executable, "-m", "fsph", "run", str(deck), "-o",
+                                 str(tmp_path / "out"), *extra], stdout=slave,
+                                stderr=subprocess.PIPE, cwd=tmp_path, env=env)
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                data = os.read(master, 4096)
+            except OSError:                    # EIO: the child closed the terminal
+                break
+            if not data:
+                break
+            chunks.append(data)
+        os.close(master)
+        assert proc.wait(timeout=300) == 0, proc.stderr.read()
+        return b"".join(chunks).decode()
+
+    text = on_pty()
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    final = [s for s in text.replace("\n", "\r").split("\r") if s.startswith("100%|")]
+    assert final, text
+    assert "t 1/1 us [" in final[-1]
+    assert f"cycle {summary['cycles']}, dt " in final[-1] and ", el 144, pt 0]" in final[-1]
+    assert "    cycle     t [us]" not in text        # no table of plain lines
+    assert on_pty("--quiet") == ""
