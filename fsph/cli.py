@@ -21,7 +21,11 @@ def _parser():
     r = sub.add_parser("run", help="run a namelist deck")
     r.add_argument("deck", help="namelist deck (.nml)")
     r.add_argument("-o", "--output", help="output folder (default out/<deck name>)")
-    r.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    r.add_argument("-q", "--quiet", action="store_true", help="print nothing (no progress, no summary lines)")
+    r.add_argument("--progress", choices=("auto", "bar", "lines"), default="auto",
+                   help="progress display: a bar with simulated time, cycle, step, counts and "
+                        "ETA (bar), n_progress plain lines (lines), or the bar on a terminal "
+                        "and lines otherwise (auto, the default)")
     r.add_argument("--restart", help="continue from this checkpoint (checkpoint.h5 of a run "
                                      "of the same deck)")
     pl = sub.add_parser("plot", help="PNGs of a run: deformed body at chosen times "
@@ -49,7 +53,8 @@ def main(argv=None):
     try:
         if args.command == "run":
             from .driver import run
-            summary = run(args.deck, args.output, quiet=args.quiet, restart=args.restart)
+            summary = run(args.deck, args.output, quiet=args.quiet, restart=args.restart,
+                          progress=args.progress)
             return {"failed": EXIT_RUN_FAILED, "interrupted": EXIT_INTERRUPTED}.get(
                 summary["status"], EXIT_OK)
         if args.command == "plot":

@@ -323,6 +323,10 @@ SCHEMA = {
                                       "Also write the checkpoint whenever this many minutes of "
                                       "wall time have passed since the last one (0: only at "
                                       "snapshots and interrupts).", lower=0.0),
+            "checkpoint_cycles": Key("int", 0, "-",
+                                     "Also write the checkpoint every this many cycles (at "
+                                     "cycles that are multiples of it; 0: off). The run's "
+                                     "trajectory does not depend on it.", lower=0),
             "reference": Key("str", None, "-",
                              "JSON file of reference (experimental or analytic) values, "
                              "relative to the deck's folder."),
@@ -699,6 +703,12 @@ def _cross_check(path, deck):
             raise DeckError(path, "metrics", "plateau_to",
                             f"a value above plateau_from = {met['plateau_from']} m",
                             met["plateau_to"])
+    out = deck["output"]
+    if not out["checkpoint"]:
+        for key, off in (("checkpoint_minutes", 0.0), ("checkpoint_cycles", 0)):
+            if out[key] != off:
+                raise DeckError(path, "output", key, f"{off} (or unset) when checkpoint = "
+                                ".false.", out[key])
     ref = deck["output"]["reference"]
     if ref is not None and not (Path(deck["dir"]) / ref).is_file():
         raise DeckError(path, "output", "reference", "an existing JSON file relative to the "

@@ -2,6 +2,7 @@
 interval, write history, snapshots and summary, report metrics."""
 
 import json
+import shutil
 import signal
 import sys
 import time as wallclock
@@ -13,7 +14,7 @@ import numpy as np
 from . import checkpoint as checkpoint_module
 from . import deck as deck_module
 from . import metrics as metrics_module
-from .errors import SimulationError
+from .errors import FsphError, SimulationError
 from .output import RunWriter, write_summary
 from .simulation import Simulation, drain_history, threads
 
@@ -51,6 +52,74 @@ def _format_metrics(comparison, metrics):
 CYCLES_PER_CALL = 500
 
 
+def _cycles_this_call(cycle, every):
+    """Cycles of the next call into the solver: CYCLES_PER_CALL, cut so that
+    the call ends on the next multiple of `every` (checkpoint_cycles; 0 off)."""
+    if every <= 0:
+        return CYCLES_PER_CALL
+    return min(CYCLES_PER_CALL, every - cycle % every)
+
+
+class _ProgressBar:
+    """tqdm bar over simulated time with cycle, step, element and particle
+    counts and the ETA, for runs on a terminal."""
+
+    FORMAT = "{percentage:3.0f}%|{bar}| t {n:.4g}/{total:.4g} us [{elapsed}<{remaining}{postfix}]"
+    #: Terminals narrower than this get the short labels.
+    WIDE = 120
+
+    def __init__(self, stream, sim, end_time):
+        from tqdm import tqdm
+        # the width and height are given: on a pseudo-terminal that reports
+        # a 0 x 0 size (script, some CI runners and editors) tqdm would
+        # otherwise take the bar to be below the last row and print nothing
+        cols, rows = shutil.get_terminal_size()
+        self.wide = cols >= self.WIDE
+        self.bar = tqdm(total=end_time * 1e6, initial=sim.time * 1e6, file=stream,
+                        ncols=cols, nrows=rows, dynamic_ncols=False, mininterval=0.2,
+                        leave=True, disable=False, bar_format=self.FORMAT,
+                        postfix=self._state(sim))
+
+    def _state(self, sim):
+        if self.wide:
+            return (f"cycle {sim.cycle}, dt {sim.dt * 1e9:.4g} ns, {sim.n_elements} elements, "
+                    f"{sim.n_particles} particles")
+        return (f"cycle {sim.cycle}, dt {sim.dt * 1e9:.3g} ns, el {sim.n_elements}, "
+                f"pt {sim.n_particles}")
+
+    def update(self, sim):
+        self.bar.set_postfix_str(self._state(sim), refresh=False)
+        self.bar.update(sim.time * 1e6 - self.bar.n)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
+def _isatty(stream):
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def _progress_kind(progress, quiet, stream):
+    """'none', 'lines' or 'bar' for the deck's run on `stream`."""
+    if quiet:
+        return "none"
+    if progress not in ("auto", "bar", "lines"):
+        raise FsphError(f"progress: expected auto, bar or lines, got {progress!r}")
+    if progress == "auto":
+        progress = "bar" if _isatty(stream) else "lines"
+    if progress == "bar":
+        try:
+            import tqdm  # noqa: F401
+        except ImportError:
+            return "lines"
+    return progress
+
+
 def _check_energy(sim, limit):
     """Stop (as a failed run) when the energy error exceeds the deck's limit."""
     if limit is None:
@@ -85,11 +154,14 @@ def _interrupt_flag():
             signal.signal(sig, old)
 
 
-def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
+def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress="auto"):
     """Run one deck; returns the summary dict (its 'status' says whether the
     run completed, failed or was interrupted). Raises DeckError for a bad
-    deck. With restart, the state is read from that checkpoint first."""
+    deck. With restart, the state is read from that checkpoint first.
+    progress: 'bar' (a tqdm bar), 'lines' (n_progress plain lines) or
+    'auto' (the bar when `stream` is a terminal); quiet: neither."""
     stream = stream or sys.stdout
+    kind = _progress_kind(progress, quiet, stream)
 
     def say(text):
         if not quiet:
@@ -109,11 +181,11 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
     say(f"fsph: {ctrl['title'] or deck_path.stem}: mode {ctrl['mode']}, {sim.n_elements} elements, "
         f"{sim.n_nodes} nodes, {sim.n_particles} particles, {threads()} thread(s), "
         f"end time {ctrl['end_time'] * 1e6:g} us")
-    say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s} "
-        f"{'elements':>9s} {'particles':>9s}")
-
     if restart is not None:
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
+    if kind == "lines":
+        say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s} "
+            f"{'elements':>9s} {'particles':>9s}")
     last_good = sim.snapshot()
     writer.write_snapshot(last_good)
     series = [r for r in [metrics_module.snapshot_series(last_good, deck)] if r]
@@ -121,6 +193,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
     writer.append_history(drain_history())
     failure = interrupted = None
     last_checkpoint = wallclock.perf_counter()
+    every = out["checkpoint_cycles"] if out["checkpoint"] else 0
+    bar = _ProgressBar(stream, sim, ctrl["end_time"]) if kind == "bar" else None
     try:
         with _interrupt_flag() as flag:
             for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
@@ -130,16 +204,25 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                 # intermediate outputs never shorten a step; the run ends on end_time
                 land = t >= ctrl["end_time"]
                 while sim.time < t and not flag["signal"]:
-                    sim.advance(t, land=land, max_cycles=CYCLES_PER_CALL, partial=True)
+                    # a call never crosses a multiple of checkpoint_cycles; where a
+                    # call ends does not alter the trajectory (land=False)
+                    n_cycles = _cycles_this_call(sim.cycle, every)
+                    cycle0 = sim.cycle
+                    sim.advance(t, land=land, max_cycles=n_cycles, partial=True)
                     _check_energy(sim, ctrl["energy_error_limit"])
-                    if (out["checkpoint"] and out["checkpoint_minutes"] > 0.0
-                            and wallclock.perf_counter() - last_checkpoint
-                            >= 60.0 * out["checkpoint_minutes"]):
+                    if ((every and sim.cycle != cycle0 and sim.cycle % every == 0)
+                            or (out["checkpoint"] and out["checkpoint_minutes"] > 0.0
+                                and wallclock.perf_counter() - last_checkpoint
+                                >= 60.0 * out["checkpoint_minutes"])):
                         checkpoint_module.save(sim, checkpoint_path)
                         last_checkpoint = wallclock.perf_counter()
+                    if bar:
+                        bar.update(sim)
                 writer.append_history(drain_history())
                 if flag["signal"]:
                     interrupted = signal.Signals(flag["signal"]).name
+                    if bar:
+                        bar.close()
                     if out["checkpoint"]:
                         checkpoint_module.save(sim, checkpoint_path)
                     say(f"fsph: {interrupted} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: "
@@ -154,17 +237,22 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None):
                     if out["checkpoint"]:
                         checkpoint_module.save(sim, checkpoint_path)
                         last_checkpoint = wallclock.perf_counter()
-                if progress_due:
+                if progress_due and kind == "lines":
                     say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
                         f"{sim.energies()['relative_error']:+11.3e} "
                         f"{wallclock.perf_counter() - t_wall0:9.2f} {sim.n_elements:9d} "
                         f"{sim.n_particles:9d}")
     except SimulationError as err:
+        if bar:
+            bar.close()
         failure = err
         writer.append_history(drain_history())
         writer.mark_failure(str(err))
         say(f"fsph: run failed: {err}")
         say(f"fsph: last good snapshot t = {last_good['time'] * 1e6:.4g} us kept in {writer.h5_path}")
+    finally:
+        if bar:
+            bar.close()
     writer.close()
 
     energies = sim.energies()

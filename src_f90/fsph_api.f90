@@ -9,7 +9,8 @@ module fsph_api
   private
   public :: reset, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
   public :: initialise, advance, get_sizes, get_clock, get_nodes, get_elements
-  public :: get_element_fields, get_energies, set_node_velocities, get_strain_rates
+  public :: get_element_fields, get_energies, set_node_velocities, set_particle_velocities
+  public :: get_strain_rates
   public :: material_point, history_count, drain_history, set_sph_control, set_particles
   public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
   public :: get_neighbor_count, get_neighbors, kernel_values, set_continua, reserve_particles
@@ -674,6 +675,20 @@ contains
     sim%nodes%v = v
     ierr = status_ok
   end subroutine set_node_velocities
+
+  !> Overwrite particle velocities [m/s] (verification tests: e.g. drive a
+  !> particle onto the axis to exercise the failure guard).
+  subroutine set_particle_velocities(np, v, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: np
+    real(wp), intent(in) :: v(2, np)
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (np /= sim%particles%n) return
+    sim%particles%v(:, 1:np) = v
+    ierr = status_ok
+  end subroutine set_particle_velocities
 
   !> Strain rates (rr, zz, rz, tt) [1/s] and spin [1/s] of every element for
   !> the current positions and velocities (the kernel the cycle uses).

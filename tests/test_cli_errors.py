@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import h5py
+import numpy as np
 import pytest
 
 from conftest import rod_deck
@@ -43,6 +44,11 @@ BAD_DECKS = {
                                ["&material #1", "'yield_stress'", "missing key"]),
     "broken_syntax": ("&control end_time = (1.0e-6, 2 /\n", ["namelist syntax"]),
     "empty_file": ("", ["namelist group"]),
+    "negative_checkpoint_cycles": (rod_deck(output="checkpoint_cycles = -100"),
+                                   ["&output", "'checkpoint_cycles'", "[0, inf)"]),
+    "checkpoint_cycles_without_checkpoint": (
+        rod_deck(output="checkpoint = .false.\n checkpoint_cycles = 100"),
+        ["&output", "'checkpoint_cycles'", "when checkpoint = .false.", "100"]),
     "zero_normal": (rod_deck().replace("normal = 0.0, 1.0", "normal = 0.0, 0.0"),
                     ["&boundary #1", "'normal'", "non-zero"]),
 }
@@ -150,3 +156,183 @@ def test_progress_lines_and_quiet(tmp_path):
     assert len(rows) == 5
     quiet = fsph_cli(["run", str(deck), "-o", str(tmp_path / "b"), "--quiet"], tmp_path)
     assert quiet.returncode == 0 and quiet.stdout == ""
+
+
+def run_with_fault(tmp_path, monkeypatch, capsys, deck_text, inject):
+    """`fsph run` (in this process) of a deck whose state `inject(sim)`
+    damages once the first snapshot after t = 0 and its checkpoint are
+    written. Returns the exit code, stdout, summary, the output folder and
+    the cycle, time and result of the injection."""
+    from fsph import cli, driver
+    deck = tmp_path / "faulty.nml"
+    deck.write_text(deck_text)
+    first_snapshot = driver.deck_module.load(deck)["control"]["end_time"] / 4
+    done = {}
+
+    class Faulty(driver.Simulation):
+        def advance(self, t, **kwargs):
+            if not done and self.time >= first_snapshot:
+                done.update(cycle=self.cycle, time=self.time, result=inject(self))
+            return super().advance(t, **kwargs)
+
+    monkeypatch.setattr(driver, "Simulation", Faulty)
+    out = tmp_path / "out"
+    code = cli.main(["run", str(deck), "-o", str(out)])
+    stdout = capsys.readouterr().out
+    assert done, "the fault was never injected"
+    assert first_snapshot <= done["time"] < 1.5 * first_snapshot
+    summary = json.loads((out / "summary.json").read_text())
+    return code, stdout, summary, out, done
+
+
+def assert_last_good_kept(out, summary, done, deck):
+    """The last snapshot and the checkpoint are the state the fault was
+    injected into, and the run restarted from that checkpoint completes."""
+    import fsph
+    from fsph import checkpoint, cli
+    assert summary["metrics_time_s"] == done["time"]
+    with h5py.File(out / "fsph.h5") as h5:
+        assert "failure" in h5.attrs
+        snaps = h5["snapshots"]
+        assert len(snaps) == 2              # t = 0 and the first quarter
+        assert snaps[sorted(snaps)[-1]].attrs["time"] == done["time"]
+    sim = fsph.Simulation.from_deck(deck)
+    checkpoint.restore(sim, out / "checkpoint.h5")
+    assert sim.cycle == done["cycle"] and sim.time == done["time"]
+    assert cli.main(["run", str(deck), "-o", str(out.parent / "again"), "-q",
+                     "--restart", str(out / "checkpoint.h5")]) == 0
+
+
+def test_particle_on_axis_stops_cleanly(tmp_path, monkeypatch, capsys):
+    """A particle next to the axis given an inward radial velocity that
+    carries it across r = 0 within one step (bodies have no radial velocity
+    and the axis mirrors keep a sound run off the axis, hence the hook):
+    exit 3, the axis guard's diagnostic names the particle, its body, where
+    and when; the last good snapshot and checkpoint are kept."""
+    from fsph import cli
+
+    def inject(sim):
+        part = sim.snapshot()["particles"]
+        x, v = part["x"], part["velocity"].copy()
+        inner = np.flatnonzero(x[:, 0] < 1.5 * x[:, 0].min())
+        k = int(inner[len(inner) // 2])           # an inner particle half-way up
+        v[k, 0] = -4.0 * x[k, 0] / sim.dt
+        sim.set_particle_velocities(v)
+        return k
+
+    text = rod_deck(control="mode = 'sph'", body="n_radial = 4\n n_axial = 16",
+                    output="n_snapshots = 4")
+    code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
+    k = done["result"]
+    assert code == cli.EXIT_RUN_FAILED == 3
+    failure = summary["failure"]
+    assert summary["status"] == "failed"
+    assert failure["code"] == 10 and failure["index"] == -(k + 1)
+    # the positions, and the clock with them, reached the next cycle
+    assert failure["cycle"] == done["cycle"] + 1 and failure["time_s"] > done["time"]
+    message = (f"run stopped at t = {failure['time_s'] * 1e6:.6g} us, cycle {done['cycle'] + 1}: "
+               f"a particle reached the axis (r <= 0); particle {k + 1} of body 'rod' at r = -")
+    assert message in stdout and failure["message"].startswith(message)
+    assert " mm, z = " in failure["message"]
+    assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
+    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+
+
+def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
+    """A NaN in one node's velocity: exit 3, the NaN/Inf guard's diagnostic
+    names the node and where it started, with time and cycle; the last good
+    snapshot and checkpoint are kept."""
+    from fsph import cli
+
+    def inject(sim):
+        v = sim.snapshot()["velocity"].copy()
+        k = sim.n_nodes // 2
+        v[k, 1] = np.nan
+        sim.set_velocities(v)
+        return k
+
+    text = rod_deck(output="n_snapshots = 4")
+    code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
+    k = done["result"]
+    assert code == cli.EXIT_RUN_FAILED == 3
+    failure = summary["failure"]
+    assert failure["code"] == 3 and failure["index"] == k + 1
+    # the position update of the next cycle failed: the clock stays put
+    assert failure["cycle"] == done["cycle"] and failure["time_s"] == done["time"]
+    message = (f"run stopped at t = {done['time'] * 1e6:.6g} us, cycle {done['cycle']}: "
+               f"non-finite position or velocity (NaN/Inf) at a node; node {k + 1} (initially at "
+               f"r = ")
+    assert message in stdout and failure["message"].startswith(message)
+    assert " mm, z = " in failure["message"]
+    assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
+    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+
+
+def test_progress_bar_text(tmp_path, monkeypatch):
+    """--progress bar: one tqdm bar over simulated time whose last state
+    shows 100 %, the final cycle, the step, elements and particles and the
+    elapsed<remaining times; no plain progress rows."""
+    import io
+    import re
+    from fsph.driver import run
+    monkeypatch.setenv("COLUMNS", "150")
+    monkeypatch.setenv("LINES", "40")
+    deck = tmp_path / "deck.nml"
+    deck.write_text(rod_deck(output="n_progress = 5"))
+    stream = io.StringIO()
+    summary = run(deck, tmp_path / "out", stream=stream, progress="bar")
+    text = stream.getvalue()
+    states = [s.split("\n")[0] for s in text.split("\r") if "%|" in s]
+    assert len(states) >= 2                    # the start and the end at least
+    assert re.search(r"^\s*0%\|.*\| t 0/1 us \[00:00<\?, cycle 0, dt [0-9.]+ ns, 144 elements, "
+                     r"0 particles\]", states[0]), states[0]
+    final = (rf"^100%\|.*\| t 1/1 us \[\d\d:\d\d<\d\d:\d\d, cycle {summary['cycles']}, "
+             rf"dt [0-9.]+ ns, 144 elements, 0 particles\]")
+    assert re.search(final, states[-1]), states[-1]
+    assert all(len(s) <= 150 for s in states)
+    assert not [line for line in text.splitlines() if line.split() and line.split()[0].isdigit()]
+    assert "fsph: completed" in text
+
+
+def test_progress_bar_on_a_pseudo_terminal(tmp_path):
+    """`fsph run` with stdout on a pseudo-terminal (whose size is 0 x 0, as
+    under `script` or some CI runners) draws the bar, short labels for the
+    80-column default; with --quiet nothing is printed."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+    deck = tmp_path / "deck.nml"
+    deck.write_text(rod_deck())
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    env["OMP_NUM_THREADS"] = "1"
+
+    def on_pty(*extra):
+        master, slave = pty.openpty()
+        # a terminal that reports no size: tqdm alone prints nothing there
+        fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 0, 0, 0, 0))
+        proc = subprocess.Popen([sys.executable, "-m", "fsph", "run", str(deck), "-o",
+                                 str(tmp_path / "out"), *extra], stdout=slave,
+                                stderr=subprocess.PIPE, cwd=tmp_path, env=env)
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                data = os.read(master, 4096)
+            except OSError:                    # EIO: the child closed the terminal
+                break
+            if not data:
+                break
+            chunks.append(data)
+        os.close(master)
+        assert proc.wait(timeout=300) == 0, proc.stderr.read()
+        return b"".join(chunks).decode()
+
+    text = on_pty()
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    final = [s for s in text.replace("\n", "\r").split("\r") if s.startswith("100%|")]
+    assert final, text
+    assert "t 1/1 us [" in final[-1]
+    assert f"cycle {summary['cycles']}, dt " in final[-1] and ", el 144, pt 0]" in final[-1]
+    assert "    cycle     t [us]" not in text        # no table of plain lines
+    assert on_pty("--quiet") == ""

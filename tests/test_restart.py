@@ -122,3 +122,61 @@ def test_wall_clock_checkpoints(tmp_path):
     assert len(seen) >= 2 and seen[0] < summary["cycles"]
     with h5py.File(tmp_path / "out" / "checkpoint.h5") as h5:
         assert h5.attrs["format"] == 1
+
+
+def _short_taylor(tmp_path, name, output=""):
+    """The adaptive Taylor deck cut to 4 us (about 250 cycles, conversions
+    from cycle 35 on) with one snapshot, extra &output keys appended."""
+    text = (CASES / "taylor_armco.nml").read_text().replace(
+        "  n_snapshots = 16", "  n_snapshots = 1\n" + output)
+    text = text.replace("end_time = 60.0e-6", "end_time = 4.0e-6")
+    deck = tmp_path / f"{name}.nml"
+    deck.write_text(text)
+    refs = tmp_path / "references"
+    refs.mkdir(exist_ok=True)
+    (refs / "taylor_armco.json").write_text(
+        (CASES / "references" / "taylor_armco.json").read_text())
+    return deck
+
+
+def test_cycle_checkpoints_restart_bit_for_bit(tmp_path):
+    """checkpoint_cycles = 100: checkpoints at cycles 100 and 200 (then the
+    end snapshot's), the trajectory is the same as without them, and a
+    restart from the cycle-100 checkpoint ends in the same state, bit for
+    bit, as the uninterrupted run."""
+    import shutil
+    from fsph.driver import run
+
+    plain = run(_short_taylor(tmp_path, "plain"), tmp_path / "plain", quiet=True)
+    deck = _short_taylor(tmp_path, "every", "  checkpoint_cycles = 100\n")
+    seen = []
+    original = checkpoint.save
+
+    def spy(sim, path):
+        written = original(sim, path)
+        seen.append(sim.cycle)
+        shutil.copy(written, tmp_path / f"ckpt_{sim.cycle}.h5")
+        return written
+
+    checkpoint.save = spy
+    try:
+        summary = run(deck, tmp_path / "every", quiet=True)
+    finally:
+        checkpoint.save = original
+    assert summary["status"] == "completed"
+    assert summary["cycles"] == plain["cycles"] > 200
+    assert seen == [100, 200, summary["cycles"]]
+    assert summary["n_converted"] > 0
+
+    restored = fsph.Simulation.from_deck(deck)
+    checkpoint.restore(restored, tmp_path / "ckpt_100.h5")
+    assert restored.cycle == 100
+    assert restored.conversion()["n_converted"] < summary["n_converted"]
+
+    resumed = run(deck, tmp_path / "resumed", quiet=True, restart=tmp_path / "ckpt_100.h5")
+    assert resumed["status"] == "completed" and resumed["cycles"] == plain["cycles"]
+    a, b, c = (_final_arrays(tmp_path / d) for d in ("plain", "every", "resumed"))
+    assert a.keys() == b.keys() == c.keys() and "p_x" in a
+    for key in a:
+        assert np.array_equal(a[key], b[key]), key
+        assert np.array_equal(a[key], c[key]), key
