@@ -151,7 +151,7 @@ contains
     associate (pt => sim%particles)
       allocate (pair_q(max(size(pt%nbr_list), 1)))
       call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
-                             pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q)
+                             pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q, pt%acc_imag_z)
       call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
                      pair_q, drho, de, d, spin)
     end associate

@@ -167,7 +167,81 @@ contains
         nd%f(2, b) = nd%f(2, b) + 0.5_wp*two_pi*rbar*l*tz
       end do
     end associate
+    call balance_axial_coupling()
   end subroutine coupling_tractions
+
+  !> Axial momentum balance of the coupling, per continuum. The particles
+  !> feel the elements through their imaginary neighbours (eq 5) and the
+  !> elements feel the particles through the edge tractions (eqs 6-8); the
+  !> two are not action and reaction pair by pair, and in a perforation
+  !> run their axial sums differed by about a third of the interface force,
+  !> so the bodies gained momentum (2 % of the projectile's in 40 us). The
+  !> axial edge forces are corrected, in proportion to each edge's ring
+  !> area, so that their sum is minus the axial force of the imaginary
+  !> neighbours on all the continuum's particles (a tied particle's share
+  !> reaches the nodes with its tie, and is taken back here): the local
+  !> distribution stays the seed's, the axial momentum is conserved.
+  subroutine balance_axial_coupling()
+    integer :: i, k, c, nc, a, b, slot
+    real(wp) :: l, rbar, share
+    real(wp), allocatable :: target_z(:), applied_z(:), ring(:)
+    integer, allocatable :: edge_cont(:)
+    associate (cp => sim%coupling, pt => sim%particles, nd => sim%nodes)
+      nc = maxval(sim%continuum_of_body)
+      allocate (target_z(nc), applied_z(nc), ring(nc), edge_cont(cp%n_edges))
+      target_z = 0.0_wp
+      applied_z = 0.0_wp
+      ring = 0.0_wp
+      edge_cont = 0
+      do i = 1, pt%n
+        c = pt%continuum(i)
+        target_z(c) = target_z(c) - pt%mass(i)*pt%acc_imag_z(i)
+        if (pt%tie_a(i) /= 0) cycle
+        do slot = 1, 2
+          k = pt%assoc(slot, i)
+          if (k /= 0) edge_cont(k) = c
+        end do
+      end do
+      do k = 1, cp%n_edges
+        c = edge_cont(k)
+        if (c == 0 .or. cp%count(k) == 0) cycle
+        a = cp%edge(1, k)
+        b = cp%edge(2, k)
+        l = norm2(nd%x(:, b) - nd%x(:, a))
+        rbar = 0.5_wp*(nd%x(1, a) + nd%x(1, b))
+        ring(c) = ring(c) + two_pi*rbar*l
+        applied_z(c) = applied_z(c) + edge_axial_force(k)
+      end do
+      do k = 1, cp%n_edges
+        c = edge_cont(k)
+        if (c == 0 .or. cp%count(k) == 0) cycle
+        if (.not. (ring(c) > 0.0_wp)) cycle
+        a = cp%edge(1, k)
+        b = cp%edge(2, k)
+        l = norm2(nd%x(:, b) - nd%x(:, a))
+        rbar = 0.5_wp*(nd%x(1, a) + nd%x(1, b))
+        share = (target_z(c) - applied_z(c))*two_pi*rbar*l/ring(c)
+        nd%f(2, a) = nd%f(2, a) + 0.5_wp*share
+        nd%f(2, b) = nd%f(2, b) + 0.5_wp*share
+      end do
+    end associate
+  end subroutine balance_axial_coupling
+
+  !> Axial force of the traction on coupling edge k [N] (as applied by
+  !> coupling_tractions).
+  real(wp) function edge_axial_force(k) result(fz)
+    integer, intent(in) :: k
+    real(wp) :: sbar(4), dr, dz, l, rbar
+    associate (cp => sim%coupling, nd => sim%nodes)
+      sbar = cp%sig_sum(:, k)/real(cp%count(k), wp)
+      dr = nd%x(1, cp%edge(2, k)) - nd%x(1, cp%edge(1, k))
+      dz = nd%x(2, cp%edge(2, k)) - nd%x(2, cp%edge(1, k))
+      l = sqrt(dr*dr + dz*dz)
+      rbar = 0.5_wp*(nd%x(1, cp%edge(1, k)) + nd%x(1, cp%edge(2, k)))
+      fz = 0.0_wp
+      if (l > 0.0_wp) fz = two_pi*rbar*l*(sbar(3)*dz/l + sbar(2)*(-dr/l))
+    end associate
+  end function edge_axial_force
 
   !> Nodal masses of tied particles: (1 - xi) m_p to node a, xi m_p to b.
   subroutine update_tie_masses()
