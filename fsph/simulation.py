@@ -375,11 +375,12 @@ class Simulation:
         if ierr != STATUS_OK:
             raise FsphError("set_velocities: wrong number of nodes")
 
-    def set_particle_velocities(self, v):
-        """Overwrite particle velocities (n, 2) [m/s]."""
-        ierr = _api.set_particle_velocities(np.asfortranarray(np.asarray(v, float).T))
+    def set_particle_motion(self, x, v):
+        """Overwrite particle positions (n, 2) [m] and velocities (n, 2) [m/s]."""
+        ierr = _api.set_particle_motion(np.asfortranarray(np.asarray(x, float).T),
+                                        np.asfortranarray(np.asarray(v, float).T))
         if ierr != STATUS_OK:
-            raise FsphError("set_particle_velocities: wrong number of particles")
+            raise FsphError("set_particle_motion: wrong number of particles")
 
     def strain_rates(self):
         """Element strain rates (m, 4) (rr, zz, rz, tt) and spin (m,) for the

@@ -9,7 +9,7 @@ module fsph_api
   private
   public :: reset, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
   public :: initialise, advance, get_sizes, get_clock, get_nodes, get_elements
-  public :: get_element_fields, get_energies, set_node_velocities, set_particle_velocities
+  public :: get_element_fields, get_energies, set_node_velocities, set_particle_motion
   public :: get_strain_rates
   public :: material_point, history_count, drain_history, set_sph_control, set_particles
   public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
@@ -151,7 +151,7 @@ contains
     associate (pt => sim%particles)
       allocate (pair_q(max(size(pt%nbr_list), 1)))
       call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
-                             pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q, pt%acc_imag_z)
+                             pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q, pt%acc_imag)
       call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
                      pair_q, drho, de, d, spin)
     end associate
@@ -676,19 +676,20 @@ contains
     ierr = status_ok
   end subroutine set_node_velocities
 
-  !> Overwrite particle velocities [m/s] (verification tests: e.g. drive a
-  !> particle onto the axis to exercise the failure guard).
-  subroutine set_particle_velocities(np, v, ierr)
+  !> Overwrite particle positions [m] and velocities [m/s] (verification
+  !> tests: e.g. put a particle across the axis to exercise its guard).
+  subroutine set_particle_motion(np, x, v, ierr)
     use fsph_state, only: sim
     use fsph_status, only: status_ok, status_bad_input
     integer, intent(in) :: np
-    real(wp), intent(in) :: v(2, np)
+    real(wp), intent(in) :: x(2, np), v(2, np)
     integer, intent(out) :: ierr
     ierr = status_bad_input
     if (np /= sim%particles%n) return
+    sim%particles%x(:, 1:np) = x
     sim%particles%v(:, 1:np) = v
     ierr = status_ok
-  end subroutine set_particle_velocities
+  end subroutine set_particle_motion
 
   !> Strain rates (rr, zz, rz, tt) [1/s] and spin [1/s] of every element for
   !> the current positions and velocities (the kernel the cycle uses).

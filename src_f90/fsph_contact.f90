@@ -59,6 +59,7 @@ module fsph_contact
 
   ! bucket grid of segment midpoints
   integer :: grid_nr = 0, grid_nz = 0
+  logical :: grid_ok = .false.
   real(wp) :: grid_origin(2) = 0.0_wp, grid_cell = 1.0_wp
 
 contains
@@ -171,6 +172,10 @@ contains
         l_sum = l_sum + norm2(xb - xa)
       end do
       grid_cell = max(l_sum/ct%n_seg, 2.0_wp*r_max, tiny(1.0_wp))
+      ! a non-finite position (the run is about to stop on it): no search
+      grid_ok = all(abs(lo) <= huge(1.0_wp)) .and. all(abs(hi) <= huge(1.0_wp)) .and. &
+                abs(grid_cell) <= huge(1.0_wp)
+      if (.not. grid_ok) return
       do
         grid_nr = int((hi(1) - lo(1))/grid_cell) + 1
         grid_nz = int((hi(2) - lo(2))/grid_cell) + 1
@@ -249,9 +254,12 @@ contains
     real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2), overlap
     integer :: ir, iz, ic, m, k, a, b
     associate (ct => sim%contact, nd => sim%nodes)
-      ir = int(floor((p(1) - grid_origin(1))/grid_cell))
-      iz = int(floor((p(2) - grid_origin(2))/grid_cell))
-      if (ir < 0 .or. iz < 0 .or. ir >= grid_nr .or. iz >= grid_nz) return
+      if (.not. grid_ok) return
+      if (.not. (abs(p(1)) <= huge(1.0_wp) .and. abs(p(2)) <= huge(1.0_wp))) return
+      if (p(1) < grid_origin(1) .or. p(2) < grid_origin(2)) return
+      if (p(1) >= grid_origin(1) + grid_nr*grid_cell .or. p(2) >= grid_origin(2) + grid_nz*grid_cell) return
+      ir = min(int((p(1) - grid_origin(1))/grid_cell), grid_nr - 1)
+      iz = min(int((p(2) - grid_origin(2))/grid_cell), grid_nz - 1)
       ic = iz*grid_nr + ir + 1
       do m = ct%cell_start(ic), ct%cell_start(ic + 1) - 1
         k = ct%cell_items(m)

@@ -125,123 +125,70 @@ contains
   end subroutine fill_imaginary_entries
 
 
-  !> Add the equivalent edge forces of the particles to the nodal forces
-  !> (eqs 6-8). Serial: the sums keep a fixed order.
+  !> Forces of the particles on the element region (the reaction of eq 5).
+  !> A particle feels the elements through its imaginary neighbours; the
+  !> reaction of that force, -m_i a_imag,i, is put on the coupling edges
+  !> the particle is associated with (shared equally, half to each edge
+  !> node), so particles and elements exchange action and reaction and
+  !> momentum is conserved. In a uniformly stressed body the reactions of
+  !> the particles along an edge add up to the traction sigma . n of eqs
+  !> 6-8 (the kernel sum's deficiency at the interface), which is what the
+  !> edge needs. Placing them on the nearest edge, not on the nodes of the
+  !> imaginary elements (where the free-edge imbalance of the element
+  !> region is not), avoids spurious loads across the element band. A
+  !> tied particle's reaction is applied in tie_forces. The axial
+  !> reaction of an untied particle without an associated edge (one that
+  !> has crossed into the element region) is spread over the continuum's
+  !> edges in proportion to their ring area.
   subroutine coupling_tractions()
-    integer :: i, k, slot, a, b
-    real(wp) :: sbar(4), dr, dz, l, nr, nz, tr, tz, rbar
-    associate (cp => sim%coupling, pt => sim%particles, nd => sim%nodes)
-      if (cp%n_edges == 0) return
-      cp%sig_sum(:, 1:cp%n_edges) = 0.0_wp
-      cp%count(1:cp%n_edges) = 0
-      do i = 1, pt%n
-        ! a tied particle moves with its edge: its force, which holds its
-        ! interaction with the elements, already reaches the edge nodes
-        ! through the tie (tie_forces), so its stress is not applied again
-        if (pt%tie_a(i) /= 0) cycle
-        do slot = 1, 2
-          k = pt%assoc(slot, i)
-          if (k == 0) cycle
-          cp%sig_sum(:, k) = cp%sig_sum(:, k) + pt%sig(:, i)
-          cp%count(k) = cp%count(k) + 1
-        end do
-      end do
-      do k = 1, cp%n_edges
-        if (cp%count(k) == 0) cycle
-        a = cp%edge(1, k)
-        b = cp%edge(2, k)
-        sbar = cp%sig_sum(:, k)/real(cp%count(k), wp)
-        dr = nd%x(1, b) - nd%x(1, a)
-        dz = nd%x(2, b) - nd%x(2, a)
-        l = sqrt(dr*dr + dz*dz)
-        if (l <= 0.0_wp) cycle
-        ! outward normal of the element region: the element lies to the left
-        nr = dz/l
-        nz = -dr/l
-        tr = sbar(1)*nr + sbar(3)*nz
-        tz = sbar(3)*nr + sbar(2)*nz
-        rbar = 0.5_wp*(nd%x(1, a) + nd%x(1, b))
-        nd%f(1, a) = nd%f(1, a) + 0.5_wp*two_pi*rbar*l*tr
-        nd%f(2, a) = nd%f(2, a) + 0.5_wp*two_pi*rbar*l*tz
-        nd%f(1, b) = nd%f(1, b) + 0.5_wp*two_pi*rbar*l*tr
-        nd%f(2, b) = nd%f(2, b) + 0.5_wp*two_pi*rbar*l*tz
-      end do
-    end associate
-    call balance_axial_coupling()
-  end subroutine coupling_tractions
-
-  !> Axial momentum balance of the coupling, per continuum. The particles
-  !> feel the elements through their imaginary neighbours (eq 5) and the
-  !> elements feel the particles through the edge tractions (eqs 6-8); the
-  !> two are not action and reaction pair by pair, and in a perforation
-  !> run their axial sums differed by about a third of the interface force,
-  !> so the bodies gained momentum (2 % of the projectile's in 40 us). The
-  !> axial edge forces are corrected, in proportion to each edge's ring
-  !> area, so that their sum is minus the axial force of the imaginary
-  !> neighbours on all the continuum's particles (a tied particle's share
-  !> reaches the nodes with its tie, and is taken back here): the local
-  !> distribution stays the seed's, the axial momentum is conserved.
-  subroutine balance_axial_coupling()
-    integer :: i, k, c, nc, a, b, slot
-    real(wp) :: l, rbar, share
-    real(wp), allocatable :: target_z(:), applied_z(:), ring(:)
+    integer :: i, k, slot, a, b, c, nc, n_assoc
+    real(wp) :: f(2), l, rbar, share
+    real(wp), allocatable :: loose_z(:), ring(:)
     integer, allocatable :: edge_cont(:)
     associate (cp => sim%coupling, pt => sim%particles, nd => sim%nodes)
       nc = maxval(sim%continuum_of_body)
-      allocate (target_z(nc), applied_z(nc), ring(nc), edge_cont(cp%n_edges))
-      target_z = 0.0_wp
-      applied_z = 0.0_wp
+      allocate (loose_z(nc), ring(nc), edge_cont(max(cp%n_edges, 1)))
+      loose_z = 0.0_wp
       ring = 0.0_wp
       edge_cont = 0
       do i = 1, pt%n
-        c = pt%continuum(i)
-        target_z(c) = target_z(c) - pt%mass(i)*pt%acc_imag_z(i)
         if (pt%tie_a(i) /= 0) cycle
+        f = -pt%mass(i)*pt%acc_imag(:, i)
+        n_assoc = count(pt%assoc(:, i) /= 0)
+        if (n_assoc == 0) then
+          loose_z(pt%continuum(i)) = loose_z(pt%continuum(i)) + f(2)
+          cycle
+        end if
         do slot = 1, 2
           k = pt%assoc(slot, i)
-          if (k /= 0) edge_cont(k) = c
+          if (k == 0) cycle
+          edge_cont(k) = pt%continuum(i)
+          nd%f(:, cp%edge(1, k)) = nd%f(:, cp%edge(1, k)) + (0.5_wp/n_assoc)*f
+          nd%f(:, cp%edge(2, k)) = nd%f(:, cp%edge(2, k)) + (0.5_wp/n_assoc)*f
         end do
       end do
+      if (.not. any(loose_z /= 0.0_wp)) return
       do k = 1, cp%n_edges
         c = edge_cont(k)
-        if (c == 0 .or. cp%count(k) == 0) cycle
+        if (c == 0) cycle
         a = cp%edge(1, k)
         b = cp%edge(2, k)
-        l = norm2(nd%x(:, b) - nd%x(:, a))
-        rbar = 0.5_wp*(nd%x(1, a) + nd%x(1, b))
-        ring(c) = ring(c) + two_pi*rbar*l
-        applied_z(c) = applied_z(c) + edge_axial_force(k)
+        ring(c) = ring(c) + two_pi*0.5_wp*(nd%x(1, a) + nd%x(1, b))*norm2(nd%x(:, b) - nd%x(:, a))
       end do
       do k = 1, cp%n_edges
         c = edge_cont(k)
-        if (c == 0 .or. cp%count(k) == 0) cycle
+        if (c == 0) cycle
         if (.not. (ring(c) > 0.0_wp)) cycle
         a = cp%edge(1, k)
         b = cp%edge(2, k)
         l = norm2(nd%x(:, b) - nd%x(:, a))
         rbar = 0.5_wp*(nd%x(1, a) + nd%x(1, b))
-        share = (target_z(c) - applied_z(c))*two_pi*rbar*l/ring(c)
+        share = loose_z(c)*two_pi*rbar*l/ring(c)
         nd%f(2, a) = nd%f(2, a) + 0.5_wp*share
         nd%f(2, b) = nd%f(2, b) + 0.5_wp*share
       end do
     end associate
-  end subroutine balance_axial_coupling
-
-  !> Axial force of the traction on coupling edge k [N] (as applied by
-  !> coupling_tractions).
-  real(wp) function edge_axial_force(k) result(fz)
-    integer, intent(in) :: k
-    real(wp) :: sbar(4), dr, dz, l, rbar
-    associate (cp => sim%coupling, nd => sim%nodes)
-      sbar = cp%sig_sum(:, k)/real(cp%count(k), wp)
-      dr = nd%x(1, cp%edge(2, k)) - nd%x(1, cp%edge(1, k))
-      dz = nd%x(2, cp%edge(2, k)) - nd%x(2, cp%edge(1, k))
-      l = sqrt(dr*dr + dz*dz)
-      rbar = 0.5_wp*(nd%x(1, cp%edge(1, k)) + nd%x(1, cp%edge(2, k)))
-      fz = 0.0_wp
-      if (l > 0.0_wp) fz = two_pi*rbar*l*(sbar(3)*dz/l + sbar(2)*(-dr/l))
-    end associate
-  end function edge_axial_force
+  end subroutine coupling_tractions
 
   !> Nodal masses of tied particles: (1 - xi) m_p to node a, xi m_p to b.
   subroutine update_tie_masses()
@@ -265,7 +212,8 @@ contains
     associate (pt => sim%particles, nd => sim%nodes)
       do i = 1, pt%n
         if (pt%tie_a(i) == 0) cycle
-        f = pt%mass(i)*pt%acc(:, i)
+        ! the particle's force with the reaction of its imaginary part
+        f = pt%mass(i)*(pt%acc(:, i) - pt%acc_imag(:, i))
         nd%f(:, pt%tie_a(i)) = nd%f(:, pt%tie_a(i)) + (1.0_wp - pt%tie_xi(i))*f
         nd%f(:, pt%tie_b(i)) = nd%f(:, pt%tie_b(i)) + pt%tie_xi(i)*f
       end do

@@ -314,7 +314,7 @@ contains
         call prepare_particle_sums(ntot)
         call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
                                pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
-                               pt%pair_q, pt%acc_imag_z)
+                               pt%pair_q, pt%acc_imag)
         pt%radius(1:n) = particle_radius(pt%mass(1:n), pt%x(1, 1:n), pt%rho(1:n))
         call particle_contact_accelerations(n, pt%x, pt%mass, pt%radius, pt%cnt_ptr, pt%cnt_list, &
                                             dt_step, sim%control%contact_penalty, pt%acc)

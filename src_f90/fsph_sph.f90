@@ -104,7 +104,7 @@ contains
   !> pair_q so that the energy equation charges exactly the viscous work
   !> these forces do.
   subroutine sph_accelerations(n, ntot, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, &
-                               acc, pair_q, acc_imag_z)
+                               acc, pair_q, acc_imag)
     integer, intent(in) :: n             !< real particles (rows computed)
     integer, intent(in) :: ntot          !< real and imaginary particles (neighbours)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), c(ntot), sig(4, ntot)
@@ -112,12 +112,12 @@ contains
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
     real(wp), intent(out) :: acc(2, n)
     real(wp), intent(out) :: pair_q(*)   !< viscous pressure of each entry [Pa]
-    real(wp), intent(out) :: acc_imag_z(n) !< the axial part of acc from imaginary neighbours [m/s^2]
+    real(wp), intent(out) :: acc_imag(2, n) !< the part of acc from imaginary neighbours [m/s^2]
     integer :: i, k, j
     real(wp) :: xj(2), vj(2), sj(4), mj, dx(2), dist2, dist, hij, dw, grad(2), wi, wj, q, stot(4), a(2)
-    real(wp) :: a_imag
+    real(wp) :: a_imag(2)
     !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, acc, pair_q, acc_imag_z) &
+    !$omp shared(n, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, acc, pair_q, acc_imag) &
     !$omp private(i, k, j, xj, vj, sj, mj, dx, dist2, dist, hij, dw, grad, wi, wj, q, stot, a, a_imag)
     do i = 1, n
       wi = 1.0_wp/(4.0_wp*pi*pi*x(1, i)*rho(i)**2)
@@ -141,10 +141,11 @@ contains
         stot = pair_stress(wi, sig(:, i), wj, sj, q)
         a(1) = a(1) + two_pi*mj*(stot(1)*grad(1) + stot(3)*grad(2))
         a(2) = a(2) + two_pi*mj*(stot(3)*grad(1) + stot(2)*grad(2))
-        if (nbr_list(k) > n) a_imag = a_imag + two_pi*mj*(stot(3)*grad(1) + stot(2)*grad(2))
+        if (nbr_list(k) > n) a_imag = a_imag + two_pi*mj*[stot(1)*grad(1) + stot(3)*grad(2), &
+                                                          stot(3)*grad(1) + stot(2)*grad(2)]
       end do
       acc(:, i) = a
-      acc_imag_z(i) = a_imag
+      acc_imag(:, i) = a_imag
     end do
     !$omp end parallel do
   end subroutine sph_accelerations

@@ -66,7 +66,7 @@ module fsph_state
     real(wp), allocatable :: v(:, :)      !< velocity at the last half step [m/s]
     real(wp), allocatable :: v_bar(:, :)  !< mean of the velocities before and after the kick [m/s]
     real(wp), allocatable :: acc(:, :)    !< acceleration [m/s^2]
-    real(wp), allocatable :: acc_imag_z(:) !< axial acceleration from imaginary neighbours [m/s^2]
+    real(wp), allocatable :: acc_imag(:, :) !< acceleration from imaginary neighbours [m/s^2]
     real(wp), allocatable :: mass(:)      !< ring mass [kg]
     real(wp), allocatable :: h(:)         !< smoothing length [m]
     real(wp), allocatable :: radius(:)    !< particle radius (contact, planes) [m]
@@ -227,14 +227,14 @@ contains
     sim%particles%capacity = cap
     associate (pt => sim%particles)
       allocate (pt%x(2, cap), pt%x0(2, cap), pt%x_old(2, cap), pt%x_mid(2, cap), pt%v(2, cap), &
-                pt%v_bar(2, cap), pt%acc(2, cap), pt%acc_imag_z(cap), pt%mass(cap), pt%h(cap), pt%radius(cap), &
+                pt%v_bar(2, cap), pt%acc(2, cap), pt%acc_imag(2, cap), pt%mass(cap), pt%h(cap), pt%radius(cap), &
                 pt%mat(cap), pt%body(cap), pt%rho(cap), pt%s(4, cap), pt%sig(4, cap), pt%p(cap), &
                 pt%eps_p(cap), pt%e(cap), pt%temp(cap), pt%c(cap), pt%drho(cap), pt%de(cap), &
                 pt%d(4, cap), pt%spin(cap), pt%e_old(cap), pt%rho_old(cap), pt%rho_mid(cap), &
                 pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
                 pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap))
       pt%x = 0.0_wp; pt%x0 = 0.0_wp; pt%x_old = 0.0_wp; pt%x_mid = 0.0_wp; pt%v = 0.0_wp
-      pt%v_bar = 0.0_wp; pt%acc = 0.0_wp; pt%acc_imag_z = 0.0_wp; pt%mass = 0.0_wp; pt%h = 0.0_wp; pt%radius = 0.0_wp
+      pt%v_bar = 0.0_wp; pt%acc = 0.0_wp; pt%acc_imag = 0.0_wp; pt%mass = 0.0_wp; pt%h = 0.0_wp; pt%radius = 0.0_wp
       pt%mat = 0; pt%body = 0; pt%rho = 0.0_wp; pt%s = 0.0_wp; pt%sig = 0.0_wp; pt%p = 0.0_wp
       pt%eps_p = 0.0_wp; pt%e = 0.0_wp; pt%temp = 0.0_wp; pt%c = 0.0_wp; pt%drho = 0.0_wp
       pt%de = 0.0_wp; pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%e_old = 0.0_wp; pt%rho_old = 0.0_wp

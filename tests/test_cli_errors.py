@@ -11,6 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
+import fsph
 from conftest import rod_deck
 
 
@@ -204,20 +205,20 @@ def assert_last_good_kept(out, summary, done, deck):
 
 
 def test_particle_on_axis_stops_cleanly(tmp_path, monkeypatch, capsys):
-    """A particle next to the axis given an inward radial velocity that
-    carries it across r = 0 within one step (bodies have no radial velocity
-    and the axis mirrors keep a sound run off the axis, hence the hook):
-    exit 3, the axis guard's diagnostic names the particle, its body, where
-    and when; the last good snapshot and checkpoint are kept."""
+    """A particle put across the axis (r < 0; in a run the axis acts on
+    particles as a wall at half their radius, see the next test, so only a
+    corrupted state gets there, hence the hook): exit 3, the axis guard's
+    diagnostic names the particle, its body, where and when; the last good
+    snapshot and checkpoint are kept."""
     from fsph import cli
 
     def inject(sim):
         part = sim.snapshot()["particles"]
-        x, v = part["x"], part["velocity"].copy()
+        x, v = part["x"].copy(), part["velocity"]
         inner = np.flatnonzero(x[:, 0] < 1.5 * x[:, 0].min())
         k = int(inner[len(inner) // 2])           # an inner particle half-way up
-        v[k, 0] = -4.0 * x[k, 0] / sim.dt
-        sim.set_particle_velocities(v)
+        x[k, 0] = -x[k, 0]
+        sim.set_particle_motion(x, v)
         return k
 
     text = rod_deck(control="mode = 'sph'", body="n_radial = 4\n n_axial = 16",
@@ -236,6 +237,25 @@ def test_particle_on_axis_stops_cleanly(tmp_path, monkeypatch, capsys):
     assert " mm, z = " in failure["message"]
     assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
     assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+
+
+def test_axis_stops_a_particle_driven_across_it(write_deck):
+    """A particle next to the axis given an inward radial velocity that
+    carries it across r = 0 within one step (before the axis acted on
+    particles as a wall, this injection tripped the axis guard): the
+    axis is a frictionless wall at half the particle radius, so every
+    particle stays off it and the run goes on."""
+    sim = fsph.Simulation.from_deck(write_deck(rod_deck(
+        control="mode = 'sph'", body="n_radial = 4\n n_axial = 16")))
+    part = sim.snapshot()["particles"]
+    x, v = part["x"], part["velocity"].copy()
+    k = int(np.argmin(x[:, 0] + 1e-9 * x[:, 1]))
+    v[k, 0] = -4.0 * x[k, 0] / sim.dt
+    sim.set_particle_motion(x, v)
+    for _ in range(20):
+        sim.advance(sim.time + 0.5 * sim.dt, land=False)
+        after = sim.snapshot()["particles"]
+        assert np.all(after["x"][:, 0] >= 0.5 * part["radius"].min() * (1.0 - 1e-9))
 
 
 def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
