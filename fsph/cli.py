@@ -58,7 +58,7 @@ def main(argv=None):
             return {"failed": EXIT_RUN_FAILED, "interrupted": EXIT_INTERRUPTED}.get(
                 summary["status"], EXIT_OK)
         if args.command == "plot":
-            from .plot import deformed_shapes, histories
+            from .plot import deformed_shapes, histories, perforation_histories
             try:
                 times = [float(t) for t in args.times.split(",") if t.strip()]
             except ValueError:
@@ -73,6 +73,9 @@ def main(argv=None):
                     return EXIT_DECK
             print(deformed_shapes(run_dir, times, args.output, args.dpi))
             print(histories(run_dir, dpi=args.dpi))
+            perforation = perforation_histories(run_dir, dpi=args.dpi)
+            if perforation:
+                print(perforation)
             return EXIT_OK
         if args.command == "report":
             from .report import VALIDATION_DECKS, write_report

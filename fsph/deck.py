@@ -231,9 +231,11 @@ SCHEMA = {
             "c_l": Key("float", 0.2, "-", "Linear coefficient of the pairwise viscosity "
                        "(Monaghan alpha = C_L).", lower=0.0),
             "contact_penalty": Key("float", 0.1, "-",
-                                   "Particle-particle contact between bodies: fraction of an "
-                                   "overlap of the particle radii removed per step by the "
-                                   "penalty force.", lower=0.0, upper=1.0, lower_open=True),
+                                   "Particle-particle contact between bodies: a particle's "
+                                   "filling by the other bodies' kernels beyond its value at "
+                                   "touching is pushed back by this fraction per step (the "
+                                   "stiffness of a contact potential, docs/method.md).",
+                                   lower=0.0, upper=1.0, lower_open=True),
         },
     ),
     "convert": Group(
@@ -275,7 +277,7 @@ SCHEMA = {
         "master and slave in turn, after Johnson & Stryk 2001) and particle-element contact "
         "(seed 002 eqs 1-3, the particle radius as contact thickness), as momentum-conserving "
         "corrections of the half-step velocities; particle-particle contact between bodies is "
-        "the penalty of &sph contact_penalty. Surfaces follow the element region as elements "
+        "a contact potential (&sph contact_penalty). Surfaces follow the element region as elements "
         "are converted. The kinetic energy the corrections remove is reported "
         "(contact_dissipation_J) and counted in the energy balance.",
         {
@@ -618,6 +620,10 @@ def _check_geometry(path, where, b):
     if geometry == "plate" and not b["fine_radius"] <= b["radius"]:
         raise DeckError(path, where, "fine_radius", f"at most radius = {b['radius']} m",
                         b["fine_radius"])
+    if geometry == "plate" and (b["n_coarse"] == 0) != (b["fine_radius"] == b["radius"]):
+        raise DeckError(path, where, "n_coarse",
+                        "0 exactly when fine_radius equals radius (cells beyond fine_radius "
+                        "need n_coarse >= 1)", b["n_coarse"])
 
 
 def _cell_estimate(b):

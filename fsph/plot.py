@@ -36,6 +36,9 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
         if key in comparison:
             experiment[key] = comparison[key]["reference"]
     w_height = summary.get("metrics", {}).get("taylor", {}).get("w_height_mm")
+    # a perforation run: frame the impact zone (three hole diameters), not the whole plate
+    hole = (summary.get("metrics", {}).get("perforation") or {}).get("hole_diameter_mm")
+    frame = 3.0 * hole if hole else None
 
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
         snaps = _snapshots(h5)
@@ -47,6 +50,7 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
         axes = np.atleast_1d(axes)
         top = experiment.get("L_mm", 0.0)
         width = experiment.get("D_mm", 0.0) / 2
+        bottom = -0.5
         for ax, (time, g) in zip(axes, chosen):
             extent = [0.0, 0.0]
             for side in (1.0, -1.0):
@@ -57,10 +61,14 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
                     ax.add_collection(PolyCollection(tri, facecolors=ELEMENT_COLOUR, edgecolors="white",
                                                      linewidths=0.15, alpha=0.9))
                     extent = [max(extent[0], x[:, 0].max()), max(extent[1], x[:, 1].max())]
+                    if frame:
+                        bottom = min(bottom, x[x[:, 0] <= frame, 1].min(initial=bottom))
                 if "particles" in g:
                     xp = g["particles/x"][...] * 1e3
                     ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, color=PARTICLE_COLOUR, linewidths=0)
                     extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
+                    if frame:
+                        bottom = min(bottom, xp[xp[:, 0] <= frame, 1].min(initial=bottom))
             if experiment:
                 if "L_mm" in experiment:
                     ax.axhline(experiment["L_mm"], color="k", ls="--", lw=0.8)
@@ -74,9 +82,11 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
             ax.set_xlabel("r [mm]")
             top = max(top, extent[1])
             width = max(width, extent[0])
+        if frame:
+            width = frame / 1.15
         for ax in axes:
             ax.set_xlim(-1.15 * width, 1.15 * width)
-            ax.set_ylim(-0.5, 1.05 * top)
+            ax.set_ylim(bottom - 0.05 * (top - bottom) if frame else bottom, 1.05 * top)
             ax.set_aspect("equal")
         axes[0].set_ylabel("z [mm]")
         handles = [plt.Line2D([], [], color=ELEMENT_COLOUR, lw=6, label="elements"),
@@ -113,6 +123,35 @@ def histories(run_dir, output=None, dpi=150):
     ax_dt.plot(t[1:], hist["dt"][1:] * 1e9, lw=0.8)
     ax_dt.set_ylabel("time step [ns]")
     ax_dt.set_xlabel("t [us]")
+    fig.tight_layout()
+    fig.savefig(output, dpi=dpi)
+    plt.close(fig)
+    return output
+
+
+def perforation_histories(run_dir, output=None, dpi=150):
+    """Write a PNG of a perforation run's histories at the snapshots
+    (projectile velocity, penetration depth, hole diameter) from
+    summary.json; returns the PNG path, or None for other runs."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run_dir = Path(run_dir)
+    series = json.loads((run_dir / "summary.json").read_text()).get("metrics", {}).get("series")
+    if not series or "velocity_z_m_s" not in series:
+        return None
+    output = Path(output) if output else run_dir / "perforation.png"
+    t = series["time_us"]
+    hole = [h if h is not None else float("nan") for h in series["hole_diameter_mm"]]
+    fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True)
+    axes[0].plot(t, [abs(v) for v in series["velocity_z_m_s"]], "o-", ms=3)
+    axes[0].set_ylabel("projectile velocity [m/s]")
+    axes[1].plot(t, series["penetration_mm"], "o-", ms=3)
+    axes[1].set_ylabel("penetration [mm]")
+    axes[2].plot(t, hole, "o-", ms=3)
+    axes[2].set_ylabel("hole diameter [mm]")
+    axes[2].set_xlabel("t [us]")
     fig.tight_layout()
     fig.savefig(output, dpi=dpi)
     plt.close(fig)

@@ -5,7 +5,7 @@ import numpy as np
 
 from . import deck as deck_module
 from . import mesh as mesh_module
-from .errors import FsphError, SimulationError
+from .errors import DeckError, FsphError, SimulationError
 from .materials import PROPERTY_NAMES, property_table
 try:
     from ._core import fsph_api as _api
@@ -65,13 +65,18 @@ class Simulation:
         _api.set_control(c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"], c["dt_drop_ratio"],
                          deck["output"]["history_every"])
         sph = deck["sph"]
-        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"])
+        touch, slope = contact_filling(sph["alpha_h"])
+        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"], touch, slope)
         props, strength, eos = property_table(materials)
         self._call(_api.set_materials(props, strength, eos), "material table")
 
         elem_bodies, part_bodies = [], []
         for ib, b in enumerate(deck["body"]):
-            geometry = mesh_module.body_discretisation(b)
+            try:
+                geometry = mesh_module.body_discretisation(b)
+            except ValueError as err:   # a combination of keys the generator cannot mesh
+                raise DeckError(deck.get("path", "deck"), f"body #{ib + 1}", "geometry",
+                                f"keys that '{b['geometry']}' can mesh", str(err)) from None
             mat = self.material_names.index(b["material"]) + 1
             (elem_bodies if b["discretisation"] == "elements" else part_bodies).append(
                 (ib, b, geometry, mat))
@@ -375,6 +380,12 @@ class Simulation:
         if ierr != STATUS_OK:
             raise FsphError("set_velocities: wrong number of nodes")
 
+    def set_element_energy(self, e):
+        """Overwrite the specific internal energy (m,) [J/kg] of every element."""
+        ierr = _api.set_element_energy(np.asarray(e, float))
+        if ierr != STATUS_OK:
+            raise FsphError("set_element_energy: wrong number of elements")
+
     def set_particle_motion(self, x, v):
         """Overwrite particle positions (n, 2) [m] and velocities (n, 2) [m/s]."""
         ierr = _api.set_particle_motion(np.asfortranarray(np.asarray(x, float).T),
@@ -395,6 +406,23 @@ def kernel(dist, h):
     """Smoothing kernel W [1/m^2] and dW/dr [1/m^3] at distances dist [m]."""
     w, dw = _api.kernel_values(np.asarray(dist, dtype=float), float(h))
     return w, dw
+
+
+def contact_filling(alpha_h):
+    """Particle contact between bodies (fsph_particles): the filling
+    C = sum_j V_j W(|x - x_j|, h) of a particle by another body whose
+    square lattice (spacing 1, h = alpha_h) lies from one spacing away, and
+    its rate per spacing of approach there. Returns (c_touch, slope)."""
+    xs = np.arange(-12, 13, dtype=float)
+    rows = np.arange(0, 8, dtype=float)
+
+    def filling(y):
+        xx, yy = np.meshgrid(xs, y + rows)
+        w, _ = kernel(np.hypot(xx, yy).ravel(), alpha_h)
+        return float(w.sum())
+
+    step = 0.05
+    return filling(1.0), (filling(1.0 - step) - filling(1.0 + step)) / (2.0 * step)
 
 
 def drain_history():

@@ -9,7 +9,7 @@ module fsph_api
   private
   public :: reset, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
   public :: initialise, advance, get_sizes, get_clock, get_nodes, get_elements
-  public :: get_element_fields, get_energies, set_node_velocities, set_particle_motion
+  public :: get_element_fields, get_energies, set_node_velocities, set_particle_motion, set_element_energy
   public :: get_strain_rates
   public :: material_point, history_count, drain_history, set_sph_control, set_particles
   public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
@@ -59,14 +59,17 @@ contains
     sim%control%dt_drop_ratio = dt_drop_ratio
   end subroutine set_control
 
-  !> SPH parameters: viscosity coefficients [-] and the particle contact
-  !> penalty (fraction of an overlap removed per step) [-].
-  subroutine set_sph_control(c_q, c_l, contact_penalty)
+  !> SPH parameters: viscosity coefficients [-] and the particle contact:
+  !> penalty (fraction of an approach pushed back per step), other-body
+  !> filling at touching and its rate per spacing of approach [-].
+  subroutine set_sph_control(c_q, c_l, contact_penalty, contact_touch, contact_slope)
     use fsph_state, only: sim
-    real(wp), intent(in) :: c_q, c_l, contact_penalty
+    real(wp), intent(in) :: c_q, c_l, contact_penalty, contact_touch, contact_slope
     sim%control%sph_c_q = c_q
     sim%control%sph_c_l = c_l
     sim%control%contact_penalty = contact_penalty
+    sim%control%contact_touch = contact_touch
+    sim%control%contact_slope = contact_slope
   end subroutine set_sph_control
 
   !> Particles: positions (r, z) [m], velocities [m/s], ring masses [kg],
@@ -675,6 +678,20 @@ contains
     sim%nodes%v = v
     ierr = status_ok
   end subroutine set_node_velocities
+
+  !> Overwrite the specific internal energy of every element [J/kg]
+  !> (verification tests: e.g. a NaN to exercise the element guard).
+  subroutine set_element_energy(ne, e, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: ne
+    real(wp), intent(in) :: e(ne)
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (ne /= sim%elements%n) return
+    sim%elements%e(1:ne) = e
+    ierr = status_ok
+  end subroutine set_element_energy
 
   !> Overwrite particle positions [m] and velocities [m/s] (verification
   !> tests: e.g. put a particle across the axis to exercise its guard).

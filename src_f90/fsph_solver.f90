@@ -316,8 +316,9 @@ contains
                                pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
                                pt%pair_q, pt%acc_imag)
         pt%radius(1:n) = particle_radius(pt%mass(1:n), pt%x(1, 1:n), pt%rho(1:n))
-        call particle_contact_accelerations(n, pt%x, pt%mass, pt%radius, pt%cnt_ptr, pt%cnt_list, &
-                                            dt_step, sim%control%contact_penalty, pt%acc)
+        call particle_contact_accelerations(n, pt%x, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, &
+                                            dt_step, sim%control%contact_penalty, &
+                                            sim%control%contact_touch, sim%control%contact_slope, pt%acc)
         if (el%n > 0) then
           call coupling_tractions()
           call tie_forces()

@@ -258,6 +258,35 @@ def test_axis_stops_a_particle_driven_across_it(write_deck):
         assert np.all(after["x"][:, 0] >= 0.5 * part["radius"].min() * (1.0 - 1e-9))
 
 
+def test_non_finite_element_state_stops_cleanly(tmp_path, monkeypatch, capsys):
+    """A NaN in one element's internal energy: its stress update gives a
+    NaN pressure, and the element guard stops the run (exit 3) naming the
+    element, its body, where and when; the last good snapshot and
+    checkpoint are kept."""
+    from fsph import cli
+
+    def inject(sim):
+        e = sim.snapshot()["internal_energy"].copy()
+        k = sim.n_elements // 2
+        e[k] = np.nan
+        sim.set_element_energy(e)
+        return k
+
+    text = rod_deck(output="n_snapshots = 4")
+    code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
+    k = done["result"]
+    assert code == cli.EXIT_RUN_FAILED == 3
+    failure = summary["failure"]
+    assert failure["code"] == 2 and failure["index"] == k + 1
+    assert failure["cycle"] == done["cycle"] + 1 and failure["time_s"] > done["time"]
+    message = (f"run stopped at t = {failure['time_s'] * 1e6:.6g} us, cycle {done['cycle'] + 1}: "
+               f"non-finite stress or energy (NaN/Inf) in an element; element {k + 1} of body "
+               f"'rod' at r = ")
+    assert message in stdout and failure["message"].startswith(message)
+    assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
+    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+
+
 def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
     """A NaN in one node's velocity: exit 3, the NaN/Inf guard's diagnostic
     names the node and where it started, with time and cycle; the last good

@@ -68,12 +68,12 @@ def test_adaptive_energy_balance(adaptive):
     assert abs(adaptive["energy"]["relative_error"]) < 0.02
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "measured: pure SPH 290 m/s against adaptive 428 m/s (-32 %): after perforating, the "
-    "rod keeps slowing in pure SPH, about 0.5 m/s per us along its shank; the particle-particle "
-    "penalty contact between lattices acts as friction"))
 def test_sph_and_adaptive_residual_velocities_agree(adaptive, sph):
+    """The pure SPH run (9 872 particles) and the adaptive run give the
+    same residual velocity within 5 %, and both runs conserve energy
+    (with the contact work) within 2 %."""
     assert sph["status"] == "completed"
+    assert abs(sph["energy"]["max_relative_error"]) < 0.02
     v_a = adaptive["metrics"]["perforation"]["residual_velocity_m_s"]
     v_s = sph["metrics"]["perforation"]["residual_velocity_m_s"]
     assert abs(v_s - v_a) / v_a < 0.05
