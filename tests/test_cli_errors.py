@@ -287,6 +287,37 @@ def test_non_finite_element_state_stops_cleanly(tmp_path, monkeypatch, capsys):
     assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
 
 
+def test_non_finite_particle_stops_cleanly(tmp_path, monkeypatch, capsys):
+    """A NaN in one particle's velocity (pure SPH rod): exit 3, the
+    particle guard's diagnostic names a particle (the NaN reaches the
+    neighbours through the next force sum, the lowest index is named) and
+    its body, with time and cycle; the last good snapshot and checkpoint
+    are kept."""
+    from fsph import cli
+
+    def inject(sim):
+        part = sim.snapshot()["particles"]
+        v = part["velocity"].copy()
+        k = len(v) // 2
+        v[k, 1] = np.nan
+        sim.set_particle_motion(part["x"], v)
+        return k
+
+    text = rod_deck(control="mode = 'sph'", body="n_radial = 4\n n_axial = 16",
+                    output="n_snapshots = 4")
+    code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
+    k = done["result"]
+    assert code == cli.EXIT_RUN_FAILED == 3
+    failure = summary["failure"]
+    assert failure["code"] == 9 and -(k + 1) <= failure["index"] < 0
+    assert failure["cycle"] == done["cycle"] and failure["time_s"] == done["time"]
+    message = (f"run stopped at t = {done['time'] * 1e6:.6g} us, cycle {done['cycle']}: "
+               f"non-finite state (NaN/Inf) or non-positive density in a particle; particle "
+               f"{-failure['index']} of body 'rod'")
+    assert message in stdout and failure["message"].startswith(message)
+    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+
+
 def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
     """A NaN in one node's velocity: exit 3, the NaN/Inf guard's diagnostic
     names the node and where it started, with time and cycle; the last good
