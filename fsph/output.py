@@ -9,7 +9,7 @@ import h5py
 import meshio
 import numpy as np
 
-HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal")
+HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal", "contact")
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
                         "internal_energy", "temperature", "material", "body")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
@@ -61,11 +61,12 @@ class RunWriter:
             (self.outdir / "vtu").mkdir(exist_ok=True)
 
     def append_history(self, records):
-        """records: (k, 5) rows of HISTORY_FIELDS. Also tracks the largest
-        departure of the total energy from its first recorded value."""
+        """records: (k, 6) rows of HISTORY_FIELDS. Also tracks the largest
+        departure of the total energy (kinetic + internal + the work of the
+        contact corrections) from its first recorded value."""
         if len(records) == 0:
             return
-        total = records[:, 3] + records[:, 4]
+        total = records[:, 3] + records[:, 4] + records[:, 5]
         if self.energy0 is None:
             self.energy0 = total[0]
         if self.energy0:
@@ -81,7 +82,7 @@ class RunWriter:
             hist[name].resize((n1,))
             hist[name][n0:n1] = records[:, j]
         hist["total"].resize((n1,))
-        hist["total"][n0:n1] = records[:, 3] + records[:, 4]
+        hist["total"][n0:n1] = total
 
     def write_snapshot(self, snap):
         g = self.snapshots.create_group(f"{self.n_snapshots:05d}")

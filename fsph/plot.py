@@ -117,6 +117,8 @@ def histories(run_dir, output=None, dpi=150):
     fig, (ax_e, ax_dt) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
     ax_e.plot(t, hist["kinetic"], label="kinetic")
     ax_e.plot(t, hist["internal"], label="internal")
+    if "contact" in hist and hist["contact"].any():
+        ax_e.plot(t, hist["contact"], label="contact work")
     ax_e.plot(t, hist["total"], "k", lw=1.2, label="total")
     ax_e.set_ylabel("energy [J]")
     ax_e.legend(frameon=False)

@@ -426,11 +426,12 @@ def contact_filling(alpha_h):
 
 
 def drain_history():
-    """Time-history records (k, 5) recorded by the cycle since the last
-    call: time [s], cycle, dt [s], kinetic [J], internal [J]."""
+    """Time-history records (k, 6) recorded by the cycle since the last
+    call: time [s], cycle, dt [s], kinetic [J], internal [J], work of the
+    contact corrections [J]."""
     n = int(_api.history_count())
     if n == 0:
-        return np.zeros((0, 5))
+        return np.zeros((0, 6))
     return _api.drain_history(n).T.copy()
 
 

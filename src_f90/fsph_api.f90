@@ -652,12 +652,12 @@ contains
   end subroutine history_count
 
   !> Take the n waiting records (time [s], cycle, dt [s], kinetic [J],
-  !> internal [J]) and empty the buffer.
+  !> internal [J], contact work [J]) and empty the buffer.
   subroutine drain_history(n, records)
     use fsph_state, only: sim, history_columns
     integer, intent(in) :: n
-    ! literal 5 = history_columns: f2py cannot size arrays by module constants
-    real(wp), intent(out) :: records(5, n)
+    ! literal 6 = history_columns: f2py cannot size arrays by module constants
+    real(wp), intent(out) :: records(6, n)
     integer :: k
     k = min(n, sim%n_history)
     if (history_columns /= size(records, 1)) k = 0

@@ -485,7 +485,7 @@ contains
     end associate
   end subroutine update_particles
 
-  !> Append (time, cycle, dt, kinetic, internal) to the history buffer,
+  !> Append (time, cycle, dt, kinetic, internal, contact work) to the history buffer,
   !> doubling its capacity when full (rare: the API drains it).
   subroutine record_history()
     real(wp), allocatable :: grown(:, :)
@@ -500,7 +500,8 @@ contains
     call solver_energies(kinetic, internal)
     sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
-    sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal]
+    sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal, &
+                                     sim%contact%dissipated]
   end subroutine record_history
 
   !> Kinetic energy (half-step velocities) and internal energy [J] of

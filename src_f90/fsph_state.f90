@@ -153,7 +153,8 @@ module fsph_state
   end type control_t
 
   !> Columns of a time-history record.
-  integer, parameter, public :: history_columns = 5 !< time [s], cycle, dt [s], kinetic [J], internal [J]
+  !> time [s], cycle, dt [s], kinetic [J], internal [J], work of the contact corrections [J]
+  integer, parameter, public :: history_columns = 6
 
   type, public :: simulation_t
     type(node_set_t) :: nodes
