@@ -46,4 +46,5 @@ def test_thread_count_and_determinism(tmp_path, deck, t_end):
     assert int(two["threads"]) == 2
     assert sorted(one.files) == sorted(two.files) and len(one.files) > 1
     for key in one.files:
-        assert np.array_equal(one[key], two[key]), key
+        if key != "threads":
+            assert np.array_equal(one[key], two[key]), key
