@@ -230,11 +230,15 @@ SCHEMA = {
                        "hydrocodes for solids.", lower=0.0),
             "c_l": Key("float", 0.2, "-", "Linear coefficient of the pairwise viscosity "
                        "(Monaghan alpha = C_L).", lower=0.0),
-            "contact_penalty": Key("float", 0.1, "-",
+            "contact_penalty": Key("float", 0.03, "-",
                                    "Particle-particle contact between bodies: a particle's "
                                    "filling by the other bodies' kernels beyond its value at "
                                    "touching is pushed back by this fraction per step (the "
-                                   "stiffness of a contact potential, docs/method.md).",
+                                   "stiffness of a contact potential, docs/method.md). Every "
+                                   "neighbour pair adds to it, so the default is low: with 0.1 "
+                                   "the 800 m/s plate case gained 5 % energy, with 0.3 it "
+                                   "failed; the 508 m/s pure SPH residual velocity is 419.4 "
+                                   "m/s with 0.03 and 418.6 with 0.1.",
                                    lower=0.0, upper=1.0, lower_open=True),
         },
     ),

@@ -147,7 +147,7 @@ module fsph_state
     integer :: history_every = 10     !< cycles between time-history records
     real(wp) :: sph_c_q = 1.0_wp      !< SPH quadratic viscosity coefficient [-]
     real(wp) :: sph_c_l = 0.2_wp      !< SPH linear viscosity coefficient [-]
-    real(wp) :: contact_penalty = 0.1_wp !< particle contact: approach fraction pushed back per step [-]
+    real(wp) :: contact_penalty = 0.03_wp !< particle contact: approach fraction pushed back per step [-]
     real(wp) :: contact_touch = 0.2367_wp !< particle contact: other-body filling C at touching [-]
     real(wp) :: contact_slope = 0.45_wp  !< particle contact: dC per spacing of approach at touching [-]
   end type control_t
