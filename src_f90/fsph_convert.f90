@@ -3,7 +3,8 @@
 !> conversion criteria, the conversion itself (mass exact, momentum to
 !> round-off, the kinetic energy of the nodes' relative motion turned into
 !> heat of the new particle), removal of orphan nodes, the element-region
-!> surface and the association and ties of particles to its edges.
+!> surface (coupling and contact) and the association and ties of particles
+!> to its edges.
 module fsph_convert
   use fsph_kinds, only: wp, pi
   use fsph_state, only: sim
@@ -13,6 +14,7 @@ module fsph_convert
   use fsph_neighbors, only: build_neighbors
   use fsph_kernel, only: kernel_support
   use fsph_topology, only: rebuild_corner_map, nodal_masses, elements_with_edge, element_across
+  use fsph_contact, only: contact_rebuild_surface
   implicit none
   private
 
@@ -283,6 +285,7 @@ contains
       call tie_new_particles(pending)
       call associate_particles(association_reach)
       call update_tie_masses()
+      call contact_rebuild_surface()
       cv%n_converted = cv%n_converted + n_new
       cv%n_events = cv%n_events + 1
     end associate

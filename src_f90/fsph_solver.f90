@@ -286,7 +286,6 @@ contains
     if (ierr /= status_ok) return
     ! 7. conversion of distorted element groups, surface and ties
     call convert_elements(n_new)
-    if (n_new > 0) call contact_rebuild_surface()
     ! 8. next stable step
     sim%dt_previous = sim%dt
     call solver_stable_step()

@@ -43,7 +43,9 @@ contains
   pure elemental function particle_radius(mass, r, rho) result(radius)
     real(wp), intent(in) :: mass, r, rho
     real(wp) :: radius
-    radius = 0.5_wp*sqrt(mass/(two_pi*r*rho))
+    ! |r|: a particle found across the axis (the axis guard stops the run
+    ! in this cycle) keeps the radius of its mirror ring
+    radius = 0.5_wp*sqrt(mass/(two_pi*abs(r)*rho))
   end function particle_radius
 
   !> Neighbour of an entry: index j, position, velocity, total stress and
