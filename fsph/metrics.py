@@ -236,8 +236,11 @@ def perforation(snap, projectile, target):
     tip = (xp[:, 1] - rp).min()
     in_plate = (xt[:, 1] <= top0) & (xt[:, 1] >= bottom0)
     hole = 2.0 * max((xt[in_plate, 0] - rt[in_plate]).min(initial=np.inf), 0.0)
-    total = sum(_body_points(snap, b)[3] @ _body_points(snap, b)[2][:, 1]
-                for b in range(int(snap.get("n_bodies", max(projectile, target) + 1))))
+    total = 0.0     # axial momentum of every body: all nodes and particles
+    if "conn" in snap:
+        total += snap["node_mass"] @ snap["velocity"][:, 1]
+    if "particles" in snap:
+        total += snap["particles"]["mass"] @ snap["particles"]["velocity"][:, 1]
     return {"velocity_z_m_s": velocity, "residual_velocity_m_s": abs(velocity),
             "momentum_z": float(total),
             "penetration_depth_max_mm": float(snap.get("contact_penetration", 0.0) * 1e3),

@@ -325,8 +325,7 @@ class Simulation:
         (m, 3) 0-based and element fields; particles (if any) under
         "particles". Stress is the total Cauchy stress (rr, zz, rz, tt)."""
         pen = self.penetration()
-        snap = {"time": self.time, "cycle": self.cycle, "n_bodies": len(self.body_names),
-                "contact_penetration": pen["depth"],
+        snap = {"time": self.time, "cycle": self.cycle, "contact_penetration": pen["depth"],
                 "contact_penetration_relative": pen["relative"]}
         if self.n_elements:
             nn, ne = _api.get_sizes()

@@ -168,13 +168,6 @@ contains
     end associate
   end function coupling_edge_index
 
-  subroutine size_work()
-    associate (cp => sim%coupling)
-      if (allocated(cp%sig_sum)) deallocate (cp%sig_sum, cp%count)
-      allocate (cp%sig_sum(4, max(cp%n_edges, 1)), cp%count(max(cp%n_edges, 1)))
-    end associate
-  end subroutine size_work
-
   !> Associate every real particle with the element-region surface edges of
   !> its continuum that it faces: edges of the elements among its imaginary
   !> neighbours (so the search is O(N)), with no element on their other side,
@@ -189,10 +182,7 @@ contains
     integer :: best_edge(2, 2)
     n = sim%particles%n
     sim%coupling%n_edges = 0
-    if (n == 0 .or. sim%elements%n == 0) then
-      call size_work()
-      return
-    end if
+    if (n == 0 .or. sim%elements%n == 0) return
     call fill_imaginary(stage_start)
     associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
       call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
@@ -247,7 +237,6 @@ contains
         end do
       end do
     end associate
-    call size_work()
   end subroutine associate_particles
 
   !> Conversion check after the stress update: flag groups holding an

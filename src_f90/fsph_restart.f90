@@ -137,7 +137,7 @@ contains
   end subroutine prepare_checkpoint
 
   !> After every array is in: axis flags, the node -> corner map, the
-  !> coupling work arrays and tied masses are derived; the state is ready.
+  !> tied masses and contact surfaces are derived; the state is ready.
   subroutine finish_restore()
     use fsph_topology, only: rebuild_corner_map
     use fsph_coupling, only: update_tie_masses
@@ -146,9 +146,6 @@ contains
       sim%nodes%on_axis = sim%nodes%on_axis_int(1:sim%nodes%n) /= 0
       call rebuild_corner_map()
     end if
-    if (allocated(sim%coupling%sig_sum)) deallocate (sim%coupling%sig_sum, sim%coupling%count)
-    allocate (sim%coupling%sig_sum(4, max(sim%coupling%n_edges, 1)), &
-              sim%coupling%count(max(sim%coupling%n_edges, 1)))
     if (sim%nodes%n > 0) call update_tie_masses()
     call contact_rebuild_surface()
     sim%ready = .true.

@@ -117,10 +117,10 @@ contains
     real(wp), intent(out) :: acc_imag(2, n) !< the part of acc from imaginary neighbours [m/s^2]
     integer :: i, k, j
     real(wp) :: xj(2), vj(2), sj(4), mj, dx(2), dist2, dist, hij, dw, grad(2), wi, wj, q, stot(4), a(2)
-    real(wp) :: a_imag(2)
+    real(wp) :: a_imag(2), da(2)
     !$omp parallel do default(none) schedule(dynamic, 64) &
     !$omp shared(n, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, acc, pair_q, acc_imag) &
-    !$omp private(i, k, j, xj, vj, sj, mj, dx, dist2, dist, hij, dw, grad, wi, wj, q, stot, a, a_imag)
+    !$omp private(i, k, j, xj, vj, sj, mj, dx, dist2, dist, hij, dw, grad, wi, wj, q, stot, a, a_imag, da)
     do i = 1, n
       wi = 1.0_wp/(4.0_wp*pi*pi*x(1, i)*rho(i)**2)
       a(1) = -sig(4, i)/(rho(i)*x(1, i))
@@ -141,10 +141,9 @@ contains
                            0.5_wp*(c(i) + c(j)), c_q, c_l)
         pair_q(k) = q
         stot = pair_stress(wi, sig(:, i), wj, sj, q)
-        a(1) = a(1) + two_pi*mj*(stot(1)*grad(1) + stot(3)*grad(2))
-        a(2) = a(2) + two_pi*mj*(stot(3)*grad(1) + stot(2)*grad(2))
-        if (nbr_list(k) > n) a_imag = a_imag + two_pi*mj*[stot(1)*grad(1) + stot(3)*grad(2), &
-                                                          stot(3)*grad(1) + stot(2)*grad(2)]
+        da = two_pi*mj*[stot(1)*grad(1) + stot(3)*grad(2), stot(3)*grad(1) + stot(2)*grad(2)]
+        a = a + da
+        if (nbr_list(k) > n) a_imag = a_imag + da
       end do
       acc(:, i) = a
       acc_imag(:, i) = a_imag

@@ -90,8 +90,6 @@ module fsph_state
   type, public :: coupling_t
     integer :: n_edges = 0
     integer, allocatable :: edge(:, :)    !< (2, n_edges) node pairs
-    real(wp), allocatable :: sig_sum(:, :) !< work: summed particle stress per edge [Pa]
-    integer, allocatable :: count(:)      !< work: associated particles per edge
   end type coupling_t
 
   !> Conversion of elements to particles (seed 000 section 2.3).
