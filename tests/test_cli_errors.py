@@ -204,6 +204,27 @@ def assert_last_good_kept(out, summary, done, deck):
                      "--restart", str(out / "checkpoint.h5")]) == 0
 
 
+def assert_clean_stop(stdout, summary, status, what, out, done, deck, clock_moved):
+    """The common end of a provoked failure: exit code 3 already checked by
+    the caller; the summary's status code; the cycle and time the run
+    stopped at (the next cycle when the fault showed after the positions
+    and the clock moved, else the state the fault was injected into); the
+    one-line diagnostic `what` after them, on stdout and in the summary;
+    the last good snapshot kept and restartable."""
+    failure = summary["failure"]
+    assert summary["status"] == "failed"
+    assert failure["code"] == status
+    if clock_moved:
+        assert failure["cycle"] == done["cycle"] + 1 and failure["time_s"] > done["time"]
+    else:
+        assert failure["cycle"] == done["cycle"] and failure["time_s"] == done["time"]
+    message = (f"run stopped at t = {failure['time_s'] * 1e6:.6g} us, cycle {failure['cycle']}: "
+               + what)
+    assert message in stdout and failure["message"].startswith(message)
+    assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
+    assert_last_good_kept(out, summary, done, deck)
+
+
 def test_particle_on_axis_stops_cleanly(tmp_path, monkeypatch, capsys):
     """A particle put across the axis (r < 0; in a run the axis acts on
     particles as a wall at half their radius, see the next test, so only a
@@ -226,17 +247,11 @@ def test_particle_on_axis_stops_cleanly(tmp_path, monkeypatch, capsys):
     code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
     k = done["result"]
     assert code == cli.EXIT_RUN_FAILED == 3
-    failure = summary["failure"]
-    assert summary["status"] == "failed"
-    assert failure["code"] == 10 and failure["index"] == -(k + 1)
+    assert summary["failure"]["index"] == -(k + 1)
     # the positions, and the clock with them, reached the next cycle
-    assert failure["cycle"] == done["cycle"] + 1 and failure["time_s"] > done["time"]
-    message = (f"run stopped at t = {failure['time_s'] * 1e6:.6g} us, cycle {done['cycle'] + 1}: "
-               f"a particle reached the axis (r <= 0); particle {k + 1} of body 'rod' at r = -")
-    assert message in stdout and failure["message"].startswith(message)
-    assert " mm, z = " in failure["message"]
-    assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
-    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+    assert_clean_stop(stdout, summary, 10, f"a particle reached the axis (r <= 0); particle {k + 1} "
+                      "of body 'rod' at r = -", out, done, tmp_path / "faulty.nml", clock_moved=True)
+    assert " mm, z = " in summary["failure"]["message"]
 
 
 def test_axis_stops_a_particle_driven_across_it(write_deck):
@@ -276,15 +291,10 @@ def test_non_finite_element_state_stops_cleanly(tmp_path, monkeypatch, capsys):
     code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
     k = done["result"]
     assert code == cli.EXIT_RUN_FAILED == 3
-    failure = summary["failure"]
-    assert failure["code"] == 2 and failure["index"] == k + 1
-    assert failure["cycle"] == done["cycle"] + 1 and failure["time_s"] > done["time"]
-    message = (f"run stopped at t = {failure['time_s'] * 1e6:.6g} us, cycle {done['cycle'] + 1}: "
-               f"non-finite stress or energy (NaN/Inf) in an element; element {k + 1} of body "
-               f"'rod' at r = ")
-    assert message in stdout and failure["message"].startswith(message)
-    assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
-    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+    assert summary["failure"]["index"] == k + 1
+    assert_clean_stop(stdout, summary, 2, f"non-finite stress or energy (NaN/Inf) in an element; "
+                      f"element {k + 1} of body 'rod' at r = ", out, done, tmp_path / "faulty.nml",
+                      clock_moved=True)
 
 
 def test_non_finite_particle_stops_cleanly(tmp_path, monkeypatch, capsys):
@@ -308,14 +318,11 @@ def test_non_finite_particle_stops_cleanly(tmp_path, monkeypatch, capsys):
     code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
     k = done["result"]
     assert code == cli.EXIT_RUN_FAILED == 3
-    failure = summary["failure"]
-    assert failure["code"] == 9 and -(k + 1) <= failure["index"] < 0
-    assert failure["cycle"] == done["cycle"] and failure["time_s"] == done["time"]
-    message = (f"run stopped at t = {done['time'] * 1e6:.6g} us, cycle {done['cycle']}: "
-               f"non-finite state (NaN/Inf) or non-positive density in a particle; particle "
-               f"{-failure['index']} of body 'rod'")
-    assert message in stdout and failure["message"].startswith(message)
-    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+    index = summary["failure"]["index"]
+    assert -(k + 1) <= index < 0
+    assert_clean_stop(stdout, summary, 9, "non-finite state (NaN/Inf) or non-positive density in "
+                      f"a particle; particle {-index} of body 'rod'", out, done,
+                      tmp_path / "faulty.nml", clock_moved=False)
 
 
 def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
@@ -335,17 +342,12 @@ def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
     code, stdout, summary, out, done = run_with_fault(tmp_path, monkeypatch, capsys, text, inject)
     k = done["result"]
     assert code == cli.EXIT_RUN_FAILED == 3
-    failure = summary["failure"]
-    assert failure["code"] == 3 and failure["index"] == k + 1
+    assert summary["failure"]["index"] == k + 1
     # the position update of the next cycle failed: the clock stays put
-    assert failure["cycle"] == done["cycle"] and failure["time_s"] == done["time"]
-    message = (f"run stopped at t = {done['time'] * 1e6:.6g} us, cycle {done['cycle']}: "
-               f"non-finite position or velocity (NaN/Inf) at a node; node {k + 1} (initially at "
-               f"r = ")
-    assert message in stdout and failure["message"].startswith(message)
-    assert " mm, z = " in failure["message"]
-    assert f"last good snapshot t = {done['time'] * 1e6:.4g} us" in stdout
-    assert_last_good_kept(out, summary, done, tmp_path / "faulty.nml")
+    assert_clean_stop(stdout, summary, 3, f"non-finite position or velocity (NaN/Inf) at a node; "
+                      f"node {k + 1} (initially at r = ", out, done, tmp_path / "faulty.nml",
+                      clock_moved=False)
+    assert " mm, z = " in summary["failure"]["message"]
 
 
 def test_progress_bar_text(tmp_path, monkeypatch):
