@@ -15,7 +15,8 @@ from pathlib import Path
 import f90nml
 
 from .errors import DeckError
-from .materials import EOS_MODELS, LIBRARY, STRENGTH_MODELS, elastic_moduli
+from .materials import (EOS_MODELS, HJC_KEYS, LIBRARY, STRENGTH_MODELS, elastic_moduli,
+                        hjc_lock_strain)
 
 REQUIRED = object()
 
@@ -136,7 +137,8 @@ SCHEMA = {
             "jc_n": _pos("Johnson-Cook hardening exponent n.", "-", None),
             "jc_c": Key("float", None, "-", "Johnson-Cook strain-rate coefficient C.", lower=0.0),
             "jc_m": _pos("Johnson-Cook thermal-softening exponent m.", "-", None),
-            "jc_ref_strain_rate": _pos("Johnson-Cook reference strain rate.", "1/s", 1.0),
+            "jc_ref_strain_rate": _pos("Reference strain rate of the Johnson-Cook and HJC "
+                                       "rate terms.", "1/s", 1.0),
             "melt_temperature": _pos("Melting temperature T_melt (Johnson-Cook).", "K", None),
             "room_temperature": _pos("Room and initial temperature.", "K", 293.15),
             "specific_heat": _pos("Specific heat c_v for adiabatic heating (Johnson-Cook).",
@@ -149,7 +151,35 @@ SCHEMA = {
             "gamma0": Key("float", None, "-", "Grueneisen coefficient Gamma0.", lower=0.0),
             "p_min": Key("float", None, "Pa",
                          "Pressure cut-off (spall): pressure never falls below p_min (<= 0). "
-                         "Unset: no cut-off.", upper=0.0),
+                         "Unset: no cut-off. Not used by hjc (its tensile limit is "
+                         "-hjc_t (1 - D)).", upper=0.0),
+            "hjc_a": _pos("HJC normalised cohesive strength A (strength and eos 'hjc', "
+                          "Holmquist, Johnson & Cook 1993: sigma* = [A (1 - D) + B P*^N] "
+                          "[1 + C ln(rate/jc_ref_strain_rate)] <= S_max, sigma* = sigma/f_c, "
+                          "P* = p/f_c).", "-", None),
+            "hjc_b": _pos("HJC normalised pressure hardening B.", "-", None),
+            "hjc_n": _pos("HJC pressure hardening exponent N.", "-", None),
+            "hjc_c": Key("float", None, "-", "HJC strain-rate coefficient C.", lower=0.0),
+            "hjc_fc": _pos("HJC quasi-static uniaxial compressive strength f_c.", "Pa", None),
+            "hjc_t": _pos("HJC maximum tensile hydrostatic pressure T (tensile limit "
+                          "-T (1 - D)).", "Pa", None),
+            "hjc_smax": _pos("HJC normalised maximum strength S_max.", "-", None),
+            "hjc_efmin": _pos("HJC smallest plastic strain to fracture EF_min.", "-", None),
+            "hjc_d1": _pos("HJC damage constant D1: strain to fracture "
+                           "max(D1 (P* + T*)^D2, EF_min), D = sum (d eps_p + d mu_p) / that.",
+                           "-", None),
+            "hjc_d2": _pos("HJC damage exponent D2.", "-", None),
+            "hjc_pcrush": _pos("HJC crushing pressure P_crush (end of the elastic range; "
+                               "elastic bulk modulus P_crush/mu_crush).", "Pa", None),
+            "hjc_mucrush": _pos("HJC volumetric strain mu_crush at P_crush.", "-", None),
+            "hjc_plock": _pos("HJC locking pressure P_lock (end of compaction).", "Pa", None),
+            "hjc_mulock": _pos("HJC locking volumetric strain mu_lock = rho_grain/rho0 - 1 "
+                               "(the fully dense curve's zero-pressure intercept; compaction "
+                               "runs to where that curve reaches P_lock).", "-", None),
+            "hjc_k1": _pos("HJC fully dense EOS K1 (p = K1 x + K2 x^2 + K3 x^3, "
+                           "x = (mu - mu_lock)/(1 + mu_lock)).", "Pa", None),
+            "hjc_k2": Key("float", None, "Pa", "HJC fully dense EOS K2."),
+            "hjc_k3": Key("float", None, "Pa", "HJC fully dense EOS K3."),
         },
         repeatable=True, required=True, min_count=1,
     ),
@@ -299,6 +329,23 @@ SCHEMA = {
                                  "Untied particles may not cross into their own body's element "
                                  "region either (zero contact thickness; nearer than that the "
                                  "SPH sums with the imaginary particles act)."),
+        },
+    ),
+    "erosion": Group(
+        "Element erosion, the FEM baseline of seed 002 (mode fem only): an element whose "
+        "largest principal strain (logarithmic: ln of the largest principal stretch, the hoop "
+        "stretch included, from the deformation since t = 0) reaches principal_strain is "
+        "deleted. A third of its mass stays on each of its nodes while the node belongs to a "
+        "remaining element (seed 002: the mass goes to the neighbouring nodes); a node left "
+        "without elements is removed. The deleted internal energy and the removed nodes' "
+        "mass, momentum and kinetic energy are reported (summary.json `erosion`) and counted "
+        "in the energy balance.",
+        {
+            "enabled": Key("bool", False, "-", "Erosion on."),
+            "principal_strain": Key("float", 1.5, "-",
+                                    "Largest principal strain at deletion (seed 002: 1.5; "
+                                    "1.0-3.0 usual, chosen by experience, and the result is "
+                                    "sensitive to it).", lower=0.0, lower_open=True),
         },
     ),
     "boundary": Group(
@@ -503,10 +550,18 @@ def _validate_material(path, label, m):
         "epp": ("yield_stress",),
         "bilinear": ("yield_stress", "tangent_modulus"),
         "johnson_cook": ("jc_a", "jc_b", "jc_n", "jc_c", "jc_m", "melt_temperature"),
+        "hjc": (),
         "elastic": (),
     }[m["strength"]]
+    if (m["strength"] == "hjc") != (m["eos"] == "hjc"):
+        key = "eos" if m["strength"] == "hjc" else "strength"
+        raise DeckError(path, label, key, "'hjc' together with "
+                        + ("strength" if key == "eos" else "eos") + " 'hjc' (the HJC strength "
+                        "and pressure share the damage and compaction history)", m[key])
     if m["eos"] == "mie_gruneisen":
         need += ("c0", "s", "gamma0")
+    if m["eos"] == "hjc":
+        need += HJC_KEYS
     for k in need:
         if m.get(k) is None:
             raise DeckError(path, label, k,
@@ -536,6 +591,24 @@ def _validate_material(path, label, m):
         if not m["tangent_modulus"] < e:
             raise DeckError(path, label, "tangent_modulus",
                             f"a value below Young's modulus E = {e:.4g} Pa", m["tangent_modulus"])
+    if m["eos"] == "hjc":
+        if m.get("youngs_modulus") is not None:
+            raise DeckError(path, label, "youngs_modulus", "no value for eos 'hjc' (give "
+                            "shear_modulus; the bulk modulus is hjc_pcrush/hjc_mucrush)",
+                            m["youngs_modulus"])
+        if not m["hjc_plock"] > m["hjc_pcrush"]:
+            raise DeckError(path, label, "hjc_plock",
+                            f"a value above hjc_pcrush = {m['hjc_pcrush']} Pa", m["hjc_plock"])
+        try:
+            mu_plock = hjc_lock_strain(m)
+        except ValueError as err:
+            raise DeckError(path, label, "hjc_k2", "K1, K2, K3 with a fully dense curve "
+                            "rising to hjc_plock", str(err)) from None
+        if not mu_plock > m["hjc_mucrush"]:
+            raise DeckError(path, label, "hjc_mulock",
+                            f"a locking strain whose fully dense curve reaches hjc_plock beyond "
+                            f"hjc_mucrush = {m['hjc_mucrush']} (it does at {mu_plock:.4g})",
+                            m["hjc_mulock"])
     if m["strength"] == "johnson_cook":
         if m["specific_heat"] is None:
             raise DeckError(path, label, "specific_heat",
@@ -671,6 +744,10 @@ def _cross_check(path, deck):
         if b["joined_to"] not in names or b["joined_to"] == b["name"]:
             raise DeckError(path, f"body #{i + 1}", "joined_to",
                             "the name of another &body: " + ", ".join(names), b["joined_to"])
+    if deck["erosion"]["enabled"] and mode != "fem":
+        raise DeckError(path, "erosion", "enabled", ".false. outside mode 'fem' (erosion is the "
+                        "FEM baseline; modes fixed and adaptive turn distorted elements into "
+                        "particles instead)", True)
     conv = deck["convert"]
     if conv["criterion"] == "equivalent_stress" and conv["sigma_c"] is None:
         raise DeckError(path, "convert", "sigma_c",

@@ -15,9 +15,16 @@ PROPERTY_NAMES = (
     "jc_a", "jc_b", "jc_n", "jc_c", "jc_m",
     "t_melt", "t_room", "cv", "chi", "eps0",
     "c0", "s", "gamma0", "pmin",
+    "hjc_a", "hjc_b", "hjc_n", "hjc_c", "hjc_fc", "hjc_t", "hjc_smax", "hjc_efmin",
+    "hjc_d1", "hjc_d2", "hjc_pcrush", "hjc_mucrush", "hjc_plock", "hjc_mulock",
+    "hjc_k1", "hjc_k2", "hjc_k3", "hjc_muplock",
 )
-STRENGTH_MODELS = {"elastic": 1, "epp": 2, "bilinear": 3, "johnson_cook": 4}
-EOS_MODELS = {"linear": 1, "mie_gruneisen": 2}
+STRENGTH_MODELS = {"elastic": 1, "epp": 2, "bilinear": 3, "johnson_cook": 4, "hjc": 5}
+EOS_MODELS = {"linear": 1, "mie_gruneisen": 2, "hjc": 3}
+#: Deck keys of the Holmquist-Johnson-Cook model (strength hjc with eos hjc).
+HJC_KEYS = ("hjc_a", "hjc_b", "hjc_n", "hjc_c", "hjc_fc", "hjc_t", "hjc_smax", "hjc_efmin",
+            "hjc_d1", "hjc_d2", "hjc_pcrush", "hjc_mucrush", "hjc_plock", "hjc_mulock",
+            "hjc_k1", "hjc_k2", "hjc_k3")
 
 #: Pressure cut-off used when a material declares none [Pa]: no cut-off.
 NO_PRESSURE_CUTOFF = -1.0e300
@@ -67,6 +74,19 @@ LIBRARY = {
         "density": 8300.0, "youngs_modulus": 200.0e9, "poisson_ratio": 0.3,
         "yield_stress": 1.72e9, "tangent_modulus": 15.0e9,
     },
+    "concrete_48mpa_hjc": {
+        "source": ("Holmquist, Johnson & Cook 1993 (14th Int. Symp. Ballistics 591-600) "
+                   "constants for the 48 MPa concrete of Hanchak et al. 1992, as used by "
+                   "seeds 000 section 3.4 and 002 section 4 (read in two independent public "
+                   "decks, shared/validation/README.md section 4)"),
+        "strength": "hjc", "eos": "hjc",
+        "density": 2440.0, "shear_modulus": 14.86e9,
+        "hjc_a": 0.79, "hjc_b": 1.60, "hjc_n": 0.61, "hjc_c": 0.007,
+        "hjc_fc": 48.0e6, "hjc_t": 4.0e6, "hjc_smax": 7.0, "hjc_efmin": 0.01,
+        "hjc_d1": 0.04, "hjc_d2": 1.0,
+        "hjc_pcrush": 16.0e6, "hjc_mucrush": 0.001, "hjc_plock": 0.80e9, "hjc_mulock": 0.10,
+        "hjc_k1": 85.0e9, "hjc_k2": -171.0e9, "hjc_k3": 208.0e9,
+    },
     "ofhc_copper": {
         "source": ("Johnson & Cook 1983 OFHC copper (A 90 MPa, B 292 MPa, n 0.31, "
                    "C 0.025, m 1.09, T_melt 1356 K); Mie-Grueneisen c0 3940 m/s, "
@@ -80,9 +100,35 @@ LIBRARY = {
 }
 
 
+def hjc_lock_strain(m):
+    """Volumetric strain mu_plock at which the HJC fully dense curve
+    K1 x + K2 x^2 + K3 x^3, x = (mu - mu_lock)/(1 + mu_lock), reaches
+    P_lock (Newton from the linear estimate; the curve must rise
+    monotonically up to there). Raises ValueError if it does not."""
+    k1, k2, k3, plock = m["hjc_k1"], m["hjc_k2"], m["hjc_k3"], m["hjc_plock"]
+    x = plock / k1
+    for _ in range(100):
+        f = x * (k1 + x * (k2 + x * k3)) - plock
+        df = k1 + x * (2.0 * k2 + 3.0 * x * k3)
+        if df <= 0.0:
+            break
+        step = f / df
+        x -= step
+        if abs(step) <= 1e-15 * max(abs(x), 1e-30):
+            break
+    grid = np.linspace(0.0, x, 200)
+    slopes = k1 + grid * (2.0 * k2 + 3.0 * grid * k3)
+    if not (x > 0.0 and np.all(slopes > 0.0)
+            and abs(x * (k1 + x * (k2 + x * k3)) - plock) <= 1e-9 * plock):
+        raise ValueError("the fully dense curve K1 x + K2 x^2 + K3 x^3 does not rise "
+                         "monotonically to hjc_plock")
+    return m["hjc_mulock"] + x * (1.0 + m["hjc_mulock"])
+
+
 def elastic_moduli(m):
     """Shear and bulk moduli [Pa] and Young's modulus of a validated material
-    dict. Bulk is from (E, nu), or given, or rho0 c0^2 for Mie-Grueneisen."""
+    dict. Bulk is from (E, nu), or given, or rho0 c0^2 for Mie-Grueneisen,
+    or the HJC elastic bulk modulus P_crush/mu_crush."""
     if m.get("youngs_modulus") is not None:
         e, nu = m["youngs_modulus"], m["poisson_ratio"]
         g = e / (2.0 * (1.0 + nu))
@@ -90,7 +136,9 @@ def elastic_moduli(m):
     else:
         g = m["shear_modulus"]
         k = m.get("bulk_modulus")
-        if k is None:
+        if m["eos"] == "hjc":
+            k = m["hjc_pcrush"] / m["hjc_mucrush"]
+        elif k is None:
             k = m["density"] * m["c0"] ** 2
         e = 9.0 * k * g / (3.0 * k + g)
     if m["eos"] == "linear" and m.get("bulk_modulus") is not None:
@@ -117,6 +165,9 @@ def property_row(m):
         "c0": m.get("c0") or 0.0, "s": m.get("s") or 0.0, "gamma0": m.get("gamma0") or 0.0,
         "pmin": NO_PRESSURE_CUTOFF if m.get("p_min") is None else m["p_min"],
     }
+    for key in HJC_KEYS:
+        row[key] = m.get(key) or 0.0
+    row["hjc_muplock"] = hjc_lock_strain(m) if m["eos"] == "hjc" else 0.0
     if not math.isfinite(row["t_melt"]):
         row["t_melt"] = 1.0e300
     return np.array([row[name] for name in PROPERTY_NAMES], dtype=np.float64)

@@ -236,7 +236,9 @@ def perforation(snap, projectile, target):
     tip = (xp[:, 1] - rp).min()
     in_plate = (xt[:, 1] <= top0) & (xt[:, 1] >= bottom0)
     hole = 2.0 * max((xt[in_plate, 0] - rt[in_plate]).min(initial=np.inf), 0.0)
-    total = 0.0     # axial momentum of every body: all nodes and particles
+    # axial momentum of every body: all nodes and particles, and the nodes
+    # erosion removed
+    total = snap.get("eroded_momentum_z", 0.0)
     if "conn" in snap:
         total += snap["node_mass"] @ snap["velocity"][:, 1]
     if "particles" in snap:

@@ -9,9 +9,9 @@ import h5py
 import meshio
 import numpy as np
 
-HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal", "contact")
+HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal", "contact", "eroded")
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
-                        "internal_energy", "temperature", "material", "body")
+                        "internal_energy", "temperature", "damage", "material", "body")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
 
 
@@ -31,7 +31,8 @@ class RunWriter:
     """Writes one run's outputs into a folder.
 
     fsph.h5: /history/<field> (time [s], cycle, dt [s], kinetic [J],
-    internal [J], total [J]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
+    internal [J], contact work [J], energy removed by erosion [J], total
+    [J]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
     fields; attributes time [s] and cycle; particles, if any, in
     /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
@@ -61,12 +62,13 @@ class RunWriter:
             (self.outdir / "vtu").mkdir(exist_ok=True)
 
     def append_history(self, records):
-        """records: (k, 6) rows of HISTORY_FIELDS. Also tracks the largest
+        """records: (k, 7) rows of HISTORY_FIELDS. Also tracks the largest
         departure of the total energy (kinetic + internal + the work of the
-        contact corrections) from its first recorded value."""
+        contact corrections + the energy erosion removed) from its first
+        recorded value."""
         if len(records) == 0:
             return
-        total = records[:, 3] + records[:, 4] + records[:, 5]
+        total = records[:, 3] + records[:, 4] + records[:, 5] + records[:, 6]
         if self.energy0 is None:
             self.energy0 = total[0]
         if self.energy0:

@@ -119,6 +119,8 @@ def histories(run_dir, output=None, dpi=150):
     ax_e.plot(t, hist["internal"], label="internal")
     if "contact" in hist and hist["contact"].any():
         ax_e.plot(t, hist["contact"], label="contact work")
+    if "eroded" in hist and hist["eroded"].any():
+        ax_e.plot(t, hist["eroded"], label="removed by erosion")
     ax_e.plot(t, hist["total"], "k", lw=1.2, label="total")
     ax_e.set_ylabel("energy [J]")
     ax_e.legend(frameon=False)

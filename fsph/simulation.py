@@ -32,6 +32,9 @@ STATUS_TEXT = {
     11: "time step fell by more than the allowed factor in one cycle (dt_drop_ratio)",
     12: "energy error above the limit (energy_error_limit)",
 }
+# rows of the material history (fsph_material hist_*)
+HIST_DAMAGE, HIST_MU_MAX = 0, 1
+N_HIST = 2
 # index conventions of fsph_solver: > 0 element (node for code 3), < 0 particle
 NODE_FAULTS = {3}
 
@@ -89,6 +92,8 @@ class Simulation:
         ct = deck["contact"]
         self._call(_api.set_contact(int(ct["enabled"]), ct["passes"], ct["friction"],
                                     int(ct["own_particles"])), "contact")
+        er = deck["erosion"]
+        self._call(_api.set_erosion(int(er["enabled"]), er["principal_strain"]), "erosion")
         for bc in deck["boundary"]:
             self._call(_api.add_rigid_plane(np.array(bc["point"]), np.array(bc["normal"])),
                        "rigid plane")
@@ -293,6 +298,23 @@ class Simulation:
         return {"dissipated_J": float(dissipated), "n_active": int(n_active),
                 "n_segments": int(n_seg), "n_surface_nodes": int(n_snode)}
 
+    def erosion(self):
+        """Erosion books: elements deleted, their mass [kg] and internal
+        energy [J]; mass [kg], kinetic energy [J] and momentum (r, z)
+        [kg m/s] of the nodes removed with their last element."""
+        n, emass, internal, nmass, kinetic, momentum = _api.get_erosion_stats()
+        return {"n_eroded": int(n), "element_mass_kg": float(emass),
+                "internal_J": float(internal), "node_mass_kg": float(nmass),
+                "kinetic_J": float(kinetic), "momentum_kg_m_s": [float(v) for v in momentum]}
+
+    def principal_strains(self):
+        """Largest principal logarithmic strain of every element (the
+        erosion measure) [-]."""
+        strain, ierr = _api.get_principal_strains(self.n_elements)
+        if ierr != STATUS_OK:
+            raise FsphError("principal_strains: no elements")
+        return strain.copy()
+
     def penetration(self):
         """Deepest interpenetration of bodies at the current positions [m]
         and relative to the penetrated segment's length [-]."""
@@ -307,9 +329,11 @@ class Simulation:
         which is booked, so the total is conserved by the method."""
         ke, ie = _api.get_energies()
         dissipated = float(_api.get_contact_stats()[0])
-        total = ke + ie + dissipated
+        er = self.erosion()
+        eroded = er["internal_J"] + er["kinetic_J"]
+        total = ke + ie + dissipated + eroded
         return {"kinetic": float(ke), "internal": float(ie), "contact": dissipated,
-                "total": float(total),
+                "eroded": eroded, "total": float(total),
                 "relative_error": float((total - self.initial_energy) / self.initial_energy)
                 if self.initial_energy else 0.0}
 
@@ -326,7 +350,8 @@ class Simulation:
         "particles". Stress is the total Cauchy stress (rr, zz, rz, tt)."""
         pen = self.penetration()
         snap = {"time": self.time, "cycle": self.cycle, "contact_penetration": pen["depth"],
-                "contact_penetration_relative": pen["relative"]}
+                "contact_penetration_relative": pen["relative"],
+                "eroded_momentum_z": self.erosion()["momentum_kg_m_s"][1]}
         if self.n_elements:
             nn, ne = _api.get_sizes()
             x, x0, v, mass = _api.get_nodes(nn)
@@ -341,6 +366,7 @@ class Simulation:
                 "plastic_strain": eps_p.copy(), "density": rho.copy(),
                 "internal_energy": e.copy(), "temperature": temp.copy(), "sound_speed": c.copy(),
                 "area": area.copy(), "element_mass": emass.copy(),
+                "damage": self._history("element", ne)[HIST_DAMAGE],
             })
         if self.n_particles:
             part = self._particles()
@@ -352,9 +378,18 @@ class Simulation:
             part.update({"stress": stress, "pressure": p.copy(), "plastic_strain": eps_p.copy(),
                          "density": rho.copy(), "internal_energy": e.copy(),
                          "temperature": temp.copy(), "sound_speed": c.copy(),
+                         "damage": self._history("particle", self.n_particles)[HIST_DAMAGE],
                          "radius0": radius0})
             snap["particles"] = part
         return snap
+
+    def _history(self, kind, n):
+        """Material history rows (N_HIST, n) of elements or particles."""
+        getter = _api.get_element_history if kind == "element" else _api.get_particle_history
+        hist, ierr = getter(N_HIST, n)
+        if ierr != STATUS_OK:
+            raise FsphError(f"{kind} history: layout mismatch, rebuild the package")
+        return hist.copy()
 
     def particle_rates(self):
         """SPH rates for the current state (verification): accelerations
@@ -425,26 +460,52 @@ def contact_filling(alpha_h):
 
 
 def drain_history():
-    """Time-history records (k, 6) recorded by the cycle since the last
+    """Time-history records (k, 7) recorded by the cycle since the last
     call: time [s], cycle, dt [s], kinetic [J], internal [J], work of the
-    contact corrections [J]."""
+    contact corrections [J], energy removed by erosion [J]."""
     n = int(_api.history_count())
     if n == 0:
-        return np.zeros((0, 6))
+        return np.zeros((0, 7))
     return _api.drain_history(n).T.copy()
 
 
 def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
     """One constitutive step of a single point of a validated material dict.
-    `state` holds s (4,), p, eps_p, e, temp; returns the new state and c."""
+    `state` holds s (4,), p, eps_p, e, temp and optionally damage and mu_max
+    (history, 0 if absent); returns the new state and c."""
     props, strength, eos = property_table([material])
     s = np.array(state["s"], dtype=float)
     p = np.array(state["p"], dtype=float)
     eps_p = np.array(state["eps_p"], dtype=float)
     e = np.array(state["e"], dtype=float)
     temp = np.array(state["temp"], dtype=float)
+    hist = np.zeros(N_HIST)
+    hist[HIST_DAMAGE] = state.get("damage", 0.0)
+    hist[HIST_MU_MAX] = state.get("mu_max", 0.0)
     c, ierr = _api.material_point(props[:, 0], int(strength[0]), int(eos[0]), dt,
                                   np.asarray(d, float), spin, rho_old, rho_new, q,
-                                  s, p, eps_p, e, temp)
+                                  s, p, eps_p, e, temp, hist)
     return {"s": s, "p": float(p), "eps_p": float(eps_p), "e": float(e),
-            "temp": float(temp), "c": float(c), "ierr": int(ierr)}
+            "temp": float(temp), "damage": float(hist[HIST_DAMAGE]),
+            "mu_max": float(hist[HIST_MU_MAX]), "c": float(c), "ierr": int(ierr)}
+
+
+def hjc_pressure(material, mu, damage=0.0, mu_max=0.0):
+    """HJC pressure of one point of a validated material dict at
+    volumetric strain mu with history (damage, mu_max): returns pressure
+    [Pa], dp/dmu [Pa], the new mu_max and the growth of the permanent
+    volumetric strain."""
+    props, _, _ = property_table([material])
+    mu_max = np.array(mu_max, dtype=float)
+    p, dpdmu, dmu_p, ierr = _api.hjc_point_pressure(props[:, 0], mu, damage, mu_max)
+    if ierr != STATUS_OK:
+        raise FsphError("hjc_pressure: layout mismatch, rebuild the package")
+    return {"p": float(p), "dpdmu": float(dpdmu), "mu_max": float(mu_max), "dmu_p": float(dmu_p)}
+
+
+def triangle_principal_strain(x, x0):
+    """Largest principal logarithmic strain [-] of one triangle from its
+    current and initial node positions (3, 2) (r, z) [m] (the erosion
+    measure of fsph_erosion)."""
+    return float(_api.triangle_principal_strain(np.asfortranarray(np.asarray(x, float).T),
+                                                np.asfortranarray(np.asarray(x0, float).T)))

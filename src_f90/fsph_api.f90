@@ -19,6 +19,8 @@ module fsph_api
   public :: checkpoint_layout, checkpoint_sizes, get_real_state, get_int_state, set_real_state
   public :: set_int_state, get_scalar_state, restore_begin, restore_end
   public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
+  public :: set_erosion, get_erosion_stats, get_element_history, get_particle_history
+  public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain
 
 contains
 
@@ -236,6 +238,110 @@ contains
     ierr = status_ok
   end subroutine set_contact
 
+  !> Element erosion (fsph_erosion): on/off and the largest principal
+  !> (logarithmic) strain at which an element is deleted [-].
+  subroutine set_erosion(enabled, strain_limit, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: enabled
+    real(wp), intent(in) :: strain_limit
+    integer, intent(out) :: ierr
+    ierr = status_bad_input
+    if (.not. (strain_limit > 0.0_wp)) return
+    sim%erosion%enabled = enabled /= 0
+    sim%erosion%strain_limit = strain_limit
+    ierr = status_ok
+  end subroutine set_erosion
+
+  !> Erosion books: elements deleted, their mass [kg] and internal energy
+  !> [J]; mass [kg], kinetic energy [J] and momentum (r, z) [kg m/s] of the
+  !> nodes removed with their last element.
+  subroutine get_erosion_stats(n_eroded, element_mass, internal, node_mass, kinetic, momentum)
+    use fsph_state, only: sim
+    integer, intent(out) :: n_eroded
+    real(wp), intent(out) :: element_mass, internal, node_mass, kinetic, momentum(2)
+    n_eroded = sim%erosion%n_eroded
+    element_mass = sim%erosion%element_mass
+    internal = sim%erosion%internal
+    node_mass = sim%erosion%node_mass
+    kinetic = sim%erosion%kinetic
+    momentum = sim%erosion%momentum
+  end subroutine get_erosion_stats
+
+  !> Largest principal logarithmic strain of every element [-] (the erosion
+  !> measure).
+  subroutine get_principal_strains(ne, strain, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_erosion, only: principal_strains
+    integer, intent(in) :: ne
+    real(wp), intent(out) :: strain(ne)
+    integer, intent(out) :: ierr
+    strain = 0.0_wp
+    ierr = status_bad_input
+    if (ne /= sim%elements%n .or. ne == 0) return
+    call principal_strains(ne, sim%nodes%n, sim%elements%conn, sim%nodes%x, sim%nodes%x0, strain)
+    ierr = status_ok
+  end subroutine get_principal_strains
+
+  !> Largest principal logarithmic strain of one triangle from its initial
+  !> and current node positions (r, z) [m] (unit tests of the measure).
+  subroutine triangle_principal_strain(x, x0, strain)
+    use fsph_erosion, only: principal_log_strain
+    real(wp), intent(in) :: x(2, 3), x0(2, 3)
+    real(wp), intent(out) :: strain
+    strain = principal_log_strain(x, x0)
+  end subroutine triangle_principal_strain
+
+  !> Material history of every element (n_hist rows: damage, largest
+  !> volumetric strain; fsph_material).
+  subroutine get_element_history(nh, ne, hist, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_material, only: n_hist
+    integer, intent(in) :: nh, ne
+    real(wp), intent(out) :: hist(nh, ne)
+    integer, intent(out) :: ierr
+    hist = 0.0_wp
+    ierr = status_bad_input
+    if (nh /= n_hist .or. ne /= sim%elements%n .or. ne == 0) return
+    hist = sim%elements%hist
+    ierr = status_ok
+  end subroutine get_element_history
+
+  !> Material history of every particle (as get_element_history).
+  subroutine get_particle_history(nh, np, hist, ierr)
+    use fsph_state, only: sim
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_material, only: n_hist
+    integer, intent(in) :: nh, np
+    real(wp), intent(out) :: hist(nh, np)
+    integer, intent(out) :: ierr
+    hist = 0.0_wp
+    ierr = status_bad_input
+    if (nh /= n_hist .or. np /= sim%particles%n .or. np == 0) return
+    hist = sim%particles%hist(:, 1:np)
+    ierr = status_ok
+  end subroutine get_particle_history
+
+  !> HJC pressure of one point (unit tests of the branches): volumetric
+  !> strain, damage and largest strain so far in; pressure [Pa], dp/dmu [Pa]
+  !> and the growth of the permanent volumetric strain out.
+  subroutine hjc_point_pressure(nprop, props, mu, damage, mu_max, p, dpdmu, dmu_p, ierr)
+    use fsph_material, only: n_props, hjc_pressure
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: nprop
+    real(wp), intent(in) :: props(nprop), mu, damage
+    real(wp), intent(inout) :: mu_max
+    real(wp), intent(out) :: p, dpdmu, dmu_p
+    integer, intent(out) :: ierr
+    p = 0.0_wp; dpdmu = 0.0_wp; dmu_p = 0.0_wp
+    ierr = status_bad_input
+    if (nprop /= n_props) return
+    call hjc_pressure(props, mu, damage, mu_max, p, dpdmu, dmu_p)
+    ierr = status_ok
+  end subroutine hjc_point_pressure
+
   !> Contact books: kinetic energy removed by the corrections so far [J],
   !> pairs corrected in the last cycle, surface segments and nodes.
   subroutine get_contact_stats(dissipated, n_active, n_seg, n_snode)
@@ -393,8 +499,8 @@ contains
   !> Clock and conversion books (see fsph_restart get_scalars).
   subroutine get_scalar_state(r, i)
     use fsph_restart, only: get_scalars
-    real(wp), intent(out) :: r(6)
-    integer, intent(out) :: i(8)
+    real(wp), intent(out) :: r(12)   ! fsph_restart n_real_scalars
+    integer, intent(out) :: i(9)     ! fsph_restart n_int_scalars
     call get_scalars(r, i)
   end subroutine get_scalar_state
 
@@ -402,8 +508,8 @@ contains
   subroutine restore_begin(nn, ne, np, capacity, n_edges, r, i)
     use fsph_restart, only: allocate_for_restart, set_scalars
     integer, intent(in) :: nn, ne, np, capacity, n_edges
-    real(wp), intent(in) :: r(6)
-    integer, intent(in) :: i(8)
+    real(wp), intent(in) :: r(12)
+    integer, intent(in) :: i(9)
     call allocate_for_restart(nn, ne, np, capacity, n_edges)
     call set_scalars(r, i)
   end subroutine restore_begin
@@ -652,12 +758,13 @@ contains
   end subroutine history_count
 
   !> Take the n waiting records (time [s], cycle, dt [s], kinetic [J],
-  !> internal [J], contact work [J]) and empty the buffer.
+  !> internal [J], contact work [J], energy removed by erosion [J]) and empty
+  !> the buffer.
   subroutine drain_history(n, records)
     use fsph_state, only: sim, history_columns
     integer, intent(in) :: n
-    ! literal 6 = history_columns: f2py cannot size arrays by module constants
-    real(wp), intent(out) :: records(6, n)
+    ! literal 7 = history_columns: f2py cannot size arrays by module constants
+    real(wp), intent(out) :: records(7, n)
     integer :: k
     k = min(n, sim%n_history)
     if (history_columns /= size(records, 1)) k = 0
@@ -727,22 +834,22 @@ contains
 
   !> One constitutive step of a single material point (unit tests of the
   !> material models; see fsph_material material_update).
-  subroutine material_point(nprop, props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
-                            s, p, eps_p, e, temp, c, ierr)
-    use fsph_material, only: n_props, material_update
+  subroutine material_point(nprop, nh, props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
+                            s, p, eps_p, e, temp, hist, c, ierr)
+    use fsph_material, only: n_props, n_hist, material_update
     use fsph_status, only: status_bad_input
-    integer, intent(in) :: nprop
+    integer, intent(in) :: nprop, nh
     real(wp), intent(in) :: props(nprop)
     integer, intent(in) :: istrength, ieos
     real(wp), intent(in) :: dt, d(4), spin, rho_old, rho_new, q
-    real(wp), intent(inout) :: s(4), p, eps_p, e, temp
+    real(wp), intent(inout) :: s(4), p, eps_p, e, temp, hist(nh)
     real(wp), intent(out) :: c
     integer, intent(out) :: ierr
     c = 0.0_wp
     ierr = status_bad_input
-    if (nprop /= n_props) return
+    if (nprop /= n_props .or. nh /= n_hist) return
     call material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
-                         s, p, eps_p, e, temp, c, ierr)
+                         s, p, eps_p, e, temp, hist, c, ierr)
   end subroutine material_point
 
 end module fsph_api

@@ -22,7 +22,7 @@ module fsph_convert
   integer, parameter, public :: criterion_plastic_strain = 2
   integer, parameter, public :: criterion_equivalent_stress = 3
 
-  public :: assign_groups, convert_elements, associate_particles
+  public :: assign_groups, convert_elements, associate_particles, remove_elements, remove_nodes
   public :: minimum_angle
 
   !> A particle is associated with a surface edge of the element region when
@@ -344,6 +344,7 @@ contains
         pt%s(:, i) = el%s(:, ie)
         pt%p(i) = el%p(ie)
         pt%eps_p(i) = el%eps_p(ie)
+        pt%hist(:, i) = el%hist(:, ie)
         pt%e(i) = el%e(ie) + dke/el%mass(ie)
         pt%temp(i) = el%temp(ie)
         pt%c(i) = el%c(ie)
@@ -387,7 +388,7 @@ contains
       call compact(el%eps_p, keep); call compact(el%e, keep); call compact(el%temp, keep)
       call compact(el%c, keep); call compact(el%area, keep); call compact(el%rbar, keep)
       call compact(el%volume, keep); call compact(el%lmin, keep); call compact(el%d, keep)
-      call compact(el%spin, keep)
+      call compact(el%spin, keep); call compact(el%hist, keep)
       el%n = count(keep)
       if (allocated(el%fc)) deallocate (el%fc)
       allocate (el%fc(2, 3, max(el%n, 1)))
@@ -432,6 +433,7 @@ contains
       call compact(nd%f, keep_node); call compact(nd%x_old, keep_node)
       call compact(nd%x_mid, keep_node); call compact(nd%mass, keep_node)
       call compact(nd%mass_tie, keep_node); call compact(nd%mass_total, keep_node)
+      call compact(nd%mass_eroded, keep_node)
       call compact(nd%on_axis, keep_node)
       nd%n = m
     end associate

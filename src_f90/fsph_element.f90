@@ -9,7 +9,7 @@ module fsph_element
   use fsph_kinds, only: wp, two_pi
   use fsph_status, only: status_ok, status_inverted_element, status_nonfinite_element, &
                          status_eos_range
-  use fsph_material, only: n_props, material_update
+  use fsph_material, only: n_props, n_hist, material_update
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
@@ -163,7 +163,7 @@ contains
   !> over one step. q = rho (C_Q L tr d)^2 + C_L rho c L |tr d| in compression
   !> (tr d < 0), 0 otherwise, L = sqrt(A) [m].
   subroutine element_stress_update(ne, nmat, props, istrength, ieos, mat, dt, c_q, c_l, &
-                                   d, spin, mass, volume, area, rho, q, s, p, eps_p, e, temp, c, &
+                                   d, spin, mass, volume, area, rho, q, s, p, eps_p, e, temp, hist, c, &
                                    ierr, ifault)
     integer, intent(in) :: ne, nmat
     real(wp), intent(in) :: props(n_props, nmat)
@@ -176,6 +176,7 @@ contains
     real(wp), intent(inout) :: rho(ne)     !< density [kg/m^3]: start of step in, end out
     real(wp), intent(out) :: q(ne)
     real(wp), intent(inout) :: s(4, ne), p(ne), eps_p(ne), e(ne), temp(ne), c(ne)
+    real(wp), intent(inout) :: hist(n_hist, ne)  !< material history (damage, ...)
     integer, intent(out) :: ierr, ifault
     real(wp) :: rho_new, trace, len, qe
     integer :: ie, im, ierr_e, ifault_eos, ifault_nan
@@ -183,7 +184,7 @@ contains
     ifault_nan = ne + 1
     !$omp parallel do default(none) &
     !$omp shared(ne, props, istrength, ieos, mat, dt, c_q, c_l, d, spin, mass, volume, area) &
-    !$omp shared(rho, q, s, p, eps_p, e, temp, c) &
+    !$omp shared(rho, q, s, p, eps_p, e, temp, hist, c) &
     !$omp private(ie, im, rho_new, trace, len, qe, ierr_e) reduction(min:ifault_eos, ifault_nan)
     do ie = 1, ne
       im = mat(ie)
@@ -197,7 +198,7 @@ contains
       q(ie) = qe
       call material_update(props(:, im), istrength(im), ieos(im), dt, d(:, ie), spin(ie), &
                            rho(ie), rho_new, qe, s(:, ie), p(ie), eps_p(ie), e(ie), temp(ie), &
-                           c(ie), ierr_e)
+                           hist(:, ie), c(ie), ierr_e)
       rho(ie) = rho_new
       if (ierr_e /= status_ok) ifault_eos = min(ifault_eos, ie)
       if (.not. (ieee_is_finite(p(ie)) .and. ieee_is_finite(e(ie)) .and. &

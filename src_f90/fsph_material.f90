@@ -34,15 +34,42 @@ module fsph_material
   integer, parameter, public :: prop_s = 17      !< Mie-Grueneisen Us-up slope s [-]
   integer, parameter, public :: prop_gamma0 = 18 !< Grueneisen coefficient Gamma0 [-]
   integer, parameter, public :: prop_pmin = 19   !< pressure cut-off p_min (<= 0) [Pa]
-  integer, parameter, public :: n_props = 19
+  ! Holmquist-Johnson-Cook concrete (Holmquist, Johnson & Cook 1993, 14th
+  ! Int. Symp. Ballistics 591-600); strengths normalised by f_c
+  integer, parameter, public :: prop_hjc_a = 20       !< normalised cohesive strength A [-]
+  integer, parameter, public :: prop_hjc_b = 21       !< normalised pressure hardening B [-]
+  integer, parameter, public :: prop_hjc_n = 22       !< pressure hardening exponent N [-]
+  integer, parameter, public :: prop_hjc_c = 23       !< strain-rate coefficient C [-]
+  integer, parameter, public :: prop_hjc_fc = 24      !< quasi-static compressive strength f_c [Pa]
+  integer, parameter, public :: prop_hjc_t = 25       !< maximum tensile hydrostatic pressure T [Pa]
+  integer, parameter, public :: prop_hjc_smax = 26    !< normalised maximum strength S_max [-]
+  integer, parameter, public :: prop_hjc_efmin = 27   !< smallest plastic strain to fracture EF_min [-]
+  integer, parameter, public :: prop_hjc_d1 = 28      !< damage constant D1 [-]
+  integer, parameter, public :: prop_hjc_d2 = 29      !< damage exponent D2 [-]
+  integer, parameter, public :: prop_hjc_pcrush = 30  !< crushing pressure P_crush [Pa]
+  integer, parameter, public :: prop_hjc_mucrush = 31 !< volumetric strain at P_crush [-]
+  integer, parameter, public :: prop_hjc_plock = 32   !< locking pressure P_lock [Pa]
+  integer, parameter, public :: prop_hjc_mulock = 33  !< locking strain mu_lock = rho_grain/rho0 - 1 [-]
+  integer, parameter, public :: prop_hjc_k1 = 34      !< fully dense EOS K1 [Pa]
+  integer, parameter, public :: prop_hjc_k2 = 35      !< fully dense EOS K2 [Pa]
+  integer, parameter, public :: prop_hjc_k3 = 36      !< fully dense EOS K3 [Pa]
+  integer, parameter, public :: prop_hjc_muplock = 37 !< strain where the fully dense curve reaches P_lock [-]
+  integer, parameter, public :: n_props = 37
+
+  ! ---- history variables of a material point: hist(n_hist) ------------
+  integer, parameter, public :: hist_damage = 1  !< damage D in [0, 1] (HJC) [-]
+  integer, parameter, public :: hist_mu_max = 2  !< largest volumetric strain reached (HJC) [-]
+  integer, parameter, public :: n_hist = 2
 
   ! ---- model identifiers ----------------------------------------------
   integer, parameter, public :: strength_elastic = 1
   integer, parameter, public :: strength_epp = 2          !< elastic-perfectly-plastic
   integer, parameter, public :: strength_bilinear = 3     !< linear isotropic hardening
   integer, parameter, public :: strength_johnson_cook = 4
+  integer, parameter, public :: strength_hjc = 5          !< Holmquist-Johnson-Cook (with eos_hjc)
   integer, parameter, public :: eos_linear = 1
   integer, parameter, public :: eos_mie_gruneisen = 2
+  integer, parameter, public :: eos_hjc = 3               !< HJC three-phase p(mu) with unloading
 
   !> Smallest admissible value of the Mie-Grueneisen denominator
   !> 1 - (s - 1) mu before the state is declared out of range [-].
@@ -53,6 +80,7 @@ module fsph_material
 
   public :: material_update, particle_material_update, strength_update, rotate_deviator, equivalent_stress, eos_pressure
   public :: deviator_double_contraction, sound_speed
+  public :: hjc_pressure, hjc_yield_stress, hjc_update
 
 contains
 
@@ -125,6 +153,12 @@ contains
         a = k0*mu
         dadrho = k0/rho0
       end if
+    case (eos_hjc)
+      ! virgin loading curve (no history): set-up sound speed and checks;
+      ! the cycle uses hjc_pressure
+      b = 0.0_wp
+      call hjc_loading(props, mu, a, dadrho)
+      dadrho = dadrho/rho0
     case default ! eos_linear
       a = props(prop_bulk)*mu
       b = 0.0_wp
@@ -268,7 +302,7 @@ contains
   !> then EOS and internal energy solved together (p linear in e,
   !> trapezoidal p dv work, Wilkins), pressure cut-off, sound speed.
   pure subroutine material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
-                                  s, p, eps_p, e, temp, c, ierr)
+                                  s, p, eps_p, e, temp, hist, c, ierr)
     real(wp), intent(in) :: props(n_props)
     integer, intent(in) :: istrength, ieos
     real(wp), intent(in) :: dt              !< time step [s]
@@ -281,18 +315,26 @@ contains
     real(wp), intent(inout) :: eps_p        !< equivalent plastic strain [-]
     real(wp), intent(inout) :: e            !< specific internal energy [J/kg]
     real(wp), intent(inout) :: temp         !< temperature [K]
+    real(wp), intent(inout) :: hist(n_hist) !< history variables (damage, ...)
     real(wp), intent(out) :: c              !< longitudinal sound speed [m/s]
     integer, intent(out) :: ierr
     real(wp) :: s_old(4), d_dev(4), dw_dev, dv, a, b, dadrho, e_star, p_new
 
-    call strength_update(props, istrength, dt, d, spin, rho_new, s, eps_p, temp, s_old, d_dev)
+    if (istrength == strength_hjc) then
+      ! pressure first (it sets the strength), energy-independent: b = 0
+      call hjc_update(props, dt, d, spin, rho_new, s, eps_p, hist, a, dadrho, s_old, d_dev)
+      b = 0.0_wp
+      ierr = status_ok
+    else
+      call strength_update(props, istrength, dt, d, spin, rho_new, s, eps_p, temp, s_old, d_dev)
+      call eos_pressure(props, ieos, rho_new, a, b, dadrho, ierr)
+      if (ierr /= status_ok) return
+    end if
 
     ! internal energy: deviatoric work with the mid-step deviator, then the
     ! pressure work -(q + (p_n + p_n+1)/2) dv solved with p_n+1 = a + b e_n+1
     dw_dev = dt*deviator_double_contraction(0.5_wp*(s_old + s), d_dev)/(0.5_wp*(rho_old + rho_new))
     dv = 1.0_wp/rho_new - 1.0_wp/rho_old
-    call eos_pressure(props, ieos, rho_new, a, b, dadrho, ierr)
-    if (ierr /= status_ok) return
     e_star = e + dw_dev - (q + 0.5_wp*p)*dv
     e = (e_star - 0.5_wp*a*dv)/(1.0_wp + 0.5_wp*b*dv)
     p_new = a + b*e
@@ -310,22 +352,181 @@ contains
   !> from the EOS at (rho, e), with the cut-off; the deviator as for
   !> elements.
   pure subroutine particle_material_update(props, istrength, ieos, dt, d, spin, rho, e, &
-                                           s, p, eps_p, temp, c, ierr)
+                                           s, p, eps_p, temp, hist, c, ierr)
     real(wp), intent(in) :: props(n_props)
     integer, intent(in) :: istrength, ieos
     real(wp), intent(in) :: dt, d(4), spin   !< [s], [1/s], [1/s]
     real(wp), intent(in) :: rho              !< density at the end of the step [kg/m^3]
     real(wp), intent(in) :: e                !< specific internal energy at the end of the step [J/kg]
     real(wp), intent(inout) :: s(4), p, eps_p, temp
+    real(wp), intent(inout) :: hist(n_hist)  !< history variables (damage, ...)
     real(wp), intent(out) :: c
     integer, intent(out) :: ierr
     real(wp) :: s_old(4), d_dev(4), a, b, dadrho
+    if (istrength == strength_hjc) then
+      call hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, dadrho, s_old, d_dev)
+      c = sound_speed(props(prop_shear), dadrho, 0.0_wp, rho, p)
+      ierr = status_ok
+      return
+    end if
     call strength_update(props, istrength, dt, d, spin, rho, s, eps_p, temp, s_old, d_dev)
     call eos_pressure(props, ieos, rho, a, b, dadrho, ierr)
     if (ierr /= status_ok) return
     p = max(a + b*e, props(prop_pmin))   ! spall cut-off, as for elements
     c = sound_speed(props(prop_shear), dadrho, b, rho, p)
   end subroutine particle_material_update
+
+  ! ---- Holmquist-Johnson-Cook concrete ----------------------------------
+
+  !> HJC loading curve of virgin material: pressure [Pa] and dp/dmu [Pa] at
+  !> volumetric strain mu = rho/rho0 - 1 (Holmquist, Johnson & Cook 1993):
+  !> elastic p = K_e mu up to (mu_crush, P_crush), K_e = P_crush/mu_crush;
+  !> linear compaction to (mu_plock, P_lock); fully dense
+  !> p = K1 mub + K2 mub^2 + K3 mub^3, mub = (mu - mu_lock)/(1 + mu_lock).
+  !> mu_plock is where the fully dense curve reaches P_lock (the paper's
+  !> figure), so the curve is continuous; mu_lock is its zero-pressure
+  !> intercept (the grain density).
+  pure subroutine hjc_loading(props, mu, p, dpdmu)
+    real(wp), intent(in) :: props(n_props), mu
+    real(wp), intent(out) :: p, dpdmu
+    real(wp) :: mub, k_e
+    if (mu <= props(prop_hjc_mucrush)) then
+      k_e = props(prop_hjc_pcrush)/props(prop_hjc_mucrush)
+      p = k_e*mu
+      dpdmu = k_e
+    else if (mu <= props(prop_hjc_muplock)) then
+      dpdmu = (props(prop_hjc_plock) - props(prop_hjc_pcrush)) &
+              /(props(prop_hjc_muplock) - props(prop_hjc_mucrush))
+      p = props(prop_hjc_pcrush) + dpdmu*(mu - props(prop_hjc_mucrush))
+    else
+      mub = (mu - props(prop_hjc_mulock))/(1.0_wp + props(prop_hjc_mulock))
+      p = mub*(props(prop_hjc_k1) + mub*(props(prop_hjc_k2) + mub*props(prop_hjc_k3)))
+      dpdmu = (props(prop_hjc_k1) + mub*(2.0_wp*props(prop_hjc_k2) + 3.0_wp*mub*props(prop_hjc_k3))) &
+              /(1.0_wp + props(prop_hjc_mulock))
+    end if
+  end subroutine hjc_loading
+
+  !> HJC unloading modulus dp/dmu [Pa] after a largest strain mu_max:
+  !> K_e while elastic, (1 - F) K_e + F K1 in compaction with
+  !> F = (mu_max - mu_crush)/(mu_plock - mu_crush), K1 once fully dense (in
+  !> mu: K1/(1 + mu_lock)).
+  pure function hjc_unloading_modulus(props, mu_max) result(k_u)
+    real(wp), intent(in) :: props(n_props), mu_max
+    real(wp) :: k_u, k_e, f
+    k_e = props(prop_hjc_pcrush)/props(prop_hjc_mucrush)
+    if (mu_max <= props(prop_hjc_mucrush)) then
+      k_u = k_e
+    else if (mu_max <= props(prop_hjc_muplock)) then
+      f = (mu_max - props(prop_hjc_mucrush))/(props(prop_hjc_muplock) - props(prop_hjc_mucrush))
+      k_u = (1.0_wp - f)*k_e + f*props(prop_hjc_k1)
+    else
+      k_u = props(prop_hjc_k1)/(1.0_wp + props(prop_hjc_mulock))
+    end if
+  end function hjc_unloading_modulus
+
+  !> Permanent (plastic) volumetric strain after a largest strain mu_max:
+  !> where the unloading line from the loading curve crosses p = 0 [-].
+  pure function hjc_permanent_strain(props, mu_max) result(mu_p)
+    real(wp), intent(in) :: props(n_props), mu_max
+    real(wp) :: mu_p, p, dpdmu
+    mu_p = 0.0_wp
+    if (mu_max <= props(prop_hjc_mucrush)) return
+    call hjc_loading(props, mu_max, p, dpdmu)
+    mu_p = max(mu_max - p/hjc_unloading_modulus(props, mu_max), 0.0_wp)
+  end function hjc_permanent_strain
+
+  !> HJC pressure with its history: loading along hjc_loading when mu
+  !> exceeds the largest strain reached (which it then becomes), otherwise
+  !> along the unloading line from there; tension limited to -T (1 - D).
+  !> Returns the pressure [Pa], dp/dmu on the branch taken [Pa] and the
+  !> growth of the permanent volumetric strain over the step (damage) [-].
+  pure subroutine hjc_pressure(props, mu, damage, mu_max, p, dpdmu, dmu_p)
+    real(wp), intent(in) :: props(n_props)
+    real(wp), intent(in) :: mu                !< volumetric strain rho/rho0 - 1 [-]
+    real(wp), intent(in) :: damage            !< damage D [-]
+    real(wp), intent(inout) :: mu_max         !< largest volumetric strain reached [-]
+    real(wp), intent(out) :: p, dpdmu, dmu_p
+    real(wp) :: mu_p_old, p_max
+    dmu_p = 0.0_wp
+    if (mu > mu_max) then
+      mu_p_old = hjc_permanent_strain(props, mu_max)
+      mu_max = mu
+      call hjc_loading(props, mu, p, dpdmu)
+      dmu_p = max(hjc_permanent_strain(props, mu_max) - mu_p_old, 0.0_wp)
+    else if (mu == mu_max) then
+      call hjc_loading(props, mu, p, dpdmu)
+    else
+      call hjc_loading(props, mu_max, p_max, dpdmu)
+      dpdmu = hjc_unloading_modulus(props, mu_max)
+      p = p_max - dpdmu*(mu_max - mu)
+    end if
+    p = max(p, -props(prop_hjc_t)*(1.0_wp - damage))
+  end subroutine hjc_pressure
+
+  !> HJC equivalent strength [Pa] at pressure p [Pa], damage D and
+  !> equivalent strain rate [1/s]:
+  !>   sigma* = [A (1 - D) + B P*^N] [1 + C ln(rate/rate0)] <= S_max  (P* = p/f_c > 0),
+  !>   sigma* = A (1 - D) (1 + p/T) [1 + C ln(rate/rate0)]           (p <= 0),
+  !> the rate term taken as 1 below the reference rate. The tension branch
+  !> (not in the paper, which has P* >= 0 only) falls linearly to zero
+  !> strength at the tensile limit -T.
+  pure function hjc_yield_stress(props, p, damage, rate_eq) result(sy)
+    real(wp), intent(in) :: props(n_props), p, damage, rate_eq
+    real(wp) :: sy, pstar, star
+    pstar = p/props(prop_hjc_fc)
+    if (pstar > 0.0_wp) then
+      star = props(prop_hjc_a)*(1.0_wp - damage) + props(prop_hjc_b)*pstar**props(prop_hjc_n)
+    else
+      star = max(props(prop_hjc_a)*(1.0_wp - damage)*(1.0_wp + p/props(prop_hjc_t)), 0.0_wp)
+    end if
+    if (rate_eq > props(prop_eps0)) star = star*(1.0_wp + props(prop_hjc_c)*log(rate_eq/props(prop_eps0)))
+    if (pstar > 0.0_wp) star = min(star, props(prop_hjc_smax))
+    sy = props(prop_hjc_fc)*star
+  end function hjc_yield_stress
+
+  !> One HJC step of a material point: Jaumann rotation and elastic trial
+  !> deviator, the pressure at the end-of-step density (with its history),
+  !> radial return to the strength at that pressure and the start-of-step
+  !> damage, then damage growth
+  !>   D <- min(1, D + (d eps_p + d mu_p) / max(D1 (P* + T*)^D2, EF_min)).
+  pure subroutine hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, dadrho, s_old, d_dev)
+    real(wp), intent(in) :: props(n_props)
+    real(wp), intent(in) :: dt, d(4), spin     !< [s], [1/s], [1/s]
+    real(wp), intent(in) :: rho                !< density at the end of the step [kg/m^3]
+    real(wp), intent(inout) :: s(4)            !< deviatoric stress [Pa]
+    real(wp), intent(inout) :: eps_p           !< equivalent plastic strain [-]
+    real(wp), intent(inout) :: hist(n_hist)    !< damage and largest volumetric strain
+    real(wp), intent(out) :: p                 !< pressure [Pa]
+    real(wp), intent(out) :: dadrho            !< dp/drho on the branch taken [m^2/s^2]
+    real(wp), intent(out) :: s_old(4), d_dev(4)
+    real(wp) :: trace, dpdmu, dmu_p, rate_eq, sy, seq, deps_p, pt_sum, eps_f
+    call rotate_deviator(spin*dt, s)
+    s_old = s
+    trace = d(1) + d(2) + d(4)
+    d_dev = d
+    d_dev(1) = d(1) - trace/3.0_wp
+    d_dev(2) = d(2) - trace/3.0_wp
+    d_dev(4) = d(4) - trace/3.0_wp
+    s = s + 2.0_wp*props(prop_shear)*dt*d_dev
+    call hjc_pressure(props, rho/props(prop_rho0) - 1.0_wp, hist(hist_damage), hist(hist_mu_max), &
+                      p, dpdmu, dmu_p)
+    dadrho = dpdmu/props(prop_rho0)
+    rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
+    sy = hjc_yield_stress(props, p, hist(hist_damage), rate_eq)
+    seq = equivalent_stress(s)
+    deps_p = 0.0_wp
+    if (seq > sy) then
+      deps_p = (seq - sy)/(3.0_wp*props(prop_shear))
+      s = s*(sy/seq)
+    end if
+    eps_p = eps_p + deps_p
+    if (deps_p + dmu_p > 0.0_wp) then
+      pt_sum = (p + props(prop_hjc_t))/props(prop_hjc_fc)
+      eps_f = props(prop_hjc_efmin)
+      if (pt_sum > 0.0_wp) eps_f = max(props(prop_hjc_d1)*pt_sum**props(prop_hjc_d2), eps_f)
+      hist(hist_damage) = min(hist(hist_damage) + (deps_p + dmu_p)/eps_f, 1.0_wp)
+    end if
+  end subroutine hjc_update
 
   !> Longitudinal sound speed sqrt(c_b^2 + 4G/(3 rho)) [m/s] with the
   !> isentropic bulk sound speed c_b^2 = (dp/drho)_e + p/rho^2 (dp/de)_rho,

@@ -5,8 +5,8 @@ module fsph_particles
   use fsph_kinds, only: wp, two_pi
   use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
                          status_particle_axis
-  use fsph_material, only: n_props, particle_material_update, eos_pressure, sound_speed, &
-                           prop_pmin, prop_shear
+  use fsph_material, only: n_props, n_hist, particle_material_update, eos_pressure, sound_speed, &
+                           prop_pmin, prop_shear, eos_hjc
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use fsph_kernel, only: kernel_w, kernel_dwdr
   implicit none
@@ -20,17 +20,18 @@ contains
   !> of fsph_material (shared with elements). ierr/ifault: first particle
   !> with a non-positive radius position, non-finite state or EOS range.
   subroutine particle_state_update(n, nmat, props, istrength, ieos, mat, dt, x, drho, de, d, spin, &
-                                   rho, e, s, p, eps_p, temp, c, ierr, ifault)
+                                   rho, e, s, p, eps_p, temp, hist, c, ierr, ifault)
     integer, intent(in) :: n, nmat
     real(wp), intent(in) :: props(n_props, nmat)
     integer, intent(in) :: istrength(nmat), ieos(nmat), mat(n)
     real(wp), intent(in) :: dt, x(2, n), drho(n), de(n), d(4, n), spin(n)
     real(wp), intent(inout) :: rho(n), e(n), s(4, n), p(n), eps_p(n), temp(n), c(n)
+    real(wp), intent(inout) :: hist(n_hist, n)  !< material history (damage, ...)
     integer, intent(out) :: ierr, ifault
     integer :: i, im, ierr_i, f_axis, f_nan, f_eos
     f_axis = n + 1; f_nan = n + 1; f_eos = n + 1
     !$omp parallel do default(none) &
-    !$omp shared(n, props, istrength, ieos, mat, dt, x, drho, de, d, spin, rho, e, s, p, eps_p, temp, c) &
+    !$omp shared(n, props, istrength, ieos, mat, dt, x, drho, de, d, spin, rho, e, s, p, eps_p, temp, hist, c) &
     !$omp private(i, im, ierr_i) reduction(min:f_axis, f_nan, f_eos)
     do i = 1, n
       if (.not. (x(1, i) > 0.0_wp)) then
@@ -45,7 +46,8 @@ contains
         cycle
       end if
       call particle_material_update(props(:, im), istrength(im), ieos(im), dt, d(:, i), spin(i), &
-                                    rho(i), e(i), s(:, i), p(i), eps_p(i), temp(i), c(i), ierr_i)
+                                    rho(i), e(i), s(:, i), p(i), eps_p(i), temp(i), hist(:, i), c(i), &
+                                    ierr_i)
       if (ierr_i /= status_ok) f_eos = min(f_eos, i)
       if (.not. (ieee_is_finite(p(i)) .and. all(ieee_is_finite(s(:, i))))) f_nan = min(f_nan, i)
     end do
@@ -79,6 +81,11 @@ contains
     do i = 1, n
       im = mat(i)
       e(i) = e_old(i) + dt*de(i)
+      if (ieos(im) == eos_hjc) then
+        ! energy-independent pressure with history: already final
+        if (.not. ieee_is_finite(e(i))) f_nan = min(f_nan, i)
+        cycle
+      end if
       call eos_pressure(props(:, im), ieos(im), rho(i), a, b, dadrho, ierr_i)
       p(i) = max(a + b*e(i), props(prop_pmin, im))
       c(i) = sound_speed(props(prop_shear, im), dadrho, b, rho(i), p(i))

@@ -9,12 +9,13 @@ module fsph_restart
   implicit none
   private
 
-  !> Real arrays: 1-20 nodes and elements, 21-34 particles.
-  integer, parameter, public :: n_real_arrays = 34
+  !> Real arrays: 1-20 nodes and elements, 21-34 particles, 35-37 eroded
+  !> node mass and element and particle material history.
+  integer, parameter, public :: n_real_arrays = 37
   !> Integer arrays: 1-5 nodes and elements, 6-12 particles and coupling.
   integer, parameter, public :: n_int_arrays = 12
   !> Real and integer scalars of the clock and the conversion books.
-  integer, parameter, public :: n_real_scalars = 6, n_int_scalars = 8
+  integer, parameter, public :: n_real_scalars = 12, n_int_scalars = 9
 
   public :: real_view, int_view, get_scalars, set_scalars, allocate_for_restart
   public :: prepare_checkpoint, finish_restore
@@ -61,6 +62,9 @@ contains
       case (32); if (allocated(sim%particles%temp)) p(1:1, 1:sim%particles%n) => sim%particles%temp(1:sim%particles%n)
       case (33); if (allocated(sim%particles%c)) p(1:1, 1:sim%particles%n) => sim%particles%c(1:sim%particles%n)
       case (34); if (allocated(sim%particles%tie_xi)) p(1:1, 1:sim%particles%n) => sim%particles%tie_xi(1:sim%particles%n)
+      case (35); if (allocated(sim%nodes%mass_eroded)) p(1:1, 1:sim%nodes%n) => sim%nodes%mass_eroded
+      case (36); if (allocated(sim%elements%hist)) p => sim%elements%hist
+      case (37); if (allocated(sim%particles%hist)) p => sim%particles%hist(:, 1:sim%particles%n)
       end select
   end function real_view
 
@@ -86,14 +90,19 @@ contains
   end function int_view
 
   !> Clock and books: reals (time, dt, dt_last, dt_initial, conversion heat,
-  !> contact dissipation) and integers (cycle, dt_element, dt_particle, n_converted,
-  !> n_events, n_groups, n_edges, n_imag).
+  !> contact dissipation, erosion: element mass, internal energy, node mass,
+  !> kinetic energy, momentum r and z) and integers (cycle, dt_element,
+  !> dt_particle, n_converted, n_events, n_groups, n_edges, n_imag, n_eroded).
   subroutine get_scalars(r, i)
     real(wp), intent(out) :: r(n_real_scalars)
     integer, intent(out) :: i(n_int_scalars)
-    r = [sim%time, sim%dt, sim%dt_last, sim%dt_initial, sim%conversion%heat, sim%contact%dissipated]
-    i = [sim%cycle, sim%dt_element, sim%dt_particle, sim%conversion%n_converted, &
-         sim%conversion%n_events, sim%conversion%n_groups, sim%coupling%n_edges, sim%particles%n_imag]
+    associate (er => sim%erosion)
+      r = [sim%time, sim%dt, sim%dt_last, sim%dt_initial, sim%conversion%heat, sim%contact%dissipated, &
+           er%element_mass, er%internal, er%node_mass, er%kinetic, er%momentum(1), er%momentum(2)]
+      i = [sim%cycle, sim%dt_element, sim%dt_particle, sim%conversion%n_converted, &
+           sim%conversion%n_events, sim%conversion%n_groups, sim%coupling%n_edges, sim%particles%n_imag, &
+           er%n_eroded]
+    end associate
   end subroutine get_scalars
 
   subroutine set_scalars(r, i)
@@ -102,6 +111,9 @@ contains
     sim%time = r(1); sim%dt = r(2); sim%dt_last = r(3); sim%dt_initial = r(4)
     sim%conversion%heat = r(5)
     sim%contact%dissipated = r(6)
+    sim%erosion%element_mass = r(7); sim%erosion%internal = r(8); sim%erosion%node_mass = r(9)
+    sim%erosion%kinetic = r(10); sim%erosion%momentum = r(11:12)
+    sim%erosion%n_eroded = i(9)
     sim%cycle = i(1); sim%dt_element = i(2); sim%dt_particle = i(3)
     sim%conversion%n_converted = i(4); sim%conversion%n_events = i(5)
     sim%conversion%n_groups = i(6); sim%coupling%n_edges = i(7); sim%particles%n_imag = 0

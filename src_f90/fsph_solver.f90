@@ -7,7 +7,7 @@ module fsph_solver
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
   use fsph_state, only: sim, history_columns
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
-                           strength_elastic, strength_johnson_cook, eos_linear, eos_mie_gruneisen
+                           strength_elastic, strength_hjc, eos_linear, eos_hjc
   use fsph_element, only: element_geometry, element_strain_rates, element_corner_forces, &
                           gather_corner_forces, element_stress_update, element_time_step
   use fsph_boundary, only: apply_axis, apply_rigid_plane
@@ -21,6 +21,7 @@ module fsph_solver
   use fsph_convert, only: assign_groups, convert_elements, associate_particles, association_reach
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct
+  use fsph_erosion, only: erode_elements
   implicit none
   private
 
@@ -44,8 +45,10 @@ contains
     ierr = status_bad_input
     if (sim%elements%n < 1 .and. sim%particles%n < 1) return
     if (sim%n_materials < 1) return
-    if (any(sim%istrength < strength_elastic) .or. any(sim%istrength > strength_johnson_cook)) return
-    if (any(sim%ieos < eos_linear) .or. any(sim%ieos > eos_mie_gruneisen)) return
+    if (any(sim%istrength < strength_elastic) .or. any(sim%istrength > strength_hjc)) return
+    if (any(sim%ieos < eos_linear) .or. any(sim%ieos > eos_hjc)) return
+    ! the HJC strength and EOS go together
+    if (any((sim%istrength == strength_hjc) .neqv. (sim%ieos == eos_hjc))) return
     call default_continua()
     if (sim%elements%n > 0) then
       call initialise_elements(ierr, ifault)
@@ -127,6 +130,7 @@ contains
         el%c(ie) = reference_sound_speed(im)
       end do
       el%s = 0.0_wp; el%p = 0.0_wp; el%q = 0.0_wp; el%eps_p = 0.0_wp; el%e = 0.0_wp
+      el%hist = 0.0_wp
       el%d = 0.0_wp; el%spin = 0.0_wp
 
       ! the node -> corner map and lumped masses; every node must belong to
@@ -167,6 +171,7 @@ contains
         pt%continuum(i) = sim%continuum_of_body(pt%body(i))
       end do
       pt%s = 0.0_wp; pt%p = 0.0_wp; pt%sig = 0.0_wp; pt%eps_p = 0.0_wp; pt%e = 0.0_wp
+      pt%hist = 0.0_wp
       pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%drho = 0.0_wp; pt%de = 0.0_wp
       pt%tie_a = 0; pt%tie_b = 0; pt%assoc = 0
       pt%radius(1:n) = particle_radius(pt%mass(1:n), pt%x(1, 1:n), pt%rho(1:n))
@@ -284,7 +289,9 @@ contains
     ! 6. particle rates at mid-step (density, energy, strain rate), update
     call update_particles(dt_step, ierr, ifault)
     if (ierr /= status_ok) return
-    ! 7. conversion of distorted element groups, surface and ties
+    ! 7. erosion of over-strained elements (FEM baseline), conversion of
+    !    distorted element groups, surface and ties
+    call erode_elements(n_new)
     call convert_elements(n_new)
     ! 8. next stable step
     sim%dt_previous = sim%dt
@@ -436,7 +443,7 @@ contains
       call element_stress_update(el%n, sim%n_materials, sim%props, sim%istrength, sim%ieos, &
                                  el%mat, dt_step, sim%control%c_q, sim%control%c_l, el%d, el%spin, &
                                  el%mass, el%volume, el%area, el%rho, el%q, el%s, el%p, el%eps_p, &
-                                 el%e, el%temp, el%c, ierr, ifault)
+                                 el%e, el%temp, el%hist, el%c, ierr, ifault)
     end associate
   end subroutine update_elements
 
@@ -468,7 +475,7 @@ contains
       pt%rho_old(1:n) = pt%rho(1:n)
       call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, &
                                  dt_step, pt%x, pt%drho, pt%de, pt%d, pt%spin, pt%rho, pt%e, pt%s, &
-                                 pt%p, pt%eps_p, pt%temp, pt%c, ierr, ifault)
+                                 pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, ierr, ifault)
       if (ierr == status_ok) then
         do i = 1, n
           pt%sig_mid(:, i) = 0.5_wp*(pt%sig(:, i) + pt%s(:, i))
@@ -484,7 +491,8 @@ contains
     end associate
   end subroutine update_particles
 
-  !> Append (time, cycle, dt, kinetic, internal, contact work) to the history buffer,
+  !> Append (time, cycle, dt, kinetic, internal, contact work, energy removed
+  !> by erosion) to the history buffer,
   !> doubling its capacity when full (rare: the API drains it).
   subroutine record_history()
     real(wp), allocatable :: grown(:, :)
@@ -500,7 +508,7 @@ contains
     sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
     sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal, &
-                                     sim%contact%dissipated]
+                                     sim%contact%dissipated, sim%erosion%internal + sim%erosion%kinetic]
   end subroutine record_history
 
   !> Kinetic energy (half-step velocities) and internal energy [J] of

@@ -3,6 +3,7 @@
 !> boundary; fsph_api copies plain arrays in and out.
 module fsph_state
   use fsph_kinds, only: wp
+  use fsph_material, only: n_hist
   implicit none
   private
 
@@ -18,6 +19,7 @@ module fsph_state
     real(wp), allocatable :: mass(:)      !< lumped ring mass [kg]
     real(wp), allocatable :: mass_tie(:)  !< mass of particles tied to the node's edges [kg]
     real(wp), allocatable :: mass_total(:) !< mass + mass_tie: the mass the kick divides by [kg]
+    real(wp), allocatable :: mass_eroded(:) !< mass inherited from deleted (eroded) elements [kg]
     logical, allocatable :: on_axis(:)    !< node lies on r = 0 (v_r held at 0)
     integer, allocatable :: on_axis_int(:) !< the same as 0/1, for checkpoints
     integer, allocatable :: corner_ptr(:) !< CSR into corner_list, size n+1
@@ -39,6 +41,7 @@ module fsph_state
     real(wp), allocatable :: eps_p(:)     !< equivalent plastic strain [-]
     real(wp), allocatable :: e(:)         !< specific internal energy [J/kg]
     real(wp), allocatable :: temp(:)      !< temperature [K]
+    real(wp), allocatable :: hist(:, :)   !< material history (n_hist, n): damage, ... (fsph_material)
     real(wp), allocatable :: c(:)         !< sound speed [m/s]
     real(wp), allocatable :: area(:), rbar(:), volume(:), lmin(:) !< geometry [m^2, m, m^3, m]
     real(wp), allocatable :: d(:, :)      !< strain rate of the last step [1/s]
@@ -76,6 +79,7 @@ module fsph_state
     real(wp), allocatable :: sig(:, :)    !< total stress s - p I [Pa]
     real(wp), allocatable :: p(:)         !< pressure [Pa]
     real(wp), allocatable :: eps_p(:), e(:), temp(:), c(:) !< [-], [J/kg], [K], [m/s]
+    real(wp), allocatable :: hist(:, :)   !< material history (n_hist, capacity): damage, ...
     real(wp), allocatable :: drho(:), de(:), d(:, :), spin(:) !< rates of the last step
     real(wp), allocatable :: e_old(:), rho_old(:), rho_mid(:), sig_mid(:, :) !< cycle work arrays
     ! neighbour search (fsph_neighbors): cells, same-body and contact lists
@@ -128,6 +132,21 @@ module fsph_state
     real(wp), allocatable :: v_node0(:, :), v_part0(:, :) !< work: velocities before the corrections [m/s]
   end type contact_t
 
+  !> Element erosion (the FEM baseline of seed 002): an element whose
+  !> largest principal strain reaches the limit is deleted. Its mass stays
+  !> on its nodes while they belong to a remaining element; a node left
+  !> without elements is removed. Everything removed is booked.
+  type, public :: erosion_t
+    logical :: enabled = .false.
+    real(wp) :: strain_limit = 1.5_wp     !< largest principal (logarithmic) strain [-]
+    integer :: n_eroded = 0               !< elements deleted so far
+    real(wp) :: element_mass = 0.0_wp     !< mass of the deleted elements [kg]
+    real(wp) :: internal = 0.0_wp         !< internal energy of the deleted elements [J]
+    real(wp) :: node_mass = 0.0_wp        !< mass of the nodes removed [kg]
+    real(wp) :: kinetic = 0.0_wp          !< kinetic energy of the nodes removed [J]
+    real(wp) :: momentum(2) = 0.0_wp      !< momentum (r, z) of the nodes removed [kg m/s]
+  end type erosion_t
+
   !> Rigid, fixed, frictionless plane: points x with (x - point).normal >= 0
   !> are outside it.
   type, public :: rigid_plane_t
@@ -151,8 +170,9 @@ module fsph_state
   end type control_t
 
   !> Columns of a time-history record.
-  !> time [s], cycle, dt [s], kinetic [J], internal [J], work of the contact corrections [J]
-  integer, parameter, public :: history_columns = 6
+  !> time [s], cycle, dt [s], kinetic [J], internal [J], work of the contact corrections [J],
+  !> energy removed by erosion [J]
+  integer, parameter, public :: history_columns = 7
 
   type, public :: simulation_t
     type(node_set_t) :: nodes
@@ -161,6 +181,7 @@ module fsph_state
     type(coupling_t) :: coupling
     type(conversion_t) :: conversion
     type(contact_t) :: contact
+    type(erosion_t) :: erosion
     integer, allocatable :: continuum_of_body(:) !< bodies joined into one continuum share it
     logical, allocatable :: body_coupled(:) !< the body's elements act as imaginary particles
     integer :: n_materials = 0
@@ -200,14 +221,17 @@ contains
     allocate (sim%nodes%x(2, nn), sim%nodes%x0(2, nn), sim%nodes%v(2, nn), sim%nodes%f(2, nn), &
               sim%nodes%x_old(2, nn), sim%nodes%x_mid(2, nn), sim%nodes%mass(nn), &
               sim%nodes%on_axis(nn), sim%nodes%corner_ptr(nn + 1), sim%nodes%mass_tie(nn), &
-              sim%nodes%mass_total(nn))
+              sim%nodes%mass_total(nn), sim%nodes%mass_eroded(nn))
     sim%nodes%f = 0.0_wp
     sim%nodes%mass_tie = 0.0_wp
+    sim%nodes%mass_eroded = 0.0_wp
     sim%elements%n = ne
     associate (el => sim%elements)
       allocate (el%conn(3, ne), el%mat(ne), el%body(ne), el%group(ne), el%mass(ne), el%rho(ne), el%s(4, ne), &
                 el%p(ne), el%q(ne), el%eps_p(ne), el%e(ne), el%temp(ne), el%c(ne), el%area(ne), &
-                el%rbar(ne), el%volume(ne), el%lmin(ne), el%d(4, ne), el%spin(ne), el%fc(2, 3, ne))
+                el%rbar(ne), el%volume(ne), el%lmin(ne), el%d(4, ne), el%spin(ne), el%fc(2, 3, ne), &
+                el%hist(n_hist, ne))
+      el%hist = 0.0_wp
     end associate
   end subroutine state_allocate
 
@@ -233,7 +257,9 @@ contains
                 pt%eps_p(cap), pt%e(cap), pt%temp(cap), pt%c(cap), pt%drho(cap), pt%de(cap), &
                 pt%d(4, cap), pt%spin(cap), pt%e_old(cap), pt%rho_old(cap), pt%rho_mid(cap), &
                 pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
-                pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap))
+                pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap), &
+                pt%hist(n_hist, cap))
+      pt%hist = 0.0_wp
       pt%x = 0.0_wp; pt%x0 = 0.0_wp; pt%x_old = 0.0_wp; pt%x_mid = 0.0_wp; pt%v = 0.0_wp
       pt%v_bar = 0.0_wp; pt%acc = 0.0_wp; pt%acc_imag = 0.0_wp; pt%mass = 0.0_wp; pt%h = 0.0_wp; pt%radius = 0.0_wp
       pt%mat = 0; pt%body = 0; pt%rho = 0.0_wp; pt%s = 0.0_wp; pt%sig = 0.0_wp; pt%p = 0.0_wp

@@ -42,11 +42,11 @@ contains
   end subroutine rebuild_corner_map
 
   !> Lumped nodal masses: 1/3 of each element's ring mass to each of its
-  !> nodes (EPIC style).
+  !> nodes (EPIC style), plus the mass inherited from eroded elements.
   subroutine nodal_masses()
     integer :: ie, k
     associate (nd => sim%nodes, el => sim%elements)
-      nd%mass = 0.0_wp
+      nd%mass = nd%mass_eroded
       do ie = 1, el%n
         do k = 1, 3
           nd%mass(el%conn(k, ie)) = nd%mass(el%conn(k, ie)) + el%mass(ie)/3.0_wp
