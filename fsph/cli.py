@@ -29,8 +29,10 @@ def _parser():
     r.add_argument("--restart", help="continue from this checkpoint (checkpoint.h5 of a run "
                                      "of the same deck)")
     pl = sub.add_parser("plot", help="PNGs of a run: deformed body at chosen times "
-                                     "(shapes.png) and energy and time-step histories "
-                                     "(history.png)")
+                                     "(shapes.png), energy and time-step histories "
+                                     "(history.png), and where they apply the perforation "
+                                     "histories (perforation.png) and the damage map "
+                                     "(damage.png)")
     pl.add_argument("run_dir", help="output folder of `fsph run`")
     pl.add_argument("--times", default="10,20,40,60",
                     help="times in microseconds, comma separated (nearest snapshots)")
@@ -58,7 +60,7 @@ def main(argv=None):
             return {"failed": EXIT_RUN_FAILED, "interrupted": EXIT_INTERRUPTED}.get(
                 summary["status"], EXIT_OK)
         if args.command == "plot":
-            from .plot import deformed_shapes, histories, perforation_histories
+            from .plot import damage_map, deformed_shapes, histories, perforation_histories
             try:
                 times = [float(t) for t in args.times.split(",") if t.strip()]
             except ValueError:
@@ -73,9 +75,10 @@ def main(argv=None):
                     return EXIT_DECK
             print(deformed_shapes(run_dir, times, args.output, args.dpi))
             print(histories(run_dir, dpi=args.dpi))
-            perforation = perforation_histories(run_dir, dpi=args.dpi)
-            if perforation:
-                print(perforation)
+            for extra in (perforation_histories(run_dir, dpi=args.dpi),
+                          damage_map(run_dir, dpi=args.dpi)):
+                if extra:
+                    print(extra)
             return EXIT_OK
         if args.command == "report":
             from .report import VALIDATION_DECKS, write_report

@@ -160,3 +160,67 @@ def perforation_histories(run_dir, output=None, dpi=150):
     fig.savefig(output, dpi=dpi)
     plt.close(fig)
     return output
+
+
+def damage_map(run_dir, times_us=None, output=None, dpi=150):
+    """Write a PNG of the damage field (HJC damage D, 0 to 1) at chosen
+    times (the nearest snapshots; default: four spread over the run), one
+    panel each, elements as filled triangles and particles as dots,
+    mirrored about the axis (as seed 000 Fig. 13); returns the PNG path,
+    or None when no point of the run is damaged."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    run_dir = Path(run_dir)
+    output = Path(output) if output else run_dir / "damage.png"
+    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+        snaps = _snapshots(h5)
+        last = snaps[-1][1]
+        damaged = (("damage" in last and last["damage"][...].max(initial=0.0) > 0.0)
+                   or ("particles/damage" in last
+                       and last["particles/damage"][...].max(initial=0.0) > 0.0))
+        if not damaged:
+            return None
+        if times_us is None:
+            end = snaps[-1][0] * 1e6
+            times_us = [end * f for f in (0.25, 0.5, 0.75, 1.0)]
+        chosen = []
+        for t in times_us:
+            k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
+            chosen.append(snaps[k])
+        fig, axes = plt.subplots(1, len(chosen), figsize=(3.4 * len(chosen), 3.6),
+                                 sharey=True, squeeze=False, layout="constrained")
+        axes = axes[0]
+        cmap = plt.get_cmap("inferno_r")
+        lo = np.array([np.inf, np.inf])
+        hi = -lo
+        for ax, (time, g) in zip(axes, chosen):
+            for side in (1.0, -1.0):
+                if "connectivity" in g:
+                    x = g["nodes"][...] * 1e3
+                    tri = x[g["connectivity"][...]]
+                    tri[..., 0] *= side
+                    coll = PolyCollection(tri, cmap=cmap, edgecolors="none")
+                    coll.set_array(g["damage"][...])
+                    coll.set_clim(0.0, 1.0)
+                    ax.add_collection(coll)
+                    lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
+                if "particles" in g:
+                    xp = g["particles/x"][...] * 1e3
+                    ax.scatter(side * xp[:, 0], xp[:, 1], c=g["particles/damage"][...], s=1.5,
+                               cmap=cmap, vmin=0.0, vmax=1.0, linewidths=0)
+                    lo, hi = np.minimum(lo, xp.min(axis=0)), np.maximum(hi, xp.max(axis=0))
+            ax.set_title(f"{time * 1e6:.0f} us")
+            ax.set_xlabel("r [mm]")
+            ax.set_aspect("equal")
+        for ax in axes:
+            ax.set_xlim(-hi[0], hi[0])
+            ax.set_ylim(lo[1], hi[1])
+        axes[0].set_ylabel("z [mm]")
+        sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, 1.0))
+        fig.colorbar(sm, ax=list(axes), shrink=0.9, label="damage D")
+        fig.savefig(output, dpi=dpi)
+        plt.close(fig)
+    return output

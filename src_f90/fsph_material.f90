@@ -322,7 +322,7 @@ contains
 
     if (istrength == strength_hjc) then
       ! pressure first (it sets the strength), energy-independent: b = 0
-      call hjc_update(props, dt, d, spin, rho_new, s, eps_p, hist, a, dadrho, s_old, d_dev)
+      call hjc_update(props, dt, d, spin, rho_new, s, eps_p, hist, a, c, s_old, d_dev)
       b = 0.0_wp
       ierr = status_ok
     else
@@ -344,7 +344,7 @@ contains
       e = e_star - 0.5_wp*p_new*dv
     end if
     p = p_new
-    c = sound_speed(props(prop_shear), dadrho, b, rho_new, p)
+    if (istrength /= strength_hjc) c = sound_speed(props(prop_shear), dadrho, b, rho_new, p)
   end subroutine material_update
 
   !> One constitutive step of one particle: the internal energy e has been
@@ -364,8 +364,7 @@ contains
     integer, intent(out) :: ierr
     real(wp) :: s_old(4), d_dev(4), a, b, dadrho
     if (istrength == strength_hjc) then
-      call hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, dadrho, s_old, d_dev)
-      c = sound_speed(props(prop_shear), dadrho, 0.0_wp, rho, p)
+      call hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, c, s_old, d_dev)
       ierr = status_ok
       return
     end if
@@ -488,8 +487,14 @@ contains
   !> deviator, the pressure at the end-of-step density (with its history),
   !> radial return to the strength at that pressure and the start-of-step
   !> damage, then damage growth
-  !>   D <- min(1, D + (d eps_p + d mu_p) / max(D1 (P* + T*)^D2, EF_min)).
-  pure subroutine hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, dadrho, s_old, d_dev)
+  !>   D <- min(1, D + (d eps_p + d mu_p) / max(D1 (P* + T*)^D2, EF_min)),
+  !> and the sound speed. Below the reference density (opened, cracked or
+  !> fragmented concrete) the shear part of the sound speed is taken at
+  !> the reference density: the (SPH) density of separating fragments falls
+  !> towards zero, and 4G/(3 rho) would collapse the time step of material
+  !> that carries no stress (a 606 m/s run stopped on a debris particle at
+  !> 2 kg/m^3 whose sound speed had reached 107 km/s).
+  pure subroutine hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, c, s_old, d_dev)
     real(wp), intent(in) :: props(n_props)
     real(wp), intent(in) :: dt, d(4), spin     !< [s], [1/s], [1/s]
     real(wp), intent(in) :: rho                !< density at the end of the step [kg/m^3]
@@ -497,9 +502,9 @@ contains
     real(wp), intent(inout) :: eps_p           !< equivalent plastic strain [-]
     real(wp), intent(inout) :: hist(n_hist)    !< damage and largest volumetric strain
     real(wp), intent(out) :: p                 !< pressure [Pa]
-    real(wp), intent(out) :: dadrho            !< dp/drho on the branch taken [m^2/s^2]
+    real(wp), intent(out) :: c                 !< longitudinal sound speed [m/s]
     real(wp), intent(out) :: s_old(4), d_dev(4)
-    real(wp) :: trace, dpdmu, dmu_p, rate_eq, sy, seq, deps_p, pt_sum, eps_f
+    real(wp) :: dadrho, trace, dpdmu, dmu_p, rate_eq, sy, seq, deps_p, pt_sum, eps_f
     call rotate_deviator(spin*dt, s)
     s_old = s
     trace = d(1) + d(2) + d(4)
@@ -511,6 +516,7 @@ contains
     call hjc_pressure(props, rho/props(prop_rho0) - 1.0_wp, hist(hist_damage), hist(hist_mu_max), &
                       p, dpdmu, dmu_p)
     dadrho = dpdmu/props(prop_rho0)
+    c = sound_speed(props(prop_shear), dadrho, 0.0_wp, max(rho, props(prop_rho0)), p)
     rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
     sy = hjc_yield_stress(props, p, hist(hist_damage), rate_eq)
     seq = equivalent_stress(s)
