@@ -260,6 +260,18 @@ SCHEMA = {
                        "hydrocodes for solids.", lower=0.0),
             "c_l": Key("float", 0.2, "-", "Linear coefficient of the pairwise viscosity "
                        "(Monaghan alpha = C_L).", lower=0.0),
+            "debris_density": Key("float", 0.1, "-",
+                                  "A particle whose density falls below this fraction of its "
+                                  "material's reference density is debris: fragments that have "
+                                  "separated, the particle's volume mostly void. Its density is "
+                                  "held there and it carries no stress; the count is reported "
+                                  "(summary.json n_debris_particles). Without it the density of "
+                                  "separating concrete fragments fell through zero (the summed "
+                                  "continuity equation is not relative to the particle's own "
+                                  "density) and stopped the 1058 m/s slab run. Particle radii "
+                                  "(contact thickness) use the reference density as a lower "
+                                  "bound for the same reason.",
+                                  lower=0.0, upper=1.0, lower_open=True, upper_open=True),
             "contact_penalty": Key("float", 0.03, "-",
                                    "Particle-particle contact between bodies: a particle's "
                                    "filling by the other bodies' kernels beyond its value at "

@@ -278,6 +278,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
         "n_converted": sim.conversion()["n_converted"],
         "conversion": sim.conversion(),
         "erosion": sim.erosion(),
+        "n_debris_particles": sim.debris_count(),
         "energy": {"initial_J": sim.initial_energy, "final_J": energies["total"],
                    "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
                    "conversion_heat_J": sim.conversion()["heat_J"],

@@ -69,7 +69,8 @@ class Simulation:
                          deck["output"]["history_every"])
         sph = deck["sph"]
         touch, slope = contact_filling(sph["alpha_h"])
-        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"], touch, slope)
+        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"], touch, slope,
+                             sph["debris_density"])
         props, strength, eos = property_table(materials)
         self._call(_api.set_materials(props, strength, eos), "material table")
 
@@ -306,6 +307,11 @@ class Simulation:
         return {"n_eroded": int(n), "element_mass_kg": float(emass),
                 "internal_J": float(internal), "node_mass_kg": float(nmass),
                 "kinetic_J": float(kinetic), "momentum_kg_m_s": [float(v) for v in momentum]}
+
+    def debris_count(self):
+        """Particles that are debris after the last cycle: density held at
+        &sph debris_density times the reference, no stress."""
+        return int(_api.get_debris_count())
 
     def principal_strains(self):
         """Largest principal logarithmic strain of every element (the

@@ -20,7 +20,7 @@ module fsph_api
   public :: set_int_state, get_scalar_state, restore_begin, restore_end
   public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
   public :: set_erosion, get_erosion_stats, get_element_history, get_particle_history
-  public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain
+  public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain, get_debris_count
 
 contains
 
@@ -64,14 +64,16 @@ contains
   !> SPH parameters: viscosity coefficients [-] and the particle contact:
   !> penalty (fraction of an approach pushed back per step), other-body
   !> filling at touching and its rate per spacing of approach [-].
-  subroutine set_sph_control(c_q, c_l, contact_penalty, contact_touch, contact_slope)
+  subroutine set_sph_control(c_q, c_l, contact_penalty, contact_touch, contact_slope, debris_ratio)
     use fsph_state, only: sim
     real(wp), intent(in) :: c_q, c_l, contact_penalty, contact_touch, contact_slope
+    real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
     sim%control%sph_c_q = c_q
     sim%control%sph_c_l = c_l
     sim%control%contact_penalty = contact_penalty
     sim%control%contact_touch = contact_touch
     sim%control%contact_slope = contact_slope
+    sim%control%debris_ratio = debris_ratio
   end subroutine set_sph_control
 
   !> Particles: positions (r, z) [m], velocities [m/s], ring masses [kg],
@@ -108,7 +110,7 @@ contains
   !> [kg], smoothing lengths [m], radii [m], material and body index.
   subroutine get_particles(np, x, x0, v, mass, h, radius, mat, body)
     use fsph_state, only: sim
-    use fsph_sph, only: particle_radius
+    use fsph_solver, only: update_particle_radius
     integer, intent(in) :: np
     real(wp), intent(out) :: x(2, np), x0(2, np), v(2, np), mass(np), h(np), radius(np)
     integer, intent(out) :: mat(np), body(np)
@@ -116,7 +118,8 @@ contains
     associate (pt => sim%particles)
       x = pt%x(:, 1:np); x0 = pt%x0(:, 1:np); v = pt%v(:, 1:np); mass = pt%mass(1:np)
       h = pt%h(1:np)
-      radius = particle_radius(pt%mass(1:np), pt%x(1, 1:np), pt%rho(1:np))
+      call update_particle_radius()
+      radius = pt%radius(1:np)
       mat = pt%mat(1:np); body = pt%body(1:np)
     end associate
   end subroutine get_particles
@@ -283,6 +286,14 @@ contains
     call principal_strains(ne, sim%nodes%n, sim%elements%conn, sim%nodes%x, sim%nodes%x0, strain)
     ierr = status_ok
   end subroutine get_principal_strains
+
+  !> Debris particles (density held at the debris bound, no stress) after
+  !> the last cycle.
+  subroutine get_debris_count(n_debris)
+    use fsph_state, only: sim
+    integer, intent(out) :: n_debris
+    n_debris = sim%particles%n_debris
+  end subroutine get_debris_count
 
   !> Largest principal logarithmic strain of one triangle from its initial
   !> and current node positions (r, z) [m] (unit tests of the measure).

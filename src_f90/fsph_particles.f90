@@ -6,7 +6,7 @@ module fsph_particles
   use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
                          status_particle_axis
   use fsph_material, only: n_props, n_hist, particle_material_update, eos_pressure, sound_speed, &
-                           prop_pmin, prop_shear, eos_hjc
+                           prop_pmin, prop_shear, prop_rho0, eos_hjc
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use fsph_kernel, only: kernel_w, kernel_dwdr
   implicit none
@@ -17,22 +17,30 @@ module fsph_particles
 contains
 
   !> rho <- rho + dt drho, e <- e + dt de, then the strength and EOS update
-  !> of fsph_material (shared with elements). ierr/ifault: first particle
-  !> with a non-positive radius position, non-finite state or EOS range.
-  subroutine particle_state_update(n, nmat, props, istrength, ieos, mat, dt, x, drho, de, d, spin, &
-                                   rho, e, s, p, eps_p, temp, hist, c, ierr, ifault)
+  !> of fsph_material (shared with elements). A particle whose density falls
+  !> below debris_ratio times its reference density is debris (fragments
+  !> that have separated: the particle's volume is mostly void): its density
+  !> is held at that bound and it carries no stress. ierr/ifault: first
+  !> particle with a non-positive radius position, non-finite state or EOS
+  !> range; n_debris the number of debris particles.
+  subroutine particle_state_update(n, nmat, props, istrength, ieos, mat, dt, debris_ratio, x, drho, &
+                                   de, d, spin, rho, e, s, p, eps_p, temp, hist, c, n_debris, ierr, ifault)
     integer, intent(in) :: n, nmat
     real(wp), intent(in) :: props(n_props, nmat)
     integer, intent(in) :: istrength(nmat), ieos(nmat), mat(n)
+    real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
     real(wp), intent(in) :: dt, x(2, n), drho(n), de(n), d(4, n), spin(n)
     real(wp), intent(inout) :: rho(n), e(n), s(4, n), p(n), eps_p(n), temp(n), c(n)
     real(wp), intent(inout) :: hist(n_hist, n)  !< material history (damage, ...)
-    integer, intent(out) :: ierr, ifault
+    integer, intent(out) :: n_debris, ierr, ifault
     integer :: i, im, ierr_i, f_axis, f_nan, f_eos
+    real(wp) :: rho_debris
     f_axis = n + 1; f_nan = n + 1; f_eos = n + 1
+    n_debris = 0
     !$omp parallel do default(none) &
-    !$omp shared(n, props, istrength, ieos, mat, dt, x, drho, de, d, spin, rho, e, s, p, eps_p, temp, hist, c) &
-    !$omp private(i, im, ierr_i) reduction(min:f_axis, f_nan, f_eos)
+    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, x, drho, de, d, spin) &
+    !$omp shared(rho, e, s, p, eps_p, temp, hist, c) &
+    !$omp private(i, im, ierr_i, rho_debris) reduction(min:f_axis, f_nan, f_eos) reduction(+:n_debris)
     do i = 1, n
       if (.not. (x(1, i) > 0.0_wp)) then
         f_axis = min(f_axis, i)
@@ -41,7 +49,19 @@ contains
       im = mat(i)
       rho(i) = rho(i) + dt*drho(i)
       e(i) = e(i) + dt*de(i)
-      if (.not. (rho(i) > 0.0_wp .and. ieee_is_finite(rho(i)) .and. ieee_is_finite(e(i)))) then
+      if (.not. (ieee_is_finite(rho(i)) .and. ieee_is_finite(e(i)))) then
+        f_nan = min(f_nan, i)
+        cycle
+      end if
+      rho_debris = debris_ratio*props(prop_rho0, im)
+      if (rho(i) <= rho_debris) then
+        rho(i) = rho_debris
+        s(:, i) = 0.0_wp
+        p(i) = 0.0_wp
+        n_debris = n_debris + 1
+        cycle
+      end if
+      if (.not. (rho(i) > 0.0_wp)) then
         f_nan = min(f_nan, i)
         cycle
       end if
@@ -65,24 +85,26 @@ contains
 
   !> Final internal energy e = e_old + dt de (de from the mid-step stress)
   !> and the pressure and sound speed that follow from it at the new
-  !> density (the deviator is already final).
-  subroutine particle_energy_update(n, nmat, props, ieos, mat, dt, e_old, de, rho, e, p, c, ierr, ifault)
+  !> density (the deviator is already final); debris keeps p = 0.
+  subroutine particle_energy_update(n, nmat, props, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, c, &
+                                    ierr, ifault)
     integer, intent(in) :: n, nmat
     real(wp), intent(in) :: props(n_props, nmat)
     integer, intent(in) :: ieos(nmat), mat(n)
+    real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
     real(wp), intent(in) :: dt, e_old(n), de(n), rho(n)
     real(wp), intent(inout) :: e(n), p(n), c(n)
     integer, intent(out) :: ierr, ifault
     integer :: i, im, ierr_i, f_nan
     real(wp) :: a, b, dadrho
     f_nan = n + 1
-    !$omp parallel do default(none) shared(n, props, ieos, mat, dt, e_old, de, rho, e, p, c) &
+    !$omp parallel do default(none) shared(n, props, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, c) &
     !$omp private(i, im, ierr_i, a, b, dadrho) reduction(min:f_nan)
     do i = 1, n
       im = mat(i)
       e(i) = e_old(i) + dt*de(i)
-      if (ieos(im) == eos_hjc) then
-        ! energy-independent pressure with history: already final
+      if (ieos(im) == eos_hjc .or. rho(i) <= debris_ratio*props(prop_rho0, im)) then
+        ! energy-independent pressure with history, or debris: already final
         if (.not. ieee_is_finite(e(i))) f_nan = min(f_nan, i)
         cycle
       end if

@@ -26,7 +26,7 @@ module fsph_solver
   private
 
   public :: solver_initialise, solver_advance, solver_energies, solver_stable_step, solver_forces
-  public :: prepare_particle_sums
+  public :: prepare_particle_sums, update_particle_radius
 
   !> Particles may come no closer to the axis than this fraction of their
   !> radius [-].
@@ -174,10 +174,25 @@ contains
       pt%hist = 0.0_wp
       pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%drho = 0.0_wp; pt%de = 0.0_wp
       pt%tie_a = 0; pt%tie_b = 0; pt%assoc = 0
-      pt%radius(1:n) = particle_radius(pt%mass(1:n), pt%x(1, 1:n), pt%rho(1:n))
     end associate
+    call update_particle_radius()
     ierr = status_ok
   end subroutine initialise_particles
+
+  !> Particle radius (contact thickness, plane and axis offsets) from the
+  !> mass and ring radius at the density, but never above the radius at
+  !> the reference density: the (SPH) density of separating fragments falls
+  !> while the fragments keep their size, and a radius grown from it
+  !> reached 7 mm on a concrete debris particle and drew contact kicks.
+  subroutine update_particle_radius()
+    integer :: i, n
+    n = sim%particles%n
+    associate (pt => sim%particles)
+      do i = 1, n
+        pt%radius(i) = particle_radius(pt%mass(i), pt%x(1, i), max(pt%rho(i), sim%props(prop_rho0, pt%mat(i))))
+      end do
+    end associate
+  end subroutine update_particle_radius
 
   !> Sound speed of material im at its reference state [m/s].
   function reference_sound_speed(im) result(c)
@@ -321,7 +336,7 @@ contains
         call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
                                pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
                                pt%pair_q, pt%acc_imag)
-        pt%radius(1:n) = particle_radius(pt%mass(1:n), pt%x(1, 1:n), pt%rho(1:n))
+        call update_particle_radius()
         call particle_contact_accelerations(n, pt%x, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, &
                                             dt_step, sim%control%contact_penalty, &
                                             sim%control%contact_touch, sim%control%contact_slope, pt%acc)
@@ -474,8 +489,9 @@ contains
       pt%e_old(1:n) = pt%e(1:n)
       pt%rho_old(1:n) = pt%rho(1:n)
       call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, &
-                                 dt_step, pt%x, pt%drho, pt%de, pt%d, pt%spin, pt%rho, pt%e, pt%s, &
-                                 pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, ierr, ifault)
+                                 dt_step, sim%control%debris_ratio, pt%x, pt%drho, pt%de, pt%d, pt%spin, &
+                                 pt%rho, pt%e, pt%s, pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, pt%n_debris, &
+                                 ierr, ifault)
       if (ierr == status_ok) then
         do i = 1, n
           pt%sig_mid(:, i) = 0.5_wp*(pt%sig(:, i) + pt%s(:, i))
@@ -485,7 +501,8 @@ contains
         call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%h, pt%sig_mid, &
                              pt%nbr_ptr, pt%nbr_list, pt%pair_q, pt%de)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
-                                    pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%c, ierr, ifault)
+                                    sim%control%debris_ratio, pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%c, &
+                                    ierr, ifault)
       end if
       ifault = -ifault
     end associate

@@ -58,6 +58,7 @@ module fsph_state
     integer :: n = 0
     integer :: n_imag = 0
     integer :: capacity = 0
+    integer :: n_debris = 0               !< debris particles (density held, no stress) after the last cycle
     integer, allocatable :: imag_elem(:)  !< element of each imaginary entry (index - n)
     integer, allocatable :: continuum(:)  !< SPH sums only join entries of one continuum
     integer, allocatable :: tie_a(:), tie_b(:) !< nodes of the edge a particle is tied to (0: free)
@@ -167,6 +168,7 @@ module fsph_state
     real(wp) :: contact_penalty = 0.03_wp !< particle contact: approach fraction pushed back per step [-]
     real(wp) :: contact_touch = 0.2367_wp !< particle contact: other-body filling C at touching [-]
     real(wp) :: contact_slope = 0.45_wp  !< particle contact: dC per spacing of approach at touching [-]
+    real(wp) :: debris_ratio = 0.1_wp    !< particles below this fraction of the reference density are debris [-]
   end type control_t
 
   !> Columns of a time-history record.

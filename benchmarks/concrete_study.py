@@ -1,0 +1,95 @@
+"""Ogive rod through the 178 mm slab of 48 MPa concrete (Hanchak et al.
+1992): the 1058 m/s case in the three methods of seed 002's table 1 (FEM
+with erosion, SPH, adaptive FEM-SPH: residual velocity, error against the
+experiment's 947 m/s, relative wall time) and the 606 m/s case adaptive and
+with fixed coupling (residual against 449 m/s, wall-time ratio
+fixed/adaptive; seed 000: 167/59 min). Runs the decks (or reuses outputs in
+--out) with the thread count of the environment, prints the tables, writes
+JSON.
+
+    OMP_NUM_THREADS=1 python benchmarks/concrete_study.py --out out/concrete \
+        --json docs/concrete.json
+"""
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from fsph.driver import run
+
+try:
+    from common import machine, machine_line
+except ImportError:     # run from elsewhere
+    from benchmarks.common import machine, machine_line
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+#: deck, experiment residual [m/s], seed's method label and computed value
+RUNS_1058 = (("concrete_1058_fem", "FEM (erosion)", 956.598, 1.000),
+             ("concrete_1058_sph", "SPH", 945.128, 4.128),
+             ("concrete_1058", "FEM-SPH (adaptive)", 952.831, 2.831))
+RUNS_606 = (("concrete_606", "adaptive", 464.0, 59.0), ("concrete_606_fixed", "fixed", 466.0, 167.0))
+EXPERIMENT = {1058: 947.0, 606: 449.0}
+
+
+def run_or_reuse(deck, outdir, rerun):
+    summary_path = outdir / "summary.json"
+    if summary_path.exists() and not rerun:
+        return json.loads(summary_path.read_text())
+    print(f"running {deck.name} ...", flush=True)
+    return run(deck, outdir, quiet=True)
+
+
+def row(summary, experiment):
+    v_r = summary["metrics"]["perforation"]["residual_velocity_m_s"]
+    p = np.array(summary["metrics"]["series"]["momentum_z"])
+    return {"status": summary["status"], "v_r": v_r,
+            "error_percent": 100.0 * (v_r - experiment) / experiment,
+            "wall_s": summary["wall_time_s"], "cycles": summary["cycles"],
+            "threads": summary["threads"],
+            "energy_error_end": summary["energy"]["relative_error"],
+            "energy_error_max": summary["energy"]["max_relative_error"],
+            "momentum_error": float(np.abs(p / p[0] - 1.0).max()),
+            "n_elements": summary["n_elements_initial"], "n_particles_end": summary["n_particles"],
+            "n_converted": summary["n_converted"],
+            "n_eroded": summary.get("erosion", {}).get("n_eroded", 0)}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="out/concrete")
+    ap.add_argument("--json")
+    ap.add_argument("--rerun", action="store_true", help="run even where outputs exist")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    info = machine()
+    print(machine_line(info) + f"; OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}")
+
+    result = {"machine": info}
+    for velocity, runs in ((1058, RUNS_1058), (606, RUNS_606)):
+        rows = {}
+        for deck, label, seed_value, seed_cost in runs:
+            summary = run_or_reuse(CASES / f"{deck}.nml", out / deck, args.rerun)
+            rows[deck] = dict(row(summary, EXPERIMENT[velocity]), method=label,
+                              seed_v_r=seed_value, seed_cost=seed_cost)
+        base = rows[runs[0][0]]["wall_s"]
+        print(f"\n{velocity} m/s (experiment {EXPERIMENT[velocity]:.0f} m/s)")
+        print(f"{'method':>20s} {'v_r [m/s]':>10s} {'error':>7s} {'wall [s]':>9s} "
+              f"{'relative':>8s} {'seed':>7s} {'E err max':>9s} {'momentum':>9s} {'status':>9s}")
+        for deck, label, seed_value, seed_cost in runs:
+            r = rows[deck]
+            r["relative_wall"] = r["wall_s"] / base
+            seed_rel = seed_cost / runs[0][3]
+            print(f"{label:>20s} {r['v_r']:10.1f} {r['error_percent']:+6.1f}% {r['wall_s']:9.1f} "
+                  f"{r['relative_wall']:8.2f} {seed_rel:7.2f} {r['energy_error_max']:+9.2%} "
+                  f"{r['momentum_error']:9.1e} {r['status']:>9s}")
+        result[str(velocity)] = rows
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        print(f"\nwritten {args.json}")
+
+
+if __name__ == "__main__":
+    main()
