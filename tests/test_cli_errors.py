@@ -43,6 +43,23 @@ BAD_DECKS = {
     "missing_model_constant": (rod_deck(material="name='steel'\n strength='epp'\n eos='linear'\n"
                                         " density=7850.0\n youngs_modulus=2e11\n poisson_ratio=0.3"),
                                ["&material #1", "'yield_stress'", "missing key"]),
+    "hjc_strength_without_hjc_eos": (
+        rod_deck(material="name='steel'\n library='concrete_48mpa_hjc'\n eos='linear'"),
+        ["&material #1", "'eos'", "'hjc' together with strength 'hjc'"]),
+    "hjc_lock_below_crush": (
+        rod_deck(material="name='steel'\n library='concrete_48mpa_hjc'\n hjc_plock=1.0e7"),
+        ["&material #1", "'hjc_plock'", "a value above hjc_pcrush"]),
+    "hjc_missing_constant": (
+        rod_deck(material="name='steel'\n strength='hjc'\n eos='hjc'\n density=2440.0\n"
+                          " shear_modulus=1.486e10"),
+        ["&material #1", "'hjc_a'", "missing key"]),
+    "hjc_falling_dense_curve": (
+        rod_deck(material="name='steel'\n library='concrete_48mpa_hjc'\n hjc_k2=-5.0e12"),
+        ["&material #1", "'hjc_k2'", "rising to hjc_plock"]),
+    "erosion_outside_fem": (rod_deck(control="mode = 'adaptive'") + "&erosion\n enabled = .true.\n/\n",
+                            ["&erosion", "'enabled'", "outside mode 'fem'"]),
+    "erosion_zero_strain": (rod_deck() + "&erosion\n enabled = .true.\n principal_strain = 0.0\n/\n",
+                            ["&erosion", "'principal_strain'", "(0, inf)"]),
     "broken_syntax": ("&control end_time = (1.0e-6, 2 /\n", ["namelist syntax"]),
     "empty_file": ("", ["namelist group"]),
     "negative_checkpoint_cycles": (rod_deck(output="checkpoint_cycles = -100"),
