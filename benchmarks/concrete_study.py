@@ -8,7 +8,11 @@ fixed/adaptive; seed 000: 167/59 min). Runs the decks (or reuses outputs in
 JSON.
 
     OMP_NUM_THREADS=1 python benchmarks/concrete_study.py --out out/concrete \
-        --json docs/concrete.json
+        --json docs/concrete.json [--mesh-study]
+
+--mesh-study also runs the 606 m/s adaptive case on a mesh refined by 1.6
+in each direction (slab about 26 000 elements, near the seed's 33 600) for
+the convergence note.
 """
 
 import argparse
@@ -32,6 +36,26 @@ RUNS_1058 = (("concrete_1058_fem", "FEM (erosion)", 956.598, 1.000),
              ("concrete_1058", "FEM-SPH (adaptive)", 952.831, 2.831))
 RUNS_606 = (("concrete_606", "adaptive", 464.0, 59.0), ("concrete_606_fixed", "fixed", 466.0, 167.0))
 EXPERIMENT = {1058: 947.0, 606: 449.0}
+
+
+#: (key, factor) of the mesh keys refined by --mesh-study, per body
+REFINE = (("n_radial", 1.6), ("n_axial", 1.6), ("n_coarse", 1.25))
+
+
+def refined_deck(deck, outdir):
+    """A copy of `deck` in outdir with every body's cell counts refined
+    (REFINE) and the reference path made absolute; returns its path."""
+    import f90nml
+    nml = f90nml.read(deck)
+    for body in nml["body"]:
+        for key, factor in REFINE:
+            if key in body:
+                body[key] = int(round(body[key] * factor))
+    nml["output"]["reference"] = str((deck.parent / nml["output"]["reference"]).resolve())
+    outdir.mkdir(parents=True, exist_ok=True)
+    path = outdir / f"{deck.stem}_fine.nml"
+    nml.write(path, force=True)
+    return path
 
 
 def run_or_reuse(deck, outdir, rerun):
@@ -62,6 +86,8 @@ def main(argv=None):
     ap.add_argument("--out", default="out/concrete")
     ap.add_argument("--json")
     ap.add_argument("--rerun", action="store_true", help="run even where outputs exist")
+    ap.add_argument("--mesh-study", action="store_true",
+                    help="also run the 606 m/s adaptive case on the refined mesh")
     args = ap.parse_args(argv)
     out = Path(args.out)
     info = machine()
@@ -86,6 +112,15 @@ def main(argv=None):
                   f"{r['relative_wall']:8.2f} {seed_rel:7.2f} {r['energy_error_max']:+9.2%} "
                   f"{r['momentum_error']:9.1e} {r['status']:>9s}")
         result[str(velocity)] = rows
+    if args.mesh_study:
+        deck = refined_deck(CASES / "concrete_606.nml", out / "concrete_606_fine")
+        fine = row(run_or_reuse(deck, out / "concrete_606_fine", args.rerun), EXPERIMENT[606])
+        coarse = result["606"]["concrete_606"]
+        print(f"\nmesh study, 606 m/s adaptive: {coarse['n_elements']} elements "
+              f"{coarse['v_r']:.1f} m/s ({coarse['error_percent']:+.1f} %) in {coarse['wall_s']:.0f} s; "
+              f"{fine['n_elements']} elements {fine['v_r']:.1f} m/s ({fine['error_percent']:+.1f} %) "
+              f"in {fine['wall_s']:.0f} s")
+        result["mesh_study_606"] = {"coarse": coarse, "fine": fine, "refinement": dict(REFINE)}
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
         print(f"\nwritten {args.json}")

@@ -96,3 +96,28 @@ def test_1058_sph_residual_velocity(tmp_path_factory):
 @pytest.mark.slow
 def test_606_fixed_residual_velocity(tmp_path_factory):
     check_perforation(run_case("concrete_606_fixed", tmp_path_factory), "concrete_606", 5.0)
+
+
+def test_1058_decks_differ_only_in_method():
+    """The three methods of seed 002's table run the same problem: the
+    decks agree on materials, bodies, outputs and metrics; only the mode,
+    title, the method's own group (&convert, &erosion) and the resolution
+    of the SPH lattices (twice as fine as the quadrilaterals, so there are
+    about as many particles as elements) differ."""
+    from fsph import deck as deck_module
+    decks = {name: deck_module.load(CASES / f"{name}.nml")
+             for name in ("concrete_1058", "concrete_1058_fem", "concrete_1058_sph")}
+    base = decks["concrete_1058"]
+    assert [d["control"]["mode"] for d in decks.values()] == ["adaptive", "fem", "sph"]
+    assert decks["concrete_1058_fem"]["erosion"]["enabled"]
+    assert decks["concrete_1058_fem"]["erosion"]["principal_strain"] == 1.5
+    for d in decks.values():
+        for group in ("material", "output", "metrics", "contact", "sph"):
+            assert d[group] == base[group], group
+        skip = ("discretisation", "n_radial", "n_axial", "n_coarse")
+        assert ([{k: v for k, v in b.items() if k not in skip} for b in d["body"]]
+                == [{k: v for k, v in b.items() if k not in skip} for b in base["body"]])
+        factor = 2 if d["control"]["mode"] == "sph" else 1
+        for b, b0 in zip(d["body"], base["body"]):
+            assert [b[k] for k in skip[1:]] == [factor * b0[k] for k in skip[1:]]
+        assert d["control"]["end_time"] == base["control"]["end_time"]
