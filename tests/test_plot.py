@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import numpy as np
+
 from fsph.driver import run
 from conftest import rod_deck
 
@@ -23,6 +25,7 @@ def test_plot_writes_png(tmp_path, write_deck):
     assert png.stat().st_size > 20_000
     hist = out / "history.png"
     assert hist.is_file() and hist.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not (out / "damage.png").exists()      # no damage model, no damage map
 
 
 def test_plot_of_a_non_run_folder_is_a_clean_error(tmp_path):
@@ -56,3 +59,32 @@ def test_report_tables_errors_against_references(tmp_path):
                               "--decks", "nothere"], capture_output=True, text=True,
                              cwd=tmp_path, timeout=300)
     assert missing.returncode == 2 and "nothere.nml" in missing.stderr
+
+
+def test_plot_draws_the_damage_map_of_a_concrete_run(tmp_path, write_deck):
+    """A steel rod at 600 m/s into an HJC concrete block, adaptive, 6 us:
+    the snapshots carry the damage field, the crushed zone is damaged, and
+    `fsph plot` adds damage.png; a run without damage draws none."""
+    deck = write_deck(rod_deck(control="mode = 'adaptive'\n end_time = 6e-6",
+                               material="name = 'steel'\n library = 'projectile_bilinear_concrete'",
+                               body="velocity_z = -600.0\n n_radial = 4\n n_axial = 16\n"
+                                    " z_base = 0.05e-3", boundary=False)
+                      + "&material\n name = 'concrete'\n library = 'concrete_48mpa_hjc'\n/\n"
+                      "&body\n name = 'block'\n material = 'concrete'\n radius = 6.0e-3\n"
+                      " length = 4.0e-3\n z_base = -4.0e-3\n n_radial = 12\n n_axial = 8\n/\n")
+    out = tmp_path / "out"
+    run(deck, out, quiet=True)
+    import h5py
+    with h5py.File(out / "fsph.h5") as h5:
+        snaps = h5["snapshots"]
+        last = snaps[sorted(snaps)[-1]]
+        damage = last["damage"][...]
+        if "particles" in last:
+            damage = np.concatenate([damage, last["particles/damage"][...]])
+    assert damage.max() > 0.5 and damage.min() == 0.0
+    res = subprocess.run([sys.executable, "-m", "fsph", "plot", str(out), "--times", "2,6"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    png = out / "damage.png"
+    assert str(png) in res.stdout
+    assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
