@@ -391,8 +391,7 @@ class Simulation:
 
     def _history(self, kind, n):
         """Material history rows (N_HIST, n) of elements or particles."""
-        getter = _api.get_element_history if kind == "element" else _api.get_particle_history
-        hist, ierr = getter(N_HIST, n)
+        hist, ierr = _api.get_material_history(1 if kind == "element" else 2, N_HIST, n)
         if ierr != STATUS_OK:
             raise FsphError(f"{kind} history: layout mismatch, rebuild the package")
         return hist.copy()

@@ -19,7 +19,7 @@ module fsph_api
   public :: checkpoint_layout, checkpoint_sizes, get_real_state, get_int_state, set_real_state
   public :: set_int_state, get_scalar_state, restore_begin, restore_end
   public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
-  public :: set_erosion, get_erosion_stats, get_element_history, get_particle_history
+  public :: set_erosion, get_erosion_stats, get_material_history
   public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain, get_debris_count
 
 contains
@@ -304,36 +304,27 @@ contains
     strain = principal_log_strain(x, x0)
   end subroutine triangle_principal_strain
 
-  !> Material history of every element (n_hist rows: damage, largest
-  !> volumetric strain; fsph_material).
-  subroutine get_element_history(nh, ne, hist, ierr)
+  !> Material history (n_hist rows: damage, largest volumetric strain;
+  !> fsph_material) of every element (kind 1) or particle (kind 2).
+  subroutine get_material_history(kind, nh, n, hist, ierr)
     use fsph_state, only: sim
     use fsph_status, only: status_ok, status_bad_input
     use fsph_material, only: n_hist
-    integer, intent(in) :: nh, ne
-    real(wp), intent(out) :: hist(nh, ne)
+    integer, intent(in) :: kind, nh, n
+    real(wp), intent(out) :: hist(nh, n)
     integer, intent(out) :: ierr
     hist = 0.0_wp
     ierr = status_bad_input
-    if (nh /= n_hist .or. ne /= sim%elements%n .or. ne == 0) return
-    hist = sim%elements%hist
+    if (nh /= n_hist .or. n == 0) return
+    if (kind == 1 .and. n == sim%elements%n) then
+      hist = sim%elements%hist
+    else if (kind == 2 .and. n == sim%particles%n) then
+      hist = sim%particles%hist(:, 1:n)
+    else
+      return
+    end if
     ierr = status_ok
-  end subroutine get_element_history
-
-  !> Material history of every particle (as get_element_history).
-  subroutine get_particle_history(nh, np, hist, ierr)
-    use fsph_state, only: sim
-    use fsph_status, only: status_ok, status_bad_input
-    use fsph_material, only: n_hist
-    integer, intent(in) :: nh, np
-    real(wp), intent(out) :: hist(nh, np)
-    integer, intent(out) :: ierr
-    hist = 0.0_wp
-    ierr = status_bad_input
-    if (nh /= n_hist .or. np /= sim%particles%n .or. np == 0) return
-    hist = sim%particles%hist(:, 1:np)
-    ierr = status_ok
-  end subroutine get_particle_history
+  end subroutine get_material_history
 
   !> HJC pressure of one point (unit tests of the branches): volumetric
   !> strain, damage and largest strain so far in; pressure [Pa], dp/dmu [Pa]

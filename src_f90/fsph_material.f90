@@ -253,6 +253,25 @@ contains
     end if
   end function thermal_softening
 
+  !> Start of every strength step: Jaumann rotation of s by the exact angle
+  !> spin*dt (s_old, the rotated start-of-step deviator), the deviatoric
+  !> strain rate d_dev and the elastic trial deviator s + 2 G dt d_dev.
+  pure subroutine elastic_trial(g, dt, d, spin, s, s_old, d_dev)
+    real(wp), intent(in) :: g               !< shear modulus [Pa]
+    real(wp), intent(in) :: dt, d(4), spin  !< [s], [1/s], [1/s]
+    real(wp), intent(inout) :: s(4)         !< deviator: start of step in, trial out [Pa]
+    real(wp), intent(out) :: s_old(4), d_dev(4)
+    real(wp) :: trace
+    call rotate_deviator(spin*dt, s)
+    s_old = s
+    trace = d(1) + d(2) + d(4)
+    d_dev = d
+    d_dev(1) = d(1) - trace/3.0_wp
+    d_dev(2) = d(2) - trace/3.0_wp
+    d_dev(4) = d(4) - trace/3.0_wp
+    s = s + 2.0_wp*g*dt*d_dev
+  end subroutine elastic_trial
+
   !> Deviatoric part of a constitutive step, shared by elements and
   !> particles: Jaumann rotation of s by the exact angle spin*dt, elastic
   !> trial deviator, radial return, adiabatic heating from plastic work
@@ -270,16 +289,9 @@ contains
     real(wp), intent(inout) :: temp         !< temperature [K]
     real(wp), intent(out) :: s_old(4)       !< rotated start-of-step deviator [Pa]
     real(wp), intent(out) :: d_dev(4)       !< deviatoric strain rate [1/s]
-    real(wp) :: trace, rate_factor, thermal_factor, deps_p, sy, rate_eq
+    real(wp) :: rate_factor, thermal_factor, deps_p, sy, rate_eq
 
-    call rotate_deviator(spin*dt, s)
-    s_old = s
-    trace = d(1) + d(2) + d(4)
-    d_dev = d
-    d_dev(1) = d(1) - trace/3.0_wp
-    d_dev(2) = d(2) - trace/3.0_wp
-    d_dev(4) = d(4) - trace/3.0_wp
-    s = s + 2.0_wp*props(prop_shear)*dt*d_dev
+    call elastic_trial(props(prop_shear), dt, d, spin, s, s_old, d_dev)
     if (istrength == strength_elastic) return
 
     rate_factor = 1.0_wp
@@ -504,15 +516,8 @@ contains
     real(wp), intent(out) :: p                 !< pressure [Pa]
     real(wp), intent(out) :: c                 !< longitudinal sound speed [m/s]
     real(wp), intent(out) :: s_old(4), d_dev(4)
-    real(wp) :: dadrho, trace, dpdmu, dmu_p, rate_eq, sy, seq, deps_p, pt_sum, eps_f
-    call rotate_deviator(spin*dt, s)
-    s_old = s
-    trace = d(1) + d(2) + d(4)
-    d_dev = d
-    d_dev(1) = d(1) - trace/3.0_wp
-    d_dev(2) = d(2) - trace/3.0_wp
-    d_dev(4) = d(4) - trace/3.0_wp
-    s = s + 2.0_wp*props(prop_shear)*dt*d_dev
+    real(wp) :: dadrho, dpdmu, dmu_p, rate_eq, sy, seq, deps_p, pt_sum, eps_f
+    call elastic_trial(props(prop_shear), dt, d, spin, s, s_old, d_dev)
     call hjc_pressure(props, rho/props(prop_rho0) - 1.0_wp, hist(hist_damage), hist(hist_mu_max), &
                       p, dpdmu, dmu_p)
     dadrho = dpdmu/props(prop_rho0)
