@@ -33,3 +33,15 @@ def machine():
 
 def machine_line(info):
     return f"machine: {info.get('cpu_model', info['processor'])}, {info['cpus']} cpus"
+
+
+def run_or_reuse(deck, outdir, rerun):
+    """The summary of `fsph run deck` into outdir, reusing a finished
+    run's summary.json unless rerun."""
+    from pathlib import Path
+    from fsph.driver import run
+    summary_path = Path(outdir) / "summary.json"
+    if summary_path.exists() and not rerun:
+        return json.loads(summary_path.read_text())
+    print(f"running {Path(deck).name} ...", flush=True)
+    return run(deck, outdir, quiet=True)

@@ -22,12 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fsph.driver import run
-
-try:
-    from common import machine, machine_line
-except ImportError:     # run from elsewhere
-    from benchmarks.common import machine, machine_line
+from common import machine, machine_line, run_or_reuse
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 #: deck, experiment residual [m/s], seed's method label and computed value
@@ -56,14 +51,6 @@ def refined_deck(deck, outdir):
     path = outdir / f"{deck.stem}_fine.nml"
     nml.write(path, force=True)
     return path
-
-
-def run_or_reuse(deck, outdir, rerun):
-    summary_path = outdir / "summary.json"
-    if summary_path.exists() and not rerun:
-        return json.loads(summary_path.read_text())
-    print(f"running {deck.name} ...", flush=True)
-    return run(deck, outdir, quiet=True)
 
 
 def row(summary, experiment):

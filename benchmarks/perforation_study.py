@@ -15,19 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from common import run_or_reuse
 from fsph.ballistics import fit_recht_ipson, gather, recht_ipson
-from fsph.driver import run
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 VELOCITIES = (300, 400, 508, 650, 800)
-
-
-def run_or_reuse(deck, outdir, rerun):
-    summary_path = outdir / "summary.json"
-    if summary_path.exists() and not rerun:
-        return json.loads(summary_path.read_text())
-    print(f"running {deck.name} ...", flush=True)
-    return run(deck, outdir, quiet=True)
 
 
 def main(argv=None):
