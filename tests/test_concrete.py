@@ -101,6 +101,21 @@ def test_606_fixed_residual_velocity(tmp_path_factory):
     check_perforation(run_case("concrete_606_fixed", tmp_path_factory), "concrete_606", 5.0)
 
 
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured 474.8 m/s, +5.8 % against 449 on the mesh refined "
+                   "by 1.6 (26 432 elements, 9 937 converted; 470.0 m/s, +4.7 %, on the case's "
+                   "mesh): more of the slab becomes particles, which resist less than elements")
+def test_606_adaptive_refined_mesh_residual_velocity(tmp_path_factory):
+    """The convergence check of the 606 m/s case: the deck with every cell
+    count refined as benchmarks/concrete_study.py --mesh-study does."""
+    import sys
+    sys.path.insert(0, str(CASES.parent / "benchmarks"))
+    from concrete_study import refined_deck
+    out = tmp_path_factory.mktemp("concrete_606_fine")
+    summary = run(refined_deck(CASES / "concrete_606.nml", out), out / "run", quiet=True)
+    check_perforation(summary, "concrete_606", 5.0)
+
+
 def test_1058_decks_differ_only_in_method():
     """The three methods of seed 002's table run the same problem: the
     decks agree on materials, bodies, outputs and metrics; only the mode,
