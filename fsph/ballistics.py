@@ -53,7 +53,7 @@ def _fit_v_bl(v_s, v_r, a, p):
         return float(np.sqrt(np.mean((recht_ipson(v_s, v_bl, best_a(v_bl), p) - v_r) ** 2)))
 
     v_bl = _golden(rms, 0.0, float(v_s.max()), 1e-6 * float(v_s.max()))
-    return {"v_bl": v_bl, "a": best_a(v_bl), "p": p, "rms_residual": rms(v_bl)}
+    return {"v_bl": float(v_bl), "a": best_a(v_bl), "p": p, "rms_residual": rms(v_bl)}
 
 
 def _standard_errors(v_s, v_r, fit, free):
