@@ -409,7 +409,7 @@ def ballistic_fits(frame, params, free_p=False):
     need = ("perforation.striking_velocity_m_s", "perforation.residual_velocity_m_s")
     if not vel or any(c not in frame.columns for c in need):
         return []
-    others = [p.column for p in params if p not in vel]
+    others = [p.column for p in params if p not in vel and len(p.values) > 1]
     done = frame[frame["status"] == "completed"].dropna(subset=list(need))
     groups = done.groupby(others, sort=True) if others else [((), done)]
     fits = []
@@ -546,7 +546,8 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
     if threads < 1:
         raise FsphError(f"sweep: threads: expected an integer >= 1, got {threads!r}")
     deck = Path(deck)
-    output = Path(output) if output else Path("out") / f"{deck.stem}_sweep"
+    # absolute: the runs start in their own folders, maybe on other hosts
+    output = (Path(output) if output else Path("out") / f"{deck.stem}_sweep").resolve()
     params, variants = plan(deck, sets, output)
     for v in variants:
         if v.status is None and not rerun:
