@@ -309,16 +309,19 @@ def plan(deck, sets, output):
     return params, variants
 
 
-def _finished(v):
-    """The summary of a completed earlier run of this very deck, or None."""
+def _reuse(v):
+    """Mark v completed with the summary and wall time of an earlier run
+    of this very deck (same hash) that completed; False if there is none."""
     try:
         record = json.loads((v.folder / "variant.json").read_text())
         summary = json.loads((v.folder / "summary.json").read_text())
     except (OSError, ValueError):
-        return None
+        return False
     if record.get("deck_sha256") != v.deck_hash or summary.get("status") != "completed":
-        return None
-    return summary
+        return False
+    v.status, v.reused = "completed", True
+    v.summary, v.wall_time_s = summary, record["wall_time_s"]
+    return True
 
 
 # ---------------------------------------------------------------- one run
@@ -549,13 +552,7 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
     # absolute: the runs start in their own folders, maybe on other hosts
     output = (Path(output) if output else Path("out") / f"{deck.stem}_sweep").resolve()
     params, variants = plan(deck, sets, output)
-    for v in variants:
-        if v.status is None and not rerun:
-            v.summary = _finished(v)
-            if v.summary is not None:
-                v.status, v.reused = "completed", True
-                v.wall_time_s = json.loads((v.folder / "variant.json").read_text())["wall_time_s"]
-    todo = [v for v in variants if v.status is None]
+    todo = [v for v in variants if v.status is None and (rerun or not _reuse(v))]
     workers = workers or max(1, cores() // threads)
     invalid = [v for v in variants if v.status == INVALID]
     say(f"fsph sweep: {deck.name}: {len(variants)} variant(s) in {output}/: {len(todo)} to run, "
