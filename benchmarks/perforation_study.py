@@ -17,6 +17,7 @@ import numpy as np
 
 from common import run_or_reuse
 from fsph.ballistics import fit_recht_ipson, gather, recht_ipson
+from fsph.plot import residual_velocity
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 VELOCITIES = (300, 400, 508, 650, 800)
@@ -76,21 +77,10 @@ def main(argv=None):
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=1) + "\n")
     if args.png:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(6, 4.5))
-        grid = np.linspace(0.0, max(VELOCITIES) * 1.05, 300)
-        ax.plot(v_s, v_r, "o", label="fsph adaptive")
-        ax.plot([508.0], [v_sph], "s", mfc="none", label="fsph pure SPH (508 m/s)")
-        ax.plot(grid, recht_ipson(grid, fit["v_bl"]), "-",
-                label=f"Recht-Ipson a=1, p=2: v_bl = {fit['v_bl']:.0f} m/s")
-        ax.set_xlabel("striking velocity [m/s]")
-        ax.set_ylabel("residual velocity [m/s]")
-        ax.set_title("4340 ogive rod, 26.3 mm 6061-T651 plate")
-        ax.legend()
-        fig.tight_layout()
-        fig.savefig(args.png, dpi=120)
+        residual_velocity([("fsph adaptive", v_s, v_r),
+                           ("fsph pure SPH (508 m/s)", [508.0], [v_sph])],
+                          [(f"Recht-Ipson a=1, p=2: v_bl = {fit['v_bl']:.0f} m/s", fit)],
+                          output=args.png, title="4340 ogive rod, 26.3 mm 6061-T651 plate")
     return 0
 
 

@@ -2,6 +2,8 @@
 
 from .errors import DeckError, FsphError, SimulationError
 from .simulation import Simulation, threads
+from .sweep import sweep
 
 __version__ = "0.1.0"
-__all__ = ["Simulation", "threads", "DeckError", "FsphError", "SimulationError", "__version__"]
+__all__ = ["Simulation", "threads", "sweep", "DeckError", "FsphError", "SimulationError",
+           "__version__"]

@@ -1,9 +1,10 @@
-"""Command line: `fsph run DECK [-o DIR]`, `fsph plot DIR`, `fsph report`,
-`fsph decks-reference`, `fsph info`.
+"""Command line: `fsph run DECK [-o DIR]`, `fsph sweep DECK --set KEY=VALUES`,
+`fsph plot DIR`, `fsph report`, `fsph decks-reference`, `fsph info`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
-to the last good snapshot are kept); 4 interrupted by SIGINT/SIGTERM (a
-checkpoint is written); 1 any other fsph error.
+to the last good snapshot are kept; sweep: a variant did not complete); 4
+interrupted by SIGINT/SIGTERM (a checkpoint is written); 1 any other fsph
+error.
 """
 
 import argparse
@@ -28,6 +29,28 @@ def _parser():
                         "and lines otherwise (auto, the default)")
     r.add_argument("--restart", help="continue from this checkpoint (checkpoint.h5 of a run "
                                      "of the same deck)")
+    sw = sub.add_parser("sweep", help="run variants of a deck as Dask tasks (ranges and lists "
+                                      "of deck keys, their Cartesian product) and gather "
+                                      "their results in DIR/sweep.csv and sweep.h5 "
+                                      "(docs/sweeps.md)")
+    sw.add_argument("deck", help="base namelist deck (.nml)")
+    sw.add_argument("--set", dest="sets", action="append", required=True,
+                    metavar="GROUP.KEY=VALUES",
+                    help="a deck key and its values: GROUP.KEY, GROUP(I).KEY (I-th group "
+                         "of that name, from 1) or GROUP(NAME).KEY; VALUES a:b:n (n values "
+                         "from a to b inclusive), log:a:b:n (logarithmic) or v1,v2,...; "
+                         "repeat for a Cartesian product")
+    sw.add_argument("-o", "--output", help="sweep folder (default out/<deck name>_sweep)")
+    sw.add_argument("--scheduler", help="address of a running Dask scheduler (default: a "
+                                        "local cluster on this machine)")
+    sw.add_argument("--workers", type=int, help="concurrent runs of the local cluster "
+                                                "(default cores // threads)")
+    sw.add_argument("--threads", type=int, default=1,
+                    help="OpenMP threads of each run (default 1)")
+    sw.add_argument("--free-p", action="store_true",
+                    help="fit the Recht-Ipson exponent p too (default p = 2)")
+    sw.add_argument("--rerun", action="store_true", help="run completed variants again")
+    sw.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     pl = sub.add_parser("plot", help="PNGs of a run: deformed body at chosen times "
                                      "(shapes.png), energy and time-step histories "
                                      "(history.png), and where they apply the perforation "
@@ -59,6 +82,16 @@ def main(argv=None):
                           progress=args.progress)
             return {"failed": EXIT_RUN_FAILED, "interrupted": EXIT_INTERRUPTED}.get(
                 summary["status"], EXIT_OK)
+        if args.command == "sweep":
+            from .sweep import sweep
+            if args.threads < 1 or (args.workers is not None and args.workers < 1):
+                print("fsph: error: --threads and --workers: expected integers >= 1",
+                      file=sys.stderr)
+                return EXIT_DECK
+            frame = sweep(args.deck, args.sets, args.output, scheduler=args.scheduler,
+                          workers=args.workers, threads=args.threads, free_p=args.free_p,
+                          rerun=args.rerun, quiet=args.quiet)
+            return EXIT_OK if (frame["status"] == "completed").all() else EXIT_RUN_FAILED
         if args.command == "plot":
             from .plot import damage_map, deformed_shapes, histories, perforation_histories
             try:

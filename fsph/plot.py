@@ -224,3 +224,38 @@ def damage_map(run_dir, times_us=None, output=None, dpi=150):
         fig.savefig(output, dpi=dpi)
         plt.close(fig)
     return output
+
+
+def residual_velocity(points, fits=(), experiment=(), output="residual.png", title=None,
+                      dpi=120):
+    """Write a PNG of residual against striking velocity: `points` a list of
+    (label, v_s, v_r) computed series, `fits` a list of (label, fit) with a
+    fit of fsph.ballistics.fit_recht_ipson drawn as a curve, `experiment`
+    (v_s, v_r) pairs of measurements; returns the PNG path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .ballistics import recht_ipson
+
+    output = Path(output)
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    top = max([max(v_s, default=0.0) for _, v_s, _ in points]
+              + [v for v, _ in experiment] + [1.0])
+    grid = np.linspace(0.0, 1.05 * top, 300)
+    for i, (label, v_s, v_r) in enumerate(points):
+        ax.plot(v_s, v_r, "os^v"[i % 4], mfc="none" if i else None, label=label)
+    for label, fit in fits:
+        ax.plot(grid, recht_ipson(grid, fit["v_bl"], fit["a"], fit["p"]), "-", label=label)
+    if experiment:
+        v_s, v_r = zip(*experiment)
+        ax.plot(v_s, v_r, "kx", ms=8, label="experiment")
+    ax.set_xlabel("striking velocity [m/s]")
+    ax.set_ylabel("residual velocity [m/s]")
+    if title:
+        ax.set_title(title)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    fig.savefig(output, dpi=dpi)
+    plt.close(fig)
+    return output

@@ -29,3 +29,24 @@ def test_recht_ipson_fit_recovers_the_ballistic_limit():
 def test_recht_ipson_fit_needs_pairs():
     with pytest.raises(ValueError, match="at least two"):
         fit_recht_ipson([500.0], [400.0])
+
+
+def test_recht_ipson_standard_errors_and_free_exponent():
+    """Exact data: p freed comes back as the 2.5 it was made with and every
+    standard error is (nearly) zero; with 5 m/s noise the standard error of
+    v_bl is a few m/s and the true v_bl lies within three of them; constants
+    held fixed have no error, and with no degree of freedom left it is NaN."""
+    v_s = np.array([300.0, 350.0, 400.0, 508.0, 650.0, 800.0])
+    v_r = recht_ipson(v_s, 260.0, a=0.95, p=2.5)
+    fit = fit_recht_ipson(v_s, v_r, a=None, p=None)
+    assert fit["p"] == pytest.approx(2.5, rel=1e-3)
+    assert fit["v_bl"] == pytest.approx(260.0, abs=0.1)
+    assert fit["dof"] == 3
+    assert max(fit["v_bl_err"], 100.0 * fit["a_err"], 10.0 * fit["p_err"]) < 0.1
+    noise = np.array([5.0, -5.0, 5.0, -5.0, 5.0, -5.0])
+    fit = fit_recht_ipson(v_s, recht_ipson(v_s, 260.0) + noise, a=1.0)
+    assert fit["a_err"] is None and fit["p_err"] is None
+    assert 0.5 < fit["v_bl_err"] < 10.0
+    assert abs(fit["v_bl"] - 260.0) < 3.0 * fit["v_bl_err"]
+    fit = fit_recht_ipson(v_s[:2], v_r[:2], a=None)
+    assert np.isnan(fit["v_bl_err"]) and fit["dof"] == 0
