@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from common import machine, machine_line, run_or_reuse
+from common import refined_deck as common_refined_deck
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 #: deck, experiment residual [m/s], seed's method label and computed value
@@ -40,17 +41,7 @@ REFINE = (("n_radial", 1.6), ("n_axial", 1.6), ("n_coarse", 1.25))
 def refined_deck(deck, outdir):
     """A copy of `deck` in outdir with every body's cell counts refined
     (REFINE) and the reference path made absolute; returns its path."""
-    import f90nml
-    nml = f90nml.read(deck)
-    for body in nml["body"]:
-        for key, factor in REFINE:
-            if key in body:
-                body[key] = int(round(body[key] * factor))
-    nml["output"]["reference"] = str((deck.parent / nml["output"]["reference"]).resolve())
-    outdir.mkdir(parents=True, exist_ok=True)
-    path = outdir / f"{deck.stem}_fine.nml"
-    nml.write(path, force=True)
-    return path
+    return common_refined_deck(deck, outdir, REFINE, "fine")
 
 
 def row(summary, experiment):

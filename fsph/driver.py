@@ -271,6 +271,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
         "cycles": sim.cycle,
         "wall_time_s": wallclock.perf_counter() - t_wall0,
         "threads": threads(),
+        # wall time of each phase of the cycle (benchmarks' cost split)
+        "phase_times_s": sim.phase_times(),
         "n_elements": sim.n_elements,
         "n_nodes": sim.n_nodes,
         "n_particles": sim.n_particles,

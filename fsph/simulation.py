@@ -37,6 +37,9 @@ HIST_DAMAGE, HIST_MU_MAX = 0, 1
 N_HIST = 2
 # index conventions of fsph_solver: > 0 element (node for code 3), < 0 particle
 NODE_FAULTS = {3}
+# timed phases of the cycle, in the order of src_f90/fsph_timers.f90
+PHASES = ("element_forces", "element_update", "neighbours", "sph_sums", "particle_update",
+          "particle_contact", "coupling", "contact", "integrate", "conversion", "time_step")
 
 
 def threads():
@@ -64,6 +67,7 @@ class Simulation:
         rho0 = {m["name"]: m["density"] for m in materials}
 
         _api.reset()
+        _api.reset_phase_times()
         c = self.control
         _api.set_control(c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"], c["dt_drop_ratio"],
                          deck["output"]["history_every"])
@@ -232,6 +236,16 @@ class Simulation:
             return
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault)
+
+    def phase_times(self):
+        """Wall time [s] spent in each phase of the cycle since set-up (or
+        the last reset_phase_times), by name (PHASES)."""
+        times = _api.get_phase_times(int(_api.phase_count()))
+        return dict(zip(PHASES, (float(t) for t in times)))
+
+    @staticmethod
+    def reset_phase_times():
+        _api.reset_phase_times()
 
     @property
     def n_nodes(self):
@@ -443,8 +457,14 @@ class Simulation:
 
 def kernel(dist, h):
     """Smoothing kernel W [1/m^2] and dW/dr [1/m^3] at distances dist [m]."""
-    w, dw = _api.kernel_values(np.asarray(dist, dtype=float), float(h))
+    w, dw, _ = _api.kernel_values(np.asarray(dist, dtype=float), float(h))
     return w, dw
+
+
+def kernel_gradient_factor(dist, h):
+    """(dW/dr)/dist [1/m^4] at distances dist [m], as the pair sums take it
+    (grad_i W = factor (x_i - x_j))."""
+    return _api.kernel_values(np.asarray(dist, dtype=float), float(h))[2]
 
 
 def contact_filling(alpha_h):

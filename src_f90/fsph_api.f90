@@ -21,6 +21,7 @@ module fsph_api
   public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
   public :: set_erosion, get_erosion_stats, get_material_history
   public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain, get_debris_count
+  public :: phase_count, get_phase_times, reset_phase_times, set_neighbour_width
 
 contains
 
@@ -39,6 +40,33 @@ contains
     n_strength = strength_johnson_cook
     n_eos = eos_mie_gruneisen
   end subroutine layout
+
+  !> Number of timed phases of the cycle (fsph_timers).
+  subroutine phase_count(n)
+    use fsph_timers, only: n_phases
+    integer, intent(out) :: n
+    n = n_phases
+  end subroutine phase_count
+
+  !> Wall time [s] spent in each phase of the cycle since the last reset,
+  !> in the order of fsph_timers (element forces, element update,
+  !> neighbours, SPH sums, particle update, particle contact, coupling,
+  !> contact, integration, conversion, time step).
+  subroutine get_phase_times(n, times)
+    use fsph_timers, only: n_phases, timer_elapsed
+    integer, intent(in) :: n
+    real(wp), intent(out) :: times(n)
+    real(wp) :: all_times(n_phases)
+    call timer_elapsed(all_times)
+    times = 0.0_wp
+    times(1:min(n, n_phases)) = all_times(1:min(n, n_phases))
+  end subroutine get_phase_times
+
+  !> Zero the phase timers.
+  subroutine reset_phase_times()
+    use fsph_timers, only: timer_reset
+    call timer_reset()
+  end subroutine reset_phase_times
 
   !> Number of OpenMP threads a parallel region will use (1 without OpenMP).
   subroutine threads(n)
@@ -145,23 +173,27 @@ contains
   subroutine get_particle_rates(np, acc, drho, de, d, spin, ierr)
     use fsph_state, only: sim
     use fsph_status, only: status_ok, status_bad_input
-    use fsph_sph, only: sph_accelerations, sph_rates
+    use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights
     use fsph_solver, only: prepare_particle_sums
     integer, intent(in) :: np
     real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
     integer, intent(out) :: ierr
     integer :: ntot
-    real(wp), allocatable :: pair_q(:)
+    real(wp), allocatable :: pair_q(:), grad(:, :)
     ierr = status_bad_input
     acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
     if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
     call prepare_particle_sums(ntot)
     associate (pt => sim%particles)
-      allocate (pair_q(max(size(pt%nbr_list), 1)))
-      call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
+      allocate (pair_q(max(size(pt%nbr_list), 1)), grad(2, max(size(pt%nbr_list), 1)))
+      call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
+      call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%nbr_ptr, &
                              pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q, pt%acc_imag)
-      call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
-                     pair_q, drho, de, d, spin)
+      call sph_rates(np, ntot, pt%x, pt%v, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
+                     grad, drho, d, spin)
+      ! eq 3 with the stress, viscosity and velocities of this state
+      call sph_energy_rate(np, ntot, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%nbr_ptr, &
+                           pt%nbr_list, pair_q, grad, de)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
@@ -565,16 +597,26 @@ contains
     if (np > 0) acc = sim%particles%acc(:, 1:np)
   end subroutine get_forces
 
-  !> The smoothing kernel and its radial derivative at distances dist [m]
-  !> for smoothing length h [m] (verification).
-  subroutine kernel_values(n, dist, h, w, dwdr)
-    use fsph_kernel, only: kernel_w, kernel_dwdr
+  !> The smoothing kernel, its radial derivative and the gradient factor
+  !> (dW/d dist)/dist the pair sums use, at distances dist [m] for
+  !> smoothing length h [m] (verification).
+  subroutine kernel_values(n, dist, h, w, dwdr, factor)
+    use fsph_kernel, only: kernel_w, kernel_dwdr, kernel_gradient_factor
     integer, intent(in) :: n
     real(wp), intent(in) :: dist(n), h
-    real(wp), intent(out) :: w(n), dwdr(n)
+    real(wp), intent(out) :: w(n), dwdr(n), factor(n)
     w = kernel_w(dist, h)
     dwdr = kernel_dwdr(dist, h)
+    factor = kernel_gradient_factor(dist**2, 1.0_wp/h)
   end subroutine kernel_values
+
+  !> Row width of the neighbour search's buffers (verification: the lists
+  !> must not depend on it; it grows by itself when a list is longer).
+  subroutine set_neighbour_width(width)
+    use fsph_state, only: sim
+    integer, intent(in) :: width
+    sim%particles%search%width = max(width, 1)
+  end subroutine set_neighbour_width
 
   !> Total number of neighbour entries (ghosts included) of the last search.
   subroutine get_neighbor_count(nentries)

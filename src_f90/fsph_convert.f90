@@ -69,7 +69,9 @@ contains
   end function median
 
   !> Whether a triangle has an interior angle below the angle whose cosine
-  !> is cos_limit (the minimum-angle test without trigonometric calls).
+  !> is cos_limit > 0 (the minimum-angle test without trigonometric calls or
+  !> square roots: an angle below it has u.w > 0 and
+  !> (u.w)^2 > cos_limit^2 |u|^2 |w|^2).
   pure logical function has_angle_below(xe, cos_limit) result(below)
     real(wp), intent(in) :: xe(2, 3), cos_limit
     real(wp) :: u(2), w(2), uw
@@ -78,8 +80,8 @@ contains
     do k = 1, 3
       u = xe(:, modulo(k, 3) + 1) - xe(:, k)
       w = xe(:, modulo(k + 1, 3) + 1) - xe(:, k)
-      uw = sqrt((u(1)**2 + u(2)**2)*(w(1)**2 + w(2)**2))
-      if (u(1)*w(1) + u(2)*w(2) > cos_limit*uw) below = .true.
+      uw = u(1)*w(1) + u(2)*w(2)
+      if (uw > 0.0_wp .and. uw*uw > cos_limit**2*(u(1)**2 + u(2)**2)*(w(1)**2 + w(2)**2)) below = .true.
     end do
   end function has_angle_below
 
@@ -185,8 +187,8 @@ contains
     if (n == 0 .or. sim%elements%n == 0) return
     call fill_imaginary(stage_start)
     associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
-      call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
-                           pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+      call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, pt%search, &
+                           pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
       pt%radius(1:n) = 0.5_wp*sqrt(pt%mass(1:n)/(2.0_wp*pi*pt%x(1, 1:n)*pt%rho(1:n)))
       do i = 1, n
         ! release a tie whose edge left the surface
@@ -248,18 +250,25 @@ contains
     logical, allocatable :: group_hit(:), convert(:), keep_node(:)
     integer, allocatable :: pending(:, :, :)
     integer :: ie, ng
+    real(wp) :: cos_limit
     n_new = 0
     associate (el => sim%elements, cv => sim%conversion)
       if (.not. cv%enabled .or. el%n == 0 .or. cv%n_groups == 0) return
       ng = cv%n_groups
+      ! the criterion of every element, threaded (it is checked every
+      ! cycle, conversions are rare); the work array outlives the call
+      if (allocated(cv%hit)) then
+        if (size(cv%hit) < el%n) deallocate (cv%hit)
+      end if
+      if (.not. allocated(cv%hit)) allocate (cv%hit(el%n))
+      cos_limit = cos(cv%theta_c)
+      call mark_criterion(cos_limit)
+      if (.not. any(cv%hit(1:el%n))) return
       allocate (group_hit(ng), convert(el%n))
       group_hit = .false.
       do ie = 1, el%n
-        if (el%group(ie) == 0) cycle
-        if (group_hit(el%group(ie))) cycle
-        if (meets_criterion(ie)) group_hit(el%group(ie)) = .true.
+        if (cv%hit(ie)) group_hit(el%group(ie)) = .true.
       end do
-      if (.not. any(group_hit)) return
       do ie = 1, el%n
         convert(ie) = .false.
         if (el%group(ie) > 0) convert(ie) = group_hit(el%group(ie))
@@ -280,8 +289,24 @@ contains
     end associate
   end subroutine convert_elements
 
-  logical function meets_criterion(ie)
+  !> conversion%hit(ie): element ie belongs to a group and meets the
+  !> conversion criterion (cos_limit = cos(theta_c)).
+  subroutine mark_criterion(cos_limit)
+    real(wp), intent(in) :: cos_limit
+    integer :: ie
+    !$omp parallel do default(none) shared(sim, cos_limit) private(ie)
+    do ie = 1, sim%elements%n
+      sim%conversion%hit(ie) = sim%elements%group(ie) > 0
+      if (sim%conversion%hit(ie)) sim%conversion%hit(ie) = meets_criterion(ie, cos_limit)
+    end do
+    !$omp end parallel do
+  end subroutine mark_criterion
+
+  !> Whether element ie meets the conversion criterion; cos_limit is
+  !> cos(theta_c).
+  logical function meets_criterion(ie, cos_limit)
     integer, intent(in) :: ie
+    real(wp), intent(in) :: cos_limit
     real(wp) :: xe(2, 3)
     associate (el => sim%elements, cv => sim%conversion)
       select case (cv%criterion)
@@ -293,10 +318,10 @@ contains
         ! below theta_c; an element that started below theta_c (graded or
         ! mapped meshes) also below theta_relative times its initial angle
         xe = sim%nodes%x(:, el%conn(:, ie))
-        meets_criterion = has_angle_below(xe, cos(cv%theta_c))
+        meets_criterion = has_angle_below(xe, cos_limit)
         if (meets_criterion) then
           xe = sim%nodes%x0(:, el%conn(:, ie))
-          if (has_angle_below(xe, cos(cv%theta_c))) meets_criterion = &
+          if (has_angle_below(xe, cos_limit)) meets_criterion = &
             minimum_angle(sim%nodes%x(:, el%conn(:, ie))) < cv%theta_relative*minimum_angle(xe)
         end if
       end select

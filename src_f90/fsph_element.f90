@@ -6,7 +6,7 @@
 !> Coordinates x(1,:) = r (radius), x(2,:) = z (axis) [m]; nodes of each
 !> element counter-clockwise in the (r, z) plane.
 module fsph_element
-  use fsph_kinds, only: wp, two_pi
+  use fsph_kinds, only: wp, two_pi, one_third
   use fsph_status, only: status_ok, status_inverted_element, status_nonfinite_element, &
                          status_eos_range
   use fsph_material, only: n_props, n_hist, material_update
@@ -14,36 +14,48 @@ module fsph_element
   implicit none
   private
 
-  public :: tri_geometry, element_geometry, element_strain_rates, element_corner_forces
-  public :: gather_corner_forces, element_stress_update, element_time_step
+  public :: tri_gradients, tri_size, element_geometry, element_strain_rates, element_corner_forces
+  public :: gather_corner_forces, element_update, element_time_step
 
 contains
 
-  !> Geometry of one triangle: area, shape-function gradients, centroid
-  !> radius and smallest altitude.
-  pure subroutine tri_geometry(xe, area, dndr, dndz, rbar, lmin)
+  !> Area, shape-function gradients and centroid radius of one triangle.
+  !> One division (the reciprocal of 2A) serves the six gradients: a
+  !> division costs the processor several multiplications' time.
+  pure subroutine tri_gradients(xe, area, dndr, dndz, rbar)
     real(wp), intent(in) :: xe(2, 3)       !< nodal (r, z) [m]
     real(wp), intent(out) :: area          !< signed area [m^2]
     real(wp), intent(out) :: dndr(3), dndz(3) !< dN_a/dr, dN_a/dz [1/m]
     real(wp), intent(out) :: rbar          !< centroid radius [m]
-    real(wp), intent(out) :: lmin          !< smallest altitude 2A/longest edge [m]
-    real(wp) :: r1, z1, r2, z2, r3, z3, two_a, lmax2
+    real(wp) :: r1, z1, r2, z2, r3, z3, two_a, inv
     r1 = xe(1, 1); z1 = xe(2, 1)
     r2 = xe(1, 2); z2 = xe(2, 2)
     r3 = xe(1, 3); z3 = xe(2, 3)
     two_a = (r2 - r1)*(z3 - z1) - (r3 - r1)*(z2 - z1)
     area = 0.5_wp*two_a
-    rbar = (r1 + r2 + r3)/3.0_wp
-    lmax2 = max((r2 - r1)**2 + (z2 - z1)**2, (r3 - r2)**2 + (z3 - z2)**2, (r1 - r3)**2 + (z1 - z3)**2)
+    rbar = (r1 + r2 + r3)*one_third
+    inv = 0.0_wp
+    if (two_a > 0.0_wp) inv = 1.0_wp/two_a
+    dndr(1) = (z2 - z3)*inv; dndz(1) = (r3 - r2)*inv
+    dndr(2) = (z3 - z1)*inv; dndz(2) = (r1 - r3)*inv
+    dndr(3) = (z1 - z2)*inv; dndz(3) = (r2 - r1)*inv
+  end subroutine tri_gradients
+
+  !> Area, centroid radius and smallest altitude of one triangle.
+  pure subroutine tri_size(xe, area, rbar, lmin)
+    real(wp), intent(in) :: xe(2, 3)       !< nodal (r, z) [m]
+    real(wp), intent(out) :: area          !< signed area [m^2]
+    real(wp), intent(out) :: rbar          !< centroid radius [m]
+    real(wp), intent(out) :: lmin          !< smallest altitude 2A/longest edge [m]
+    real(wp) :: two_a, lmax2
+    two_a = (xe(1, 2) - xe(1, 1))*(xe(2, 3) - xe(2, 1)) - (xe(1, 3) - xe(1, 1))*(xe(2, 2) - xe(2, 1))
+    area = 0.5_wp*two_a
+    rbar = (xe(1, 1) + xe(1, 2) + xe(1, 3))*one_third
+    lmax2 = max((xe(1, 2) - xe(1, 1))**2 + (xe(2, 2) - xe(2, 1))**2, &
+                (xe(1, 3) - xe(1, 2))**2 + (xe(2, 3) - xe(2, 2))**2, &
+                (xe(1, 1) - xe(1, 3))**2 + (xe(2, 1) - xe(2, 3))**2)
     lmin = two_a/sqrt(lmax2)
-    if (two_a <= 0.0_wp) then
-      dndr = 0.0_wp; dndz = 0.0_wp
-      return
-    end if
-    dndr(1) = (z2 - z3)/two_a; dndz(1) = (r3 - r2)/two_a
-    dndr(2) = (z3 - z1)/two_a; dndz(2) = (r1 - r3)/two_a
-    dndr(3) = (z1 - z2)/two_a; dndz(3) = (r2 - r1)/two_a
-  end subroutine tri_geometry
+  end subroutine tri_size
 
   !> Area, centroid radius, ring volume and smallest altitude of all
   !> elements. ierr = status_inverted_element with ifault the first element
@@ -54,14 +66,14 @@ contains
     real(wp), intent(in) :: x(2, nn)
     real(wp), intent(out) :: area(ne), rbar(ne), volume(ne), lmin(ne)
     integer, intent(out) :: ierr, ifault
-    real(wp) :: xe(2, 3), dndr(3), dndz(3)
+    real(wp) :: xe(2, 3)
     integer :: ie
     ifault = ne + 1
     !$omp parallel do default(none) shared(ne, conn, x, area, rbar, volume, lmin) &
-    !$omp private(ie, xe, dndr, dndz) reduction(min:ifault)
+    !$omp private(ie, xe) reduction(min:ifault)
     do ie = 1, ne
       xe = x(:, conn(:, ie))
-      call tri_geometry(xe, area(ie), dndr, dndz, rbar(ie), lmin(ie))
+      call tri_size(xe, area(ie), rbar(ie), lmin(ie))
       volume(ie) = two_pi*rbar(ie)*area(ie)
       if (.not. (area(ie) > 0.0_wp)) ifault = min(ifault, ie)
     end do
@@ -75,10 +87,32 @@ contains
   end subroutine element_geometry
 
   !> Strain rates (rr, zz, rz, tt; tensor components) and in-plane spin of
-  !> every element from nodal velocities, at the geometry x:
+  !> one element from its nodal positions and velocities:
   !>   d_rr = sum dN/dr v_r, d_zz = sum dN/dz v_z,
   !>   d_rz = 1/2 sum (dN/dz v_r + dN/dr v_z), d_tt = mean(v_r)/rbar,
   !>   spin = 1/2 sum (dN/dz v_r - dN/dr v_z).
+  pure subroutine tri_strain_rates(xe, ve, d, spin)
+    real(wp), intent(in) :: xe(2, 3)       !< nodal positions [m]
+    real(wp), intent(in) :: ve(2, 3)       !< nodal velocities [m/s]
+    real(wp), intent(out) :: d(4)          !< strain rates [1/s]
+    real(wp), intent(out) :: spin          !< spin [1/s]
+    real(wp) :: dndr(3), dndz(3), area, rbar, dvrdz, dvzdr
+    call tri_gradients(xe, area, dndr, dndz, rbar)
+    dvrdz = dndz(1)*ve(1, 1) + dndz(2)*ve(1, 2) + dndz(3)*ve(1, 3)
+    dvzdr = dndr(1)*ve(2, 1) + dndr(2)*ve(2, 2) + dndr(3)*ve(2, 3)
+    d(1) = dndr(1)*ve(1, 1) + dndr(2)*ve(1, 2) + dndr(3)*ve(1, 3)
+    d(2) = dndz(1)*ve(2, 1) + dndz(2)*ve(2, 2) + dndz(3)*ve(2, 3)
+    d(3) = 0.5_wp*(dvrdz + dvzdr)
+    if (rbar > 0.0_wp) then
+      d(4) = (ve(1, 1) + ve(1, 2) + ve(1, 3))*one_third/rbar
+    else
+      d(4) = 0.0_wp
+    end if
+    spin = 0.5_wp*(dvrdz - dvzdr)
+  end subroutine tri_strain_rates
+
+  !> Strain rates and spin of every element (tri_strain_rates) at the
+  !> geometry x.
   subroutine element_strain_rates(ne, nn, conn, x, v, d, spin)
     integer, intent(in) :: ne, nn
     integer, intent(in) :: conn(3, ne)
@@ -86,25 +120,10 @@ contains
     real(wp), intent(in) :: v(2, nn)       !< nodal velocities [m/s]
     real(wp), intent(out) :: d(4, ne)      !< strain rates [1/s]
     real(wp), intent(out) :: spin(ne)      !< spin [1/s]
-    real(wp) :: xe(2, 3), ve(2, 3), dndr(3), dndz(3), area, rbar, lmin, dvrdz, dvzdr
     integer :: ie
-    !$omp parallel do default(none) shared(ne, conn, x, v, d, spin) &
-    !$omp private(ie, xe, ve, dndr, dndz, area, rbar, lmin, dvrdz, dvzdr)
+    !$omp parallel do default(none) shared(ne, conn, x, v, d, spin) private(ie)
     do ie = 1, ne
-      xe = x(:, conn(:, ie))
-      ve = v(:, conn(:, ie))
-      call tri_geometry(xe, area, dndr, dndz, rbar, lmin)
-      dvrdz = sum(dndz*ve(1, :))
-      dvzdr = sum(dndr*ve(2, :))
-      d(1, ie) = sum(dndr*ve(1, :))
-      d(2, ie) = sum(dndz*ve(2, :))
-      d(3, ie) = 0.5_wp*(dvrdz + dvzdr)
-      if (rbar > 0.0_wp) then
-        d(4, ie) = sum(ve(1, :))/(3.0_wp*rbar)
-      else
-        d(4, ie) = 0.0_wp
-      end if
-      spin(ie) = 0.5_wp*(dvrdz - dvzdr)
+      call tri_strain_rates(x(:, conn(:, ie)), v(:, conn(:, ie)), d(:, ie), spin(ie))
     end do
     !$omp end parallel do
   end subroutine element_strain_rates
@@ -121,19 +140,19 @@ contains
     real(wp), intent(in) :: s(4, ne)       !< deviatoric stress [Pa]
     real(wp), intent(in) :: p(ne), q(ne)   !< pressure, viscous pressure [Pa]
     real(wp), intent(out) :: fc(2, 3, ne)  !< corner forces [N]
-    real(wp) :: xe(2, 3), dndr(3), dndz(3), area, rbar, lmin, srr, szz, srz, stt, vol
+    real(wp) :: xe(2, 3), dndr(3), dndz(3), area, rbar, srr, szz, srz, stt, vol
     integer :: ie
     !$omp parallel do default(none) shared(ne, conn, x, s, p, q, fc) &
-    !$omp private(ie, xe, dndr, dndz, area, rbar, lmin, srr, szz, srz, stt, vol)
+    !$omp private(ie, xe, dndr, dndz, area, rbar, srr, szz, srz, stt, vol)
     do ie = 1, ne
       xe = x(:, conn(:, ie))
-      call tri_geometry(xe, area, dndr, dndz, rbar, lmin)
+      call tri_gradients(xe, area, dndr, dndz, rbar)
       srr = s(1, ie) - p(ie) - q(ie)
       szz = s(2, ie) - p(ie) - q(ie)
       srz = s(3, ie)
       stt = s(4, ie) - p(ie) - q(ie)
       vol = two_pi*rbar*area
-      fc(1, :, ie) = -vol*(srr*dndr + srz*dndz) - two_pi*area*stt/3.0_wp
+      fc(1, :, ie) = -vol*(srr*dndr + srz*dndz) - two_pi*one_third*area*stt
       fc(2, :, ie) = -vol*(srz*dndr + szz*dndz)
     end do
     !$omp end parallel do
@@ -159,47 +178,84 @@ contains
     !$omp end parallel do
   end subroutine gather_corner_forces
 
-  !> Artificial viscosity, density and constitutive update of every element
-  !> over one step. q = rho (C_Q L tr d)^2 + C_L rho c L |tr d| in compression
-  !> (tr d < 0), 0 otherwise, L = sqrt(A) [m].
-  subroutine element_stress_update(ne, nmat, props, istrength, ieos, mat, dt, c_q, c_l, &
-                                   d, spin, mass, volume, area, rho, q, s, p, eps_p, e, temp, hist, c, &
-                                   ierr, ifault)
-    integer, intent(in) :: ne, nmat
+  !> Artificial viscosity, density and constitutive update of one element
+  !> over one step. q = rho (C_Q L tr d)^2 + C_L rho c L |tr d| in
+  !> compression (tr d < 0), 0 otherwise, L = sqrt(A) [m]. ierr is the
+  !> material's status.
+  pure subroutine element_point_update(props, istrength, ieos, dt, c_q, c_l, d, spin, mass, volume, area, &
+                                       rho, q, s, p, eps_p, e, temp, hist, c, ierr)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: istrength, ieos
+    real(wp), intent(in) :: dt, c_q, c_l   !< step [s]; quadratic and linear viscosity coefficients [-]
+    real(wp), intent(in) :: d(4), spin     !< strain rates and spin of the step [1/s]
+    real(wp), intent(in) :: mass           !< ring mass [kg]
+    real(wp), intent(in) :: volume, area   !< ring volume [m^3] and area [m^2] at the end of the step
+    real(wp), intent(inout) :: rho         !< density [kg/m^3]: start of step in, end out
+    real(wp), intent(out) :: q             !< artificial viscous pressure [Pa]
+    real(wp), intent(inout) :: s(4), p, eps_p, e, temp, c
+    real(wp), intent(inout) :: hist(n_hist) !< material history (damage, ...)
+    integer, intent(out) :: ierr
+    real(wp) :: rho_new, trace, len
+    rho_new = mass/volume
+    trace = d(1) + d(2) + d(4)
+    q = 0.0_wp
+    if (trace < 0.0_wp) then
+      len = sqrt(area)
+      q = rho_new*(c_q*len*trace)**2 + c_l*rho_new*c*len*abs(trace)
+    end if
+    call material_update(props, istrength, ieos, dt, d, spin, rho, rho_new, q, s, p, eps_p, e, temp, &
+                         hist, c, ierr)
+    rho = rho_new
+  end subroutine element_point_update
+
+  !> The element part of a cycle after the nodes have moved, in one pass
+  !> over the elements (each element's data is read once): strain rates
+  !> and spin at the mid-step positions x_mid with the half-step
+  !> velocities, the geometry at the new positions x (area, centroid
+  !> radius, ring volume, smallest altitude), then viscosity, density and
+  !> the constitutive update (element_point_update). ierr/ifault: the
+  !> first element (lowest index) that has inverted (area <= 0; its
+  !> material is left as it was), else the first with a non-finite stress
+  !> or energy, else the first beyond the range of its equation of state.
+  subroutine element_update(ne, nn, nmat, conn, x_mid, x, v, props, istrength, ieos, mat, dt, c_q, c_l, &
+                            mass, d, spin, area, rbar, volume, lmin, rho, q, s, p, eps_p, e, temp, hist, c, &
+                            ierr, ifault)
+    integer, intent(in) :: ne, nn, nmat
+    integer, intent(in) :: conn(3, ne)
+    real(wp), intent(in) :: x_mid(2, nn), x(2, nn) !< mid-step and new nodal positions [m]
+    real(wp), intent(in) :: v(2, nn)       !< half-step nodal velocities [m/s]
     real(wp), intent(in) :: props(n_props, nmat)
     integer, intent(in) :: istrength(nmat), ieos(nmat), mat(ne)
-    real(wp), intent(in) :: dt, c_q, c_l   !< step [s]; quadratic and linear viscosity coefficients [-]
-    real(wp), intent(in) :: d(4, ne), spin(ne)
+    real(wp), intent(in) :: dt, c_q, c_l   !< step [s]; viscosity coefficients [-]
     real(wp), intent(in) :: mass(ne)       !< element ring mass [kg]
-    real(wp), intent(in) :: volume(ne)     !< ring volume at the end of the step [m^3]
-    real(wp), intent(in) :: area(ne)       !< area at the end of the step [m^2]
+    real(wp), intent(out) :: d(4, ne), spin(ne)  !< strain rates and spin of the step [1/s]
+    real(wp), intent(out) :: area(ne), rbar(ne), volume(ne), lmin(ne) !< new geometry [m^2, m, m^3, m]
     real(wp), intent(inout) :: rho(ne)     !< density [kg/m^3]: start of step in, end out
     real(wp), intent(out) :: q(ne)
     real(wp), intent(inout) :: s(4, ne), p(ne), eps_p(ne), e(ne), temp(ne), c(ne)
     real(wp), intent(inout) :: hist(n_hist, ne)  !< material history (damage, ...)
     integer, intent(out) :: ierr, ifault
-    real(wp) :: rho_new, trace, len, qe
-    integer :: ie, im, ierr_e, ifault_eos, ifault_nan
+    integer :: ie, im, ierr_e, ifault_inv, ifault_eos, ifault_nan
+    ifault_inv = ne + 1
     ifault_eos = ne + 1
     ifault_nan = ne + 1
     !$omp parallel do default(none) &
-    !$omp shared(ne, props, istrength, ieos, mat, dt, c_q, c_l, d, spin, mass, volume, area) &
-    !$omp shared(rho, q, s, p, eps_p, e, temp, hist, c) &
-    !$omp private(ie, im, rho_new, trace, len, qe, ierr_e) reduction(min:ifault_eos, ifault_nan)
+    !$omp shared(ne, conn, x_mid, x, v, props, istrength, ieos, mat, dt, c_q, c_l, mass) &
+    !$omp shared(d, spin, area, rbar, volume, lmin, rho, q, s, p, eps_p, e, temp, hist, c) &
+    !$omp private(ie, im, ierr_e) reduction(min:ifault_inv, ifault_eos, ifault_nan)
     do ie = 1, ne
-      im = mat(ie)
-      rho_new = mass(ie)/volume(ie)
-      trace = d(1, ie) + d(2, ie) + d(4, ie)
-      qe = 0.0_wp
-      if (trace < 0.0_wp) then
-        len = sqrt(area(ie))
-        qe = rho_new*(c_q*len*trace)**2 + c_l*rho_new*c(ie)*len*abs(trace)
+      call tri_strain_rates(x_mid(:, conn(:, ie)), v(:, conn(:, ie)), d(:, ie), spin(ie))
+      call tri_size(x(:, conn(:, ie)), area(ie), rbar(ie), lmin(ie))
+      volume(ie) = two_pi*rbar(ie)*area(ie)
+      if (.not. (area(ie) > 0.0_wp)) then
+        ifault_inv = min(ifault_inv, ie)
+        q(ie) = 0.0_wp
+        cycle
       end if
-      q(ie) = qe
-      call material_update(props(:, im), istrength(im), ieos(im), dt, d(:, ie), spin(ie), &
-                           rho(ie), rho_new, qe, s(:, ie), p(ie), eps_p(ie), e(ie), temp(ie), &
-                           hist(:, ie), c(ie), ierr_e)
-      rho(ie) = rho_new
+      im = mat(ie)
+      call element_point_update(props(:, im), istrength(im), ieos(im), dt, c_q, c_l, d(:, ie), spin(ie), &
+                                mass(ie), volume(ie), area(ie), rho(ie), q(ie), s(:, ie), p(ie), eps_p(ie), &
+                                e(ie), temp(ie), hist(:, ie), c(ie), ierr_e)
       if (ierr_e /= status_ok) ifault_eos = min(ifault_eos, ie)
       if (.not. (ieee_is_finite(p(ie)) .and. ieee_is_finite(e(ie)) .and. &
                  all(ieee_is_finite(s(:, ie))))) ifault_nan = min(ifault_nan, ie)
@@ -207,37 +263,52 @@ contains
     !$omp end parallel do
     ierr = status_ok
     ifault = 0
-    if (ifault_nan <= ne) then
+    if (ifault_inv <= ne) then
+      ierr = status_inverted_element; ifault = ifault_inv
+    else if (ifault_nan <= ne) then
       ierr = status_nonfinite_element; ifault = ifault_nan
     else if (ifault_eos <= ne) then
       ierr = status_eos_range; ifault = ifault_eos
     end if
-  end subroutine element_stress_update
+  end subroutine element_update
 
   !> Stable time step over all elements, dt_e = L_min/(Q + sqrt(Q^2 + c^2)),
   !> Q = C_L c + C_Q^2 sqrt(A) |tr d| in compression; returns the smallest
-  !> dt_e [s] (before the safety factor) and the element that sets it.
+  !> dt_e [s] (before the safety factor) and the element that sets it (the
+  !> lowest index among equal values, as a serial scan would, so the result
+  !> does not depend on the thread count).
   subroutine element_time_step(ne, lmin, area, c, d, c_q, c_l, dt_min, icontrol)
     integer, intent(in) :: ne
     real(wp), intent(in) :: lmin(ne), area(ne), c(ne), d(4, ne), c_q, c_l
     real(wp), intent(out) :: dt_min
     integer, intent(out) :: icontrol
-    real(wp) :: trace, qv, dte
-    integer :: ie
+    real(wp) :: trace, qv, dte, t_min
+    integer :: ie, t_i
     dt_min = huge(1.0_wp)
     icontrol = 0
-    ! serial minimum keeps the controlling index deterministic; cheap next to
-    ! the force and stress loops
+    !$omp parallel default(none) shared(ne, lmin, area, c, d, c_q, c_l, dt_min, icontrol) &
+    !$omp private(ie, trace, qv, dte, t_min, t_i)
+    t_min = huge(1.0_wp)
+    t_i = 0
+    !$omp do schedule(static)
     do ie = 1, ne
       trace = d(1, ie) + d(2, ie) + d(4, ie)
       qv = 0.0_wp
       if (trace < 0.0_wp) qv = c_l*c(ie) + c_q**2*sqrt(area(ie))*abs(trace)
       dte = lmin(ie)/(qv + sqrt(qv*qv + c(ie)**2))
-      if (dte < dt_min) then
-        dt_min = dte
-        icontrol = ie
+      if (dte < t_min) then
+        t_min = dte
+        t_i = ie
       end if
     end do
+    !$omp end do
+    !$omp critical (element_step_minimum)
+    if (t_i > 0 .and. (t_min < dt_min .or. (t_min == dt_min .and. t_i < icontrol))) then
+      dt_min = t_min
+      icontrol = t_i
+    end if
+    !$omp end critical (element_step_minimum)
+    !$omp end parallel
   end subroutine element_time_step
 
 end module fsph_element

@@ -11,7 +11,7 @@ module fsph_kernel
   !> Support radius in units of h [-].
   real(wp), parameter, public :: kernel_support = 2.0_wp
 
-  public :: kernel_w, kernel_dwdr
+  public :: kernel_w, kernel_dwdr, kernel_gradient_factor
 
 contains
 
@@ -46,5 +46,24 @@ contains
     end if
     dw = dw*kernel_norm_2d/(h*h*h)
   end function kernel_dwdr
+
+  !> Gradient factor F = (dW/d dist)/dist [1/m^4] of a pair at squared
+  !> distance dist2 > 0 [m^2] with 1/h given [1/m]: grad_i W(|x_i - x_j|, h)
+  !> = F (x_i - x_j). Both branches of the spline are evaluated and one is
+  !> selected: about half of a particle's neighbours lie on each side of
+  !> q = 1, so a branch there is mispredicted half the time, each time
+  !> after the square root and division it waits for. Beyond the support
+  !> max(2 - q, 0) makes the outer branch zero. (1/h comes from the
+  !> caller: its division does not wait for the square root. Deriving 1/h
+  !> and 1/q from one reciprocal of dist h made the pair loops slower, as
+  !> that reciprocal must wait for it.)
+  pure elemental function kernel_gradient_factor(dist2, inv_h) result(f)
+    real(wp), intent(in) :: dist2, inv_h
+    real(wp) :: f, q, inv_h2
+    inv_h2 = inv_h*inv_h
+    q = sqrt(dist2)*inv_h
+    f = merge(-3.0_wp + 2.25_wp*q, -0.75_wp*max(2.0_wp - q, 0.0_wp)**2/q, q < 1.0_wp) &
+        *kernel_norm_2d*inv_h2*inv_h2
+  end function kernel_gradient_factor
 
 end module fsph_kernel

@@ -9,7 +9,7 @@
 !> Strain rates d(4) = (d_rr, d_zz, d_rz, d_tt) are tensor components
 !> (d_rz = gamma_rz / 2).
 module fsph_material
-  use fsph_kinds, only: wp
+  use fsph_kinds, only: wp, one_third
   use fsph_status, only: status_ok, status_eos_range
   implicit none
   private
@@ -78,7 +78,7 @@ module fsph_material
   real(wp), parameter :: return_tolerance = 1.0e-12_wp
   integer, parameter :: return_max_iterations = 60
 
-  public :: material_update, particle_material_update, strength_update, rotate_deviator, equivalent_stress, eos_pressure
+  public :: material_update, strength_update, rotate_deviator, equivalent_stress, eos_pressure
   public :: deviator_double_contraction, sound_speed
   public :: hjc_pressure, hjc_yield_stress, hjc_update
 
@@ -106,9 +106,22 @@ contains
   pure subroutine rotate_deviator(omega_dt, s)
     real(wp), intent(in) :: omega_dt   !< spin times step [rad]
     real(wp), intent(inout) :: s(4)
-    real(wp) :: cs, sn, srr, szz, srz
-    cs = cos(omega_dt)
-    sn = sin(omega_dt)
+    !> Below this angle the Taylor series of sin and cos to the 9th and
+    !> 8th power are exact to round-off (next terms < 3e-17) [rad].
+    real(wp), parameter :: series_angle = 0.1_wp
+    real(wp) :: cs, sn, srr, szz, srz, a2
+    if (abs(omega_dt) < series_angle) then
+      ! a step's rotation is tiny: the series costs a few multiplications
+      ! where sin and cos are library calls
+      a2 = omega_dt*omega_dt
+      cs = 1.0_wp - a2*(1.0_wp/2.0_wp)*(1.0_wp - a2*(1.0_wp/12.0_wp)*(1.0_wp - a2*(1.0_wp/30.0_wp) &
+           *(1.0_wp - a2*(1.0_wp/56.0_wp))))
+      sn = omega_dt*(1.0_wp - a2*(1.0_wp/6.0_wp)*(1.0_wp - a2*(1.0_wp/20.0_wp)*(1.0_wp - a2*(1.0_wp/42.0_wp) &
+           *(1.0_wp - a2*(1.0_wp/72.0_wp)))))
+    else
+      cs = cos(omega_dt)
+      sn = sin(omega_dt)
+    end if
     srr = s(1); szz = s(2); srz = s(3)
     s(1) = cs*cs*srr + 2.0_wp*cs*sn*srz + sn*sn*szz
     s(2) = sn*sn*srr - 2.0_wp*cs*sn*srz + cs*cs*szz
@@ -130,10 +143,11 @@ contains
     real(wp), intent(out) :: b            !< dp/de at constant rho [kg/m^3]
     real(wp), intent(out) :: dadrho       !< da/drho [m^2/s^2]
     integer, intent(out) :: ierr
-    real(wp) :: rho0, mu, k0, den, num, dnum
+    real(wp) :: rho0, inv_rho0, mu, k0, den, inv_den, num, dnum
     ierr = status_ok
     rho0 = props(prop_rho0)
-    mu = rho/rho0 - 1.0_wp
+    inv_rho0 = 1.0_wp/rho0
+    mu = rho*inv_rho0 - 1.0_wp
     select case (ieos)
     case (eos_mie_gruneisen)
       k0 = rho0*props(prop_c0)**2
@@ -147,22 +161,23 @@ contains
         end if
         num = mu*(1.0_wp + (1.0_wp - 0.5_wp*props(prop_gamma0))*mu)
         dnum = 1.0_wp + 2.0_wp*(1.0_wp - 0.5_wp*props(prop_gamma0))*mu
-        a = k0*num/den**2
-        dadrho = k0*(dnum*den + 2.0_wp*(props(prop_s) - 1.0_wp)*num)/den**3/rho0
+        inv_den = 1.0_wp/den
+        a = k0*num*inv_den**2
+        dadrho = k0*(dnum*den + 2.0_wp*(props(prop_s) - 1.0_wp)*num)*inv_den**3*inv_rho0
       else
         a = k0*mu
-        dadrho = k0/rho0
+        dadrho = k0*inv_rho0
       end if
     case (eos_hjc)
       ! virgin loading curve (no history): set-up sound speed and checks;
       ! the cycle uses hjc_pressure
       b = 0.0_wp
       call hjc_loading(props, mu, a, dadrho)
-      dadrho = dadrho/rho0
+      dadrho = dadrho*inv_rho0
     case default ! eos_linear
       a = props(prop_bulk)*mu
       b = 0.0_wp
-      dadrho = props(prop_bulk)/rho0
+      dadrho = props(prop_bulk)*inv_rho0
     end select
   end subroutine eos_pressure
 
@@ -264,11 +279,11 @@ contains
     real(wp) :: trace
     call rotate_deviator(spin*dt, s)
     s_old = s
-    trace = d(1) + d(2) + d(4)
+    trace = (d(1) + d(2) + d(4))*one_third
     d_dev = d
-    d_dev(1) = d(1) - trace/3.0_wp
-    d_dev(2) = d(2) - trace/3.0_wp
-    d_dev(4) = d(4) - trace/3.0_wp
+    d_dev(1) = d(1) - trace
+    d_dev(2) = d(2) - trace
+    d_dev(4) = d(4) - trace
     s = s + 2.0_wp*g*dt*d_dev
   end subroutine elastic_trial
 
@@ -330,7 +345,7 @@ contains
     real(wp), intent(inout) :: hist(n_hist) !< history variables (damage, ...)
     real(wp), intent(out) :: c              !< longitudinal sound speed [m/s]
     integer, intent(out) :: ierr
-    real(wp) :: s_old(4), d_dev(4), dw_dev, dv, a, b, dadrho, e_star, p_new
+    real(wp) :: s_old(4), d_dev(4), dw_dev, dv, a, b, dadrho, e_star, p_new, rho_sum, inv
 
     if (istrength == strength_hjc) then
       ! pressure first (it sets the strength), energy-independent: b = 0
@@ -344,9 +359,12 @@ contains
     end if
 
     ! internal energy: deviatoric work with the mid-step deviator, then the
-    ! pressure work -(q + (p_n + p_n+1)/2) dv solved with p_n+1 = a + b e_n+1
-    dw_dev = dt*deviator_double_contraction(0.5_wp*(s_old + s), d_dev)/(0.5_wp*(rho_old + rho_new))
-    dv = 1.0_wp/rho_new - 1.0_wp/rho_old
+    ! pressure work -(q + (p_n + p_n+1)/2) dv solved with p_n+1 = a + b e_n+1;
+    ! one reciprocal gives both 1/rho_mid and dv = 1/rho_new - 1/rho_old
+    rho_sum = rho_old + rho_new
+    inv = 1.0_wp/(rho_old*rho_new*rho_sum)
+    dw_dev = dt*deviator_double_contraction(0.5_wp*(s_old + s), d_dev)*(2.0_wp*rho_old*rho_new*inv)
+    dv = (rho_old - rho_new)*rho_sum*inv
     e_star = e + dw_dev - (q + 0.5_wp*p)*dv
     e = (e_star - 0.5_wp*a*dv)/(1.0_wp + 0.5_wp*b*dv)
     p_new = a + b*e
@@ -358,34 +376,6 @@ contains
     p = p_new
     if (istrength /= strength_hjc) c = sound_speed(props(prop_shear), dadrho, b, rho_new, p)
   end subroutine material_update
-
-  !> One constitutive step of one particle: the internal energy e has been
-  !> advanced by the SPH energy equation, so the pressure follows explicitly
-  !> from the EOS at (rho, e), with the cut-off; the deviator as for
-  !> elements.
-  pure subroutine particle_material_update(props, istrength, ieos, dt, d, spin, rho, e, &
-                                           s, p, eps_p, temp, hist, c, ierr)
-    real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength, ieos
-    real(wp), intent(in) :: dt, d(4), spin   !< [s], [1/s], [1/s]
-    real(wp), intent(in) :: rho              !< density at the end of the step [kg/m^3]
-    real(wp), intent(in) :: e                !< specific internal energy at the end of the step [J/kg]
-    real(wp), intent(inout) :: s(4), p, eps_p, temp
-    real(wp), intent(inout) :: hist(n_hist)  !< history variables (damage, ...)
-    real(wp), intent(out) :: c
-    integer, intent(out) :: ierr
-    real(wp) :: s_old(4), d_dev(4), a, b, dadrho
-    if (istrength == strength_hjc) then
-      call hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, c, s_old, d_dev)
-      ierr = status_ok
-      return
-    end if
-    call strength_update(props, istrength, dt, d, spin, rho, s, eps_p, temp, s_old, d_dev)
-    call eos_pressure(props, ieos, rho, a, b, dadrho, ierr)
-    if (ierr /= status_ok) return
-    p = max(a + b*e, props(prop_pmin))   ! spall cut-off, as for elements
-    c = sound_speed(props(prop_shear), dadrho, b, rho, p)
-  end subroutine particle_material_update
 
   ! ---- Holmquist-Johnson-Cook concrete ----------------------------------
 
@@ -548,8 +538,9 @@ contains
     real(wp), intent(in) :: dadrho  !< (dp/drho) at constant e [m^2/s^2]
     real(wp), intent(in) :: b       !< (dp/de) at constant rho [kg/m^3]
     real(wp), intent(in) :: rho, p  !< density [kg/m^3], pressure [Pa]
-    real(wp) :: c
-    c = sqrt(max(dadrho + p*b/rho**2, 0.0_wp) + 4.0_wp*g/(3.0_wp*rho))
+    real(wp) :: c, inv_rho
+    inv_rho = 1.0_wp/rho
+    c = sqrt(max(dadrho + p*b*inv_rho**2, 0.0_wp) + 4.0_wp*one_third*g*inv_rho)
   end function sound_speed
 
 end module fsph_material

@@ -1,7 +1,13 @@
 !> O(N) neighbour search for particles: a cell (bucket) list rebuilt every
-!> step, then per-particle neighbour lists in CSR form, threaded over
-!> particles with a count pass and a fill pass (no shared writes; the order
-!> of each list is fixed, so results do not depend on the thread count).
+!> step, then per-particle neighbour lists in CSR form. The points are
+!> copied into cell order (positions, half-supports and bodies side by
+!> side), so the candidates of a cell are read as one contiguous run, and
+!> each particle's accepted neighbours are appended without a branch into
+!> its own row of a strided buffer in a single threaded pass (a row that
+!> overflows makes the rows wider and the pass run again, which is rare:
+!> the width follows the longest list seen). The rows are then packed into
+!> the CSR lists. No shared writes; the order of each list is fixed, so
+!> results do not depend on the thread count.
 !>
 !> Three kinds of entries (ALGORITHMS.md sections 2 and 5):
 !>  - same-body neighbours j within the kernel support 2 h_ij, stored as +j;
@@ -17,6 +23,27 @@ module fsph_neighbors
   private
 
   public :: build_neighbors
+
+  !> Work arrays of the search, kept between calls so the cycle does not
+  !> allocate once their sizes have settled.
+  type, public :: neighbour_work_t
+    integer :: width = 32                  !< row width of the neighbour buffer
+    integer :: contact_width = 4           !< row width of the contact buffer
+    integer, allocatable :: cell_start(:)  !< CSR of cells into the sorted points (ncell + 1)
+    integer, allocatable :: cell_of(:)     !< cell of each point
+    integer, allocatable :: fill(:)        !< next free sorted slot of each cell (ncell)
+    integer, allocatable :: item(:)        !< point at each sorted position
+    real(wp), allocatable :: xs(:, :)      !< sorted positions (r, z) [m]
+    real(wp), allocatable :: reach_s(:)    !< sorted half-supports kernel_support h/2 [m]
+    integer, allocatable :: body_s(:)      !< sorted continuum indices
+    integer, allocatable :: nbr_row(:, :), cnt_row(:, :) !< strided buffers (width + 1, nq): the
+                                                         !< last slot takes the writes of rejected
+                                                         !< candidates once a row is full
+    integer, allocatable :: n_nbr(:), n_cnt(:)           !< row lengths
+  end type neighbour_work_t
+
+  !> Rows are made this much wider than the longest list that overflowed [-].
+  integer, parameter :: width_margin = 8
 
 contains
 
@@ -44,125 +71,164 @@ contains
   !> neighbours and never as contact candidates). `body` is the continuum
   !> index: SPH neighbours share it, contact candidates do not. The
   !> allocatable lists grow as needed (no fixed capacity).
-  subroutine build_neighbors(nq, n, x, h, body, cell_of, cell_start, cell_items, &
-                             nbr_ptr, nbr_list, cnt_ptr, cnt_list)
+  subroutine build_neighbors(nq, n, x, h, body, work, nbr_ptr, nbr_list, cnt_ptr, cnt_list)
     integer, intent(in) :: nq, n
     real(wp), intent(in) :: x(2, n)        !< positions (r >= 0, z) [m]
     real(wp), intent(in) :: h(n)           !< smoothing lengths [m]
     integer, intent(in) :: body(n)         !< continuum index
-    integer, allocatable, intent(inout) :: cell_of(:), cell_start(:), cell_items(:)
+    type(neighbour_work_t), intent(inout) :: work
     integer, intent(out) :: nbr_ptr(nq + 1), cnt_ptr(nq + 1)
     integer, allocatable, intent(inout) :: nbr_list(:), cnt_list(:)
     real(wp) :: cell, z0
-    integer :: nr, nz, ncell, i, k
-    integer, allocatable :: fill(:)
+    integer :: nr, nz, i
 
     nbr_ptr(1) = 1
     cnt_ptr(1) = 1
     if (nq == 0 .or. n == 0) return
     call make_grid(n, x, maxval(h), cell, nr, nz, z0)
-    ncell = nr*nz
-    if (allocated(cell_start)) then
-      if (size(cell_start) < ncell + 1) deallocate (cell_start)
-    end if
-    if (.not. allocated(cell_start)) allocate (cell_start(ncell + 1))
-    if (allocated(cell_of)) then
-      if (size(cell_of) < n) deallocate (cell_of, cell_items)
-    end if
-    if (.not. allocated(cell_of)) allocate (cell_of(n), cell_items(n))
-
-    ! counting sort of particles into cells (particle order kept in a cell)
-    cell_start(1:ncell + 1) = 0
-    do i = 1, n
-      cell_of(i) = 1 + min(int(max(x(1, i), 0.0_wp)/cell), nr - 1) + &
-                   nr*min(int((x(2, i) - z0)/cell), nz - 1)
-      cell_start(cell_of(i) + 1) = cell_start(cell_of(i) + 1) + 1
-    end do
-    cell_start(1) = 1
-    do k = 1, ncell
-      cell_start(k + 1) = cell_start(k + 1) + cell_start(k)
-    end do
-    allocate (fill(ncell))
-    fill = cell_start(1:ncell)
-    do i = 1, n
-      cell_items(fill(cell_of(i))) = i
-      fill(cell_of(i)) = fill(cell_of(i)) + 1
+    call sort_into_cells(n, x, h, body, cell, nr, nz, z0, work)
+    call ensure_rows(work, nq)
+    do
+      call scan_points(nq, n, x, h, body, cell, nr, nz, z0, work)
+      if (maxval(work%n_nbr(1:nq)) <= work%width .and. maxval(work%n_cnt(1:nq)) <= work%contact_width) exit
+      ! a row overflowed: widen the rows to the longest list and scan again
+      work%width = max(work%width, maxval(work%n_nbr(1:nq)) + width_margin)
+      work%contact_width = max(work%contact_width, maxval(work%n_cnt(1:nq)) + width_margin)
+      call ensure_rows(work, nq)
     end do
 
-    ! count pass, prefix sums, fill pass
-    call scan_pairs(.false.)
-    nbr_ptr(1) = 1
-    cnt_ptr(1) = 1
     do i = 1, nq
-      nbr_ptr(i + 1) = nbr_ptr(i) + nbr_ptr(i + 1)
-      cnt_ptr(i + 1) = cnt_ptr(i) + cnt_ptr(i + 1)
+      nbr_ptr(i + 1) = nbr_ptr(i) + work%n_nbr(i)
+      cnt_ptr(i + 1) = cnt_ptr(i) + work%n_cnt(i)
     end do
     call ensure_size(nbr_list, nbr_ptr(nq + 1) - 1)
     call ensure_size(cnt_list, cnt_ptr(nq + 1) - 1)
-    call scan_pairs(.true.)
+    !$omp parallel do default(none) shared(nq, work, nbr_ptr, cnt_ptr, nbr_list, cnt_list) private(i)
+    do i = 1, nq
+      nbr_list(nbr_ptr(i):nbr_ptr(i + 1) - 1) = work%nbr_row(1:work%n_nbr(i), i)
+      cnt_list(cnt_ptr(i):cnt_ptr(i + 1) - 1) = work%cnt_row(1:work%n_cnt(i), i)
+    end do
+    !$omp end parallel do
+  end subroutine build_neighbors
 
-  contains
+  !> Counting sort of the points into cells (point order kept within a
+  !> cell), with copies of their positions, half-supports and continua in
+  !> that order.
+  subroutine sort_into_cells(n, x, h, body, cell, nr, nz, z0, work)
+    integer, intent(in) :: n, nr, nz
+    real(wp), intent(in) :: x(2, n), h(n), cell, z0
+    integer, intent(in) :: body(n)
+    type(neighbour_work_t), intent(inout) :: work
+    integer :: ncell, i, k, c
+    ncell = nr*nz
+    if (allocated(work%cell_start)) then
+      if (size(work%cell_start) < ncell + 1) deallocate (work%cell_start, work%fill)
+    end if
+    if (.not. allocated(work%cell_start)) allocate (work%cell_start(ncell + 1), work%fill(ncell))
+    if (allocated(work%cell_of)) then
+      if (size(work%cell_of) < n) deallocate (work%cell_of, work%item, work%xs, work%reach_s, work%body_s)
+    end if
+    if (.not. allocated(work%cell_of)) allocate (work%cell_of(n), work%item(n), work%xs(2, n), &
+                                                 work%reach_s(n), work%body_s(n))
+    work%cell_start(1:ncell + 1) = 0
+    do i = 1, n
+      c = 1 + min(int(max(x(1, i), 0.0_wp)/cell), nr - 1) + nr*min(int((x(2, i) - z0)/cell), nz - 1)
+      work%cell_of(i) = c
+      work%cell_start(c + 1) = work%cell_start(c + 1) + 1
+    end do
+    work%cell_start(1) = 1
+    do c = 1, ncell
+      work%cell_start(c + 1) = work%cell_start(c + 1) + work%cell_start(c)
+    end do
+    work%fill(1:ncell) = work%cell_start(1:ncell)
+    do i = 1, n
+      c = work%cell_of(i)
+      k = work%fill(c)
+      work%fill(c) = k + 1
+      work%item(k) = i
+      work%xs(:, k) = x(:, i)
+      work%reach_s(k) = 0.5_wp*kernel_support*h(i)
+      work%body_s(k) = body(i)
+    end do
+  end subroutine sort_into_cells
 
-    !> Visit every candidate pair. With fill = .false. store the counts in
-    !> ptr(i+1); with fill = .true. write the entries from ptr(i).
-    subroutine scan_pairs(fill_lists)
-      logical, intent(in) :: fill_lists
-      integer :: ii, jj, ir, iz, jr, jz, c, kk, n_nbr, n_cnt
-      real(wp) :: ri, zi, reach2, d2
-      !$omp parallel do default(none) schedule(dynamic, 64) &
-      !$omp shared(nq, x, h, body, cell, z0, nr, nz, cell_start, cell_items, nbr_ptr, cnt_ptr) &
-      !$omp shared(nbr_list, cnt_list, fill_lists) &
-      !$omp private(ii, jj, ir, iz, jr, jz, c, kk, n_nbr, n_cnt, ri, zi, reach2, d2)
-      do ii = 1, nq
-        ri = x(1, ii)
-        zi = x(2, ii)
-        ir = min(int(max(ri, 0.0_wp)/cell), nr - 1)
-        iz = min(int((zi - z0)/cell), nz - 1)
-        n_nbr = 0
-        n_cnt = 0
-        do jz = max(iz - 1, 0), min(iz + 1, nz - 1)
-          ! real neighbours and contact candidates
-          do jr = max(ir - 1, 0), min(ir + 1, nr - 1)
-            c = 1 + jr + nr*jz
-            do kk = cell_start(c), cell_start(c + 1) - 1
-              jj = cell_items(kk)
-              if (jj == ii) cycle
-              reach2 = (kernel_support*0.5_wp*(h(ii) + h(jj)))**2
-              d2 = (ri - x(1, jj))**2 + (zi - x(2, jj))**2
-              if (d2 >= reach2) cycle
-              if (body(jj) == body(ii)) then
-                n_nbr = n_nbr + 1
-                if (fill_lists) nbr_list(nbr_ptr(ii) + n_nbr - 1) = jj
-              else if (jj <= nq) then
-                n_cnt = n_cnt + 1
-                if (fill_lists) cnt_list(cnt_ptr(ii) + n_cnt - 1) = jj
-              end if
-            end do
-          end do
-          ! ghosts: mirrors (-r_j, z_j) of same-body particles in the first
-          ! column, for particles whose support can reach the axis
-          if (ir <= 1) then
-            c = 1 + nr*jz
-            do kk = cell_start(c), cell_start(c + 1) - 1
-              jj = cell_items(kk)
-              if (body(jj) /= body(ii)) cycle
-              reach2 = (kernel_support*0.5_wp*(h(ii) + h(jj)))**2
-              d2 = (ri + x(1, jj))**2 + (zi - x(2, jj))**2
-              if (d2 >= reach2) cycle
-              n_nbr = n_nbr + 1
-              if (fill_lists) nbr_list(nbr_ptr(ii) + n_nbr - 1) = -jj
-            end do
+  !> Rows of the strided buffers for nq points at the current widths, each
+  !> with one scratch slot after the width.
+  subroutine ensure_rows(work, nq)
+    type(neighbour_work_t), intent(inout) :: work
+    integer, intent(in) :: nq
+    if (allocated(work%nbr_row)) then
+      if (size(work%nbr_row, 1) < work%width + 1 .or. size(work%cnt_row, 1) < work%contact_width .or. &
+          size(work%nbr_row, 2) < nq) deallocate (work%nbr_row, work%cnt_row, work%n_nbr, work%n_cnt)
+    end if
+    if (.not. allocated(work%nbr_row)) allocate (work%nbr_row(work%width + 1, nq), &
+                                                 work%cnt_row(work%contact_width, nq), &
+                                                 work%n_nbr(nq), work%n_cnt(nq))
+  end subroutine ensure_rows
+
+  !> One pass over the real points: their neighbours, ghosts and contact
+  !> candidates go to their rows (up to the row width; the counts go on, so
+  !> the caller sees an overflow).
+  subroutine scan_points(nq, n, x, h, body, cell, nr, nz, z0, work)
+    integer, intent(in) :: nq, n, nr, nz
+    real(wp), intent(in) :: x(2, n), h(n), cell, z0
+    integer, intent(in) :: body(n)
+    type(neighbour_work_t), intent(inout) :: work
+    integer :: ii, jj, ir, iz, jz, c, kk, n_nbr, n_cnt, bi, width, cwidth, near, same
+    real(wp) :: ri, zi, reach_i, reach, d2
+    ! a row holds width entries; writes past them go to the scratch slot
+    ! width + 1, and a count above width makes the caller widen and rescan
+    width = work%width
+    cwidth = work%contact_width
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(nq, x, h, body, cell, z0, nr, nz, work, width, cwidth) &
+    !$omp private(ii, jj, ir, iz, jz, c, kk, n_nbr, n_cnt, bi, ri, zi, reach_i, reach, d2, near, same)
+    do ii = 1, nq
+      ri = x(1, ii)
+      zi = x(2, ii)
+      reach_i = 0.5_wp*kernel_support*h(ii)
+      bi = body(ii)
+      ir = min(int(max(ri, 0.0_wp)/cell), nr - 1)
+      iz = min(int((zi - z0)/cell), nz - 1)
+      n_nbr = 0
+      n_cnt = 0
+      do jz = max(iz - 1, 0), min(iz + 1, nz - 1)
+        ! real neighbours and contact candidates
+        c = 1 + max(ir - 1, 0) + nr*jz
+        do kk = work%cell_start(c), work%cell_start(1 + min(ir + 1, nr - 1) + nr*jz + 1) - 1
+          jj = work%item(kk)
+          d2 = (ri - work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
+          reach = reach_i + work%reach_s(kk)
+          ! 0/1 flags, so the common path has no data-dependent branch
+          near = merge(1, 0, d2 < reach*reach)*merge(1, 0, jj /= ii)
+          same = merge(1, 0, work%body_s(kk) == bi)
+          work%nbr_row(min(n_nbr + 1, width + 1), ii) = jj
+          n_nbr = n_nbr + near*same
+          if (near > same) then
+            ! another body within reach: a contact candidate if real
+            if (jj <= nq) then
+              n_cnt = n_cnt + 1
+              if (n_cnt <= cwidth) work%cnt_row(n_cnt, ii) = jj
+            end if
           end if
         end do
-        if (.not. fill_lists) then
-          nbr_ptr(ii + 1) = n_nbr
-          cnt_ptr(ii + 1) = n_cnt
+        ! ghosts: mirrors (-r_j, z_j) of same-body points in the first
+        ! column, for points whose support can reach the axis
+        if (ir <= 1) then
+          c = 1 + nr*jz
+          do kk = work%cell_start(c), work%cell_start(c + 1) - 1
+            d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
+            reach = reach_i + work%reach_s(kk)
+            work%nbr_row(min(n_nbr + 1, width + 1), ii) = -work%item(kk)
+            n_nbr = n_nbr + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
+          end do
         end if
       end do
-      !$omp end parallel do
-    end subroutine scan_pairs
-
-  end subroutine build_neighbors
+      work%n_nbr(ii) = n_nbr
+      work%n_cnt(ii) = n_cnt
+    end do
+    !$omp end parallel do
+  end subroutine scan_points
 
   !> Grow an allocatable list to hold at least m entries (by 25 % headroom,
   !> so growth is rare).

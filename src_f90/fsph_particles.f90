@@ -5,7 +5,7 @@ module fsph_particles
   use fsph_kinds, only: wp, two_pi
   use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
                          status_particle_axis
-  use fsph_material, only: n_props, n_hist, particle_material_update, eos_pressure, sound_speed, &
+  use fsph_material, only: n_props, n_hist, material_update, eos_pressure, sound_speed, &
                            prop_pmin, prop_shear, prop_rho0, eos_hjc
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use fsph_kernel, only: kernel_w, kernel_dwdr
@@ -16,39 +16,47 @@ module fsph_particles
 
 contains
 
-  !> rho <- rho + dt drho, e <- e + dt de, then the strength and EOS update
-  !> of fsph_material (shared with elements). A particle whose density falls
-  !> below debris_ratio times its reference density is debris (fragments
-  !> that have separated: the particle's volume is mostly void): its density
-  !> is held at that bound and it carries no stress. ierr/ifault: first
-  !> particle with a non-positive radius position, non-finite state or EOS
-  !> range; n_debris the number of debris particles.
+  !> rho <- rho + dt drho, then the constitutive step of fsph_material
+  !> (shared with elements): deviator, and the end-of-step pressure with a
+  !> local energy estimate (the Wilkins p dv work of the step, solved with
+  !> the equation of state), which the mid-step stress of the SPH energy
+  !> equation needs; the energy itself is then integrated by that equation
+  !> (particle_energy_update), which sets the final pressure. A particle
+  !> whose density falls below debris_ratio times its reference density is
+  !> debris (fragments that have separated: the particle's volume is mostly
+  !> void): its density is held at that bound and it carries no stress.
+  !> ierr/ifault: first particle with a non-positive radius position, a
+  !> non-finite or non-positive density, a non-finite stress or a density
+  !> beyond the range of its equation of state; n_debris the number of
+  !> debris particles.
   subroutine particle_state_update(n, nmat, props, istrength, ieos, mat, dt, debris_ratio, x, drho, &
-                                   de, d, spin, rho, e, s, p, eps_p, temp, hist, c, n_debris, ierr, ifault)
+                                   d, spin, e, rho, s, p, eps_p, temp, hist, c, n_debris, ierr, ifault)
     integer, intent(in) :: n, nmat
     real(wp), intent(in) :: props(n_props, nmat)
     integer, intent(in) :: istrength(nmat), ieos(nmat), mat(n)
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
-    real(wp), intent(in) :: dt, x(2, n), drho(n), de(n), d(4, n), spin(n)
-    real(wp), intent(inout) :: rho(n), e(n), s(4, n), p(n), eps_p(n), temp(n), c(n)
+    real(wp), intent(in) :: dt, x(2, n), drho(n), d(4, n), spin(n)
+    real(wp), intent(in) :: e(n)          !< specific internal energy at the start of the step [J/kg]
+    real(wp), intent(inout) :: rho(n), s(4, n), p(n), eps_p(n), temp(n), c(n)
     real(wp), intent(inout) :: hist(n_hist, n)  !< material history (damage, ...)
     integer, intent(out) :: n_debris, ierr, ifault
     integer :: i, im, ierr_i, f_axis, f_nan, f_eos
-    real(wp) :: rho_debris
+    real(wp) :: rho_debris, rho_old, e_local
     f_axis = n + 1; f_nan = n + 1; f_eos = n + 1
     n_debris = 0
     !$omp parallel do default(none) &
-    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, x, drho, de, d, spin) &
-    !$omp shared(rho, e, s, p, eps_p, temp, hist, c) &
-    !$omp private(i, im, ierr_i, rho_debris) reduction(min:f_axis, f_nan, f_eos) reduction(+:n_debris)
+    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, x, drho, d, spin, e) &
+    !$omp shared(rho, s, p, eps_p, temp, hist, c) &
+    !$omp private(i, im, ierr_i, rho_debris, rho_old, e_local) reduction(min:f_axis, f_nan, f_eos) &
+    !$omp reduction(+:n_debris)
     do i = 1, n
       if (.not. (x(1, i) > 0.0_wp)) then
         f_axis = min(f_axis, i)
         cycle
       end if
       im = mat(i)
-      rho(i) = rho(i) + dt*drho(i)
-      e(i) = e(i) + dt*de(i)
+      rho_old = rho(i)
+      rho(i) = rho_old + dt*drho(i)
       if (.not. (ieee_is_finite(rho(i)) .and. ieee_is_finite(e(i)))) then
         f_nan = min(f_nan, i)
         cycle
@@ -65,9 +73,10 @@ contains
         f_nan = min(f_nan, i)
         cycle
       end if
-      call particle_material_update(props(:, im), istrength(im), ieos(im), dt, d(:, i), spin(i), &
-                                    rho(i), e(i), s(:, i), p(i), eps_p(i), temp(i), hist(:, i), c(i), &
-                                    ierr_i)
+      ! the pairwise viscosity does its work through the SPH energy sum
+      e_local = e(i)
+      call material_update(props(:, im), istrength(im), ieos(im), dt, d(:, i), spin(i), rho_old, rho(i), &
+                           0.0_wp, s(:, i), p(i), eps_p(i), e_local, temp(i), hist(:, i), c(i), ierr_i)
       if (ierr_i /= status_ok) f_eos = min(f_eos, i)
       if (.not. (ieee_is_finite(p(i)) .and. all(ieee_is_finite(s(:, i))))) f_nan = min(f_nan, i)
     end do
@@ -85,7 +94,10 @@ contains
 
   !> Final internal energy e = e_old + dt de (de from the mid-step stress)
   !> and the pressure and sound speed that follow from it at the new
-  !> density (the deviator is already final); debris keeps p = 0.
+  !> density (the deviator is already final); debris keeps p = 0, HJC
+  !> concrete its energy-independent pressure. ierr/ifault: the first
+  !> particle with a non-finite energy or pressure, or a density beyond the
+  !> range of its equation of state.
   subroutine particle_energy_update(n, nmat, props, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, c, &
                                     ierr, ifault)
     integer, intent(in) :: n, nmat
@@ -95,11 +107,12 @@ contains
     real(wp), intent(in) :: dt, e_old(n), de(n), rho(n)
     real(wp), intent(inout) :: e(n), p(n), c(n)
     integer, intent(out) :: ierr, ifault
-    integer :: i, im, ierr_i, f_nan
+    integer :: i, im, ierr_i, f_nan, f_eos
     real(wp) :: a, b, dadrho
     f_nan = n + 1
+    f_eos = n + 1
     !$omp parallel do default(none) shared(n, props, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, c) &
-    !$omp private(i, im, ierr_i, a, b, dadrho) reduction(min:f_nan)
+    !$omp private(i, im, ierr_i, a, b, dadrho) reduction(min:f_nan, f_eos)
     do i = 1, n
       im = mat(i)
       e(i) = e_old(i) + dt*de(i)
@@ -109,7 +122,11 @@ contains
         cycle
       end if
       call eos_pressure(props(:, im), ieos(im), rho(i), a, b, dadrho, ierr_i)
-      p(i) = max(a + b*e(i), props(prop_pmin, im))
+      if (ierr_i /= status_ok) then
+        f_eos = min(f_eos, i)
+        cycle
+      end if
+      p(i) = max(a + b*e(i), props(prop_pmin, im))   ! spall cut-off, as for elements
       c(i) = sound_speed(props(prop_shear, im), dadrho, b, rho(i), p(i))
       if (.not. (ieee_is_finite(e(i)) .and. ieee_is_finite(p(i)))) f_nan = min(f_nan, i)
     end do
@@ -118,6 +135,8 @@ contains
     ifault = 0
     if (f_nan <= n) then
       ierr = status_nonfinite_particle; ifault = f_nan
+    else if (f_eos <= n) then
+      ierr = status_eos_range; ifault = f_eos
     end if
   end subroutine particle_energy_update
 

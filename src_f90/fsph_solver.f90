@@ -8,12 +8,13 @@ module fsph_solver
   use fsph_state, only: sim, history_columns
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
                            strength_elastic, strength_hjc, eos_linear, eos_hjc
-  use fsph_element, only: element_geometry, element_strain_rates, element_corner_forces, &
-                          gather_corner_forces, element_stress_update, element_time_step
+  use fsph_element, only: element_geometry, element_corner_forces, gather_corner_forces, &
+                          element_update, element_time_step
   use fsph_boundary, only: apply_axis, apply_rigid_plane
   use fsph_integrate, only: integrate_velocities, integrate_positions
   use fsph_neighbors, only: build_neighbors
-  use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius
+  use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
+                      pair_weights
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
@@ -22,6 +23,10 @@ module fsph_solver
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct
   use fsph_erosion, only: erode_elements
+  use fsph_timers, only: timer_start, timer_stop, phase_element_forces, phase_element_update, &
+                         phase_neighbours, phase_sph_sums, phase_particle_update, &
+                         phase_particle_contact, phase_coupling, phase_contact, phase_integrate, &
+                         phase_conversion, phase_step
   implicit none
   private
 
@@ -285,33 +290,45 @@ contains
     !    tractions on interface edges; tied particles' forces to their edges
     call compute_forces(dt_step)
     ! 2. central difference: velocities to t^(n+1/2)
+    call timer_start(phase_integrate)
     call update_velocities(0.5_wp*(sim%dt_last + dt_step))
+    call timer_stop(phase_integrate)
     ! 3. contact between bodies, then boundary conditions on the half-step
     !    velocities; tied particles follow their edges
+    call timer_start(phase_contact)
     call contact_correct(dt_step, 0.5_wp*(sim%dt_last + dt_step))
+    call timer_stop(phase_contact)
+    call timer_start(phase_integrate)
     call apply_boundaries(dt_step)
     call finish_particle_kick(0.5_wp*(sim%dt_last + dt_step), dt_step)
     ! 4. positions to t^(n+1); the clock moves with them, so a failure in
     !    the rest of the cycle is reported at the time the geometry reached
     call update_positions(dt_step, ierr, ifault)
+    call timer_stop(phase_integrate)
     if (ierr /= status_ok) return
     sim%time = sim%time + dt_step
     sim%cycle = sim%cycle + 1
     sim%dt_last = dt_step
     ! 5. element strain rates at mid-step, new geometry, stress update
+    call timer_start(phase_element_update)
     call update_elements(dt_step, ierr, ifault)
+    call timer_stop(phase_element_update)
     if (ierr /= status_ok) return
     ! 6. particle rates at mid-step (density, energy, strain rate), update
     call update_particles(dt_step, ierr, ifault)
     if (ierr /= status_ok) return
     ! 7. erosion of over-strained elements (FEM baseline), conversion of
     !    distorted element groups, surface and ties
+    call timer_start(phase_conversion)
     call erode_elements(n_new)
     call convert_elements(n_new)
+    call timer_stop(phase_conversion)
     ! 8. next stable step
+    call timer_start(phase_step)
     sim%dt_previous = sim%dt
     call solver_stable_step()
     if (mod(sim%cycle, sim%control%history_every) == 0) call record_history()
+    call timer_stop(phase_step)
     if (sim%dt < sim%control%dt_floor_ratio*sim%dt_initial) then
       ierr = status_dt_floor
       ifault = sim%dt_element - sim%dt_particle   ! particle faults are negative
@@ -326,23 +343,34 @@ contains
     integer :: n, ntot
     associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
       if (el%n > 0) then
+        call timer_start(phase_element_forces)
         call element_corner_forces(el%n, nd%n, el%conn, nd%x, el%s, el%p, el%q, el%fc)
         call gather_corner_forces(nd%n, el%n, size(nd%corner_list), nd%corner_ptr, nd%corner_list, &
                                   el%fc, nd%f)
+        call timer_stop(phase_element_forces)
       end if
       n = pt%n
       if (n > 0) then
+        call timer_start(phase_neighbours)
         call prepare_particle_sums(ntot)
-        call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%nbr_ptr, &
-                               pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
+        call timer_stop(phase_neighbours)
+        call timer_start(phase_sph_sums)
+        call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
+        call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
+                               pt%nbr_ptr, pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
                                pt%pair_q, pt%acc_imag)
+        call timer_stop(phase_sph_sums)
+        call timer_start(phase_particle_contact)
         call update_particle_radius()
         call particle_contact_accelerations(n, pt%x, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, &
                                             dt_step, sim%control%contact_penalty, &
                                             sim%control%contact_touch, sim%control%contact_slope, pt%acc)
+        call timer_stop(phase_particle_contact)
         if (el%n > 0) then
+          call timer_start(phase_coupling)
           call coupling_tractions()
           call tie_forces()
+          call timer_stop(phase_coupling)
         end if
       end if
     end associate
@@ -359,16 +387,16 @@ contains
       pt%n_imag = 0
       if (sim%elements%n > 0) call fill_imaginary(stage_start)
       ntot = n + pt%n_imag
-      call build_neighbors(n, ntot, pt%x, pt%h, pt%continuum, pt%cell_of, pt%cell_start, &
-                           pt%cell_items, pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+      call build_neighbors(n, ntot, pt%x, pt%h, pt%continuum, pt%search, &
+                           pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
       do i = 1, n
         pt%sig(:, i) = pt%s(:, i)
         pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
       end do
       if (allocated(pt%pair_q)) then
-        if (size(pt%pair_q) < size(pt%nbr_list)) deallocate (pt%pair_q)
+        if (size(pt%pair_q) < size(pt%nbr_list)) deallocate (pt%pair_q, pt%nbr_grad)
       end if
-      if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)))
+      if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)), pt%nbr_grad(2, size(pt%nbr_list)))
     end associate
   end subroutine prepare_particle_sums
 
@@ -451,14 +479,10 @@ contains
     ifault = 0
     associate (el => sim%elements, nd => sim%nodes)
       if (el%n == 0) return
-      call element_strain_rates(el%n, nd%n, el%conn, nd%x_mid, nd%v, el%d, el%spin)
-      call element_geometry(el%n, nd%n, el%conn, nd%x, el%area, el%rbar, el%volume, el%lmin, &
-                            ierr, ifault)
-      if (ierr /= status_ok) return
-      call element_stress_update(el%n, sim%n_materials, sim%props, sim%istrength, sim%ieos, &
-                                 el%mat, dt_step, sim%control%c_q, sim%control%c_l, el%d, el%spin, &
-                                 el%mass, el%volume, el%area, el%rho, el%q, el%s, el%p, el%eps_p, &
-                                 el%e, el%temp, el%hist, el%c, ierr, ifault)
+      call element_update(el%n, nd%n, sim%n_materials, el%conn, nd%x_mid, nd%x, nd%v, sim%props, &
+                          sim%istrength, sim%ieos, el%mat, dt_step, sim%control%c_q, sim%control%c_l, &
+                          el%mass, el%d, el%spin, el%area, el%rbar, el%volume, el%lmin, el%rho, el%q, &
+                          el%s, el%p, el%eps_p, el%e, el%temp, el%hist, el%c, ierr, ifault)
     end associate
   end subroutine update_elements
 
@@ -482,27 +506,38 @@ contains
         ifault = -findloc(.not. (pt%x_mid(1, 1:n) > 0.0_wp), .true., dim=1)
         return
       end if
+      call timer_start(phase_coupling)
       if (pt%n_imag > 0) call fill_imaginary(stage_mid)
+      call timer_stop(phase_coupling)
       ntot = n + pt%n_imag
-      call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%nbr_ptr, pt%nbr_list, &
-                     pt%pair_q, pt%drho, pt%de, pt%d, pt%spin)
+      call timer_start(phase_sph_sums)
+      call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho, pt%wgt, pt%planar_area)
+      call sph_rates(n, ntot, pt%x_mid, pt%v, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
+                     pt%nbr_grad, pt%drho, pt%d, pt%spin)
+      call timer_stop(phase_sph_sums)
+      call timer_start(phase_particle_update)
       pt%e_old(1:n) = pt%e(1:n)
       pt%rho_old(1:n) = pt%rho(1:n)
-      call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, &
-                                 dt_step, sim%control%debris_ratio, pt%x, pt%drho, pt%de, pt%d, pt%spin, &
-                                 pt%rho, pt%e, pt%s, pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, pt%n_debris, &
-                                 ierr, ifault)
+      call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, dt_step, &
+                                 sim%control%debris_ratio, pt%x, pt%drho, pt%d, pt%spin, pt%e, pt%rho, &
+                                 pt%s, pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, pt%n_debris, ierr, ifault)
+      call timer_stop(phase_particle_update)
       if (ierr == status_ok) then
+        call timer_start(phase_sph_sums)
         do i = 1, n
           pt%sig_mid(:, i) = 0.5_wp*(pt%sig(:, i) + pt%s(:, i))
           pt%sig_mid([1, 2, 4], i) = pt%sig_mid([1, 2, 4], i) - 0.5_wp*pt%p(i)
           pt%rho_mid(i) = 0.5_wp*(pt%rho_old(i) + pt%rho(i))
         end do
-        call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%h, pt%sig_mid, &
-                             pt%nbr_ptr, pt%nbr_list, pt%pair_q, pt%de)
+        call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
+        call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, pt%wgt, &
+                             pt%nbr_ptr, pt%nbr_list, pt%pair_q, pt%nbr_grad, pt%de)
+        call timer_stop(phase_sph_sums)
+        call timer_start(phase_particle_update)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
                                     sim%control%debris_ratio, pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%c, &
                                     ierr, ifault)
+        call timer_stop(phase_particle_update)
       end if
       ifault = -ifault
     end associate

@@ -23,11 +23,11 @@
 !> alpha = C_L, beta = C_Q^2.
 module fsph_sph
   use fsph_kinds, only: wp, pi, two_pi
-  use fsph_kernel, only: kernel_dwdr
+  use fsph_kernel, only: kernel_gradient_factor
   implicit none
   private
 
-  public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius
+  public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
 
   !> Softening of the pairwise strain rate, times h^2 [-].
   real(wp), parameter :: visc_softening = 0.01_wp
@@ -48,45 +48,52 @@ contains
     radius = 0.5_wp*sqrt(mass/(two_pi*abs(r)*rho))
   end function particle_radius
 
-  !> Neighbour of an entry: index j, position, velocity, total stress and
-  !> signed ring mass (negative for a ghost, see the module header).
-  pure subroutine neighbour_view(entry, x, v, sig, mass, j, xj, vj, sj, mj)
-    integer, intent(in) :: entry
-    real(wp), intent(in) :: x(:, :), v(:, :), sig(:, :), mass(:)
-    integer, intent(out) :: j
-    real(wp), intent(out) :: xj(2), vj(2), sj(4), mj
-    j = abs(entry)
-    xj = x(:, j)
-    vj = v(:, j)
-    sj = sig(:, j)
-    mj = mass(j)
-    if (entry < 0) then
-      xj(1) = -xj(1)
-      vj(1) = -vj(1)
-      sj(3) = -sj(3)
-      mj = -mj
-    end if
-  end subroutine neighbour_view
+  !> Per-entry factors of the pair sums, for entries 1..ntot (real and
+  !> imaginary particles): the stress weight w = r/eta^2 =
+  !> 1/(4 pi^2 r rho^2) [m^5/kg^2] and the planar area A = m/(2 pi r rho)
+  !> [m^2]. A ghost (mirror) entry has weight -w and
+  !> the same area; m/r = 2 pi rho A of a ghost is that of its particle.
+  subroutine pair_weights(ntot, x, mass, rho, wgt, area)
+    integer, intent(in) :: ntot
+    real(wp), intent(in) :: x(2, ntot), mass(ntot), rho(ntot)
+    real(wp), intent(out) :: wgt(ntot), area(ntot)
+    integer :: i
+    !$omp parallel do default(none) shared(ntot, x, mass, rho, wgt, area) private(i)
+    do i = 1, ntot
+      wgt(i) = 1.0_wp/(4.0_wp*pi*pi*x(1, i)*rho(i)**2)
+      area(i) = mass(i)/(two_pi*x(1, i)*rho(i))
+    end do
+    !$omp end parallel do
+  end subroutine pair_weights
 
-  !> Pairwise artificial viscous pressure q_ij [Pa] (see module header).
+  !> Sign of a neighbour entry as a factor: -1 for a ghost (-j), +1 else.
+  !> A ghost's r, v_r, sigma_rz, signed ring mass and stress weight are
+  !> those of j times this factor.
+  pure real(wp) function entry_sign(entry)
+    integer, intent(in) :: entry
+    entry_sign = merge(-1.0_wp, 1.0_wp, entry < 0)
+  end function entry_sign
+
+  !> Pairwise artificial viscous pressure q_ij [Pa] (see module header);
+  !> zero for a pair that separates (eps = 0, no branch: about half of the
+  !> pairs of a compressed region approach).
   pure function pair_viscosity(dx, dv, dist2, hij, rho_ij, c_ij, c_q, c_l) result(q)
     real(wp), intent(in) :: dx(2), dv(2), dist2, hij, rho_ij, c_ij, c_q, c_l
-    real(wp) :: q, vx, eps
-    q = 0.0_wp
-    vx = dv(1)*dx(1) + dv(2)*dx(2)
-    if (vx >= 0.0_wp) return
-    eps = vx/(dist2 + visc_softening*hij*hij)
-    q = rho_ij*(c_q*hij*eps)**2 + c_l*rho_ij*c_ij*hij*abs(eps)
+    real(wp) :: q, eps
+    eps = min(dv(1)*dx(1) + dv(2)*dx(2), 0.0_wp)/(dist2 + visc_softening*hij*hij)
+    q = rho_ij*(c_q*hij*eps)**2 - c_l*rho_ij*c_ij*hij*eps
   end function pair_viscosity
 
   !> Pair stress S = w_i sig_i + w_j sig_j - q_ij (w_i + w_j) I of the
-  !> momentum and energy equations, w = r/eta^2 = 1/(4 pi^2 r rho^2).
-  pure function pair_stress(wi, sig_i, wj, sig_j, q) result(stot)
-    real(wp), intent(in) :: wi, sig_i(4), wj, sig_j(4), q
+  !> momentum and energy equations, w = r/eta^2 = 1/(4 pi^2 r rho^2), for a
+  !> neighbour j seen with sign sg (sigma_rz and w of a ghost change sign).
+  pure function pair_stress(wi, sig_i, wj, sig_j, sg, q) result(stot)
+    real(wp), intent(in) :: wi, sig_i(4), wj, sig_j(4), sg, q
     real(wp) :: stot(4)
-    stot = wi*sig_i + wj*sig_j
-    stot(1) = stot(1) - q*(wi + wj)
-    stot(2) = stot(2) - q*(wi + wj)
+    stot(1) = wi*sig_i(1) + wj*sig_j(1) - q*(wi + wj)
+    stot(2) = wi*sig_i(2) + wj*sig_j(2) - q*(wi + wj)
+    stot(3) = wi*sig_i(3) + wj*sg*sig_j(3)
+    stot(4) = wi*sig_i(4) + wj*sig_j(4)
   end function pair_stress
 
   !> Work term S : (v_j - v_i) grad W of eq 3 for one pair.
@@ -101,49 +108,53 @@ contains
   !> stress sig = s - p I (rr, zz, rz, tt):
   !>  a_r = -sig_tt/(rho r) + 2 pi sum m_j [S^rr dW/dr + S^rz dW/dz]
   !>  a_z =                   2 pi sum m_j [S^rz dW/dr + S^zz dW/dz]
-  !> with S = r_i sig_i/eta_i^2 + r_j sig_j/eta_j^2 - q_ij (...) I.
+  !> with S = r_i sig_i/eta_i^2 + r_j sig_j/eta_j^2 - q_ij (...) I; wgt are
+  !> the stress weights of pair_weights at these positions and densities.
   !> The pairwise viscous pressures are stored per neighbour entry in
   !> pair_q so that the energy equation charges exactly the viscous work
   !> these forces do.
-  subroutine sph_accelerations(n, ntot, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, &
+  subroutine sph_accelerations(n, ntot, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, c_q, c_l, &
                                acc, pair_q, acc_imag)
     integer, intent(in) :: n             !< real particles (rows computed)
     integer, intent(in) :: ntot          !< real and imaginary particles (neighbours)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), c(ntot), sig(4, ntot)
+    real(wp), intent(in) :: wgt(ntot)    !< stress weights 1/(4 pi^2 r rho^2)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
     real(wp), intent(out) :: acc(2, n)
     real(wp), intent(out) :: pair_q(*)   !< viscous pressure of each entry [Pa]
     real(wp), intent(out) :: acc_imag(2, n) !< the part of acc from imaginary neighbours [m/s^2]
     integer :: i, k, j
-    real(wp) :: xj(2), vj(2), sj(4), mj, dx(2), dist2, dist, hij, dw, grad(2), wi, wj, q, stot(4), a(2)
-    real(wp) :: a_imag(2), da(2)
+    real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, wj, mj, q, stot(4), a(2), a_imag(2), da(2)
     !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x, v, mass, rho, h, c, sig, nbr_ptr, nbr_list, c_q, c_l, acc, pair_q, acc_imag) &
-    !$omp private(i, k, j, xj, vj, sj, mj, dx, dist2, dist, hij, dw, grad, wi, wj, q, stot, a, a_imag, da)
+    !$omp shared(n, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, c_q, c_l, acc, pair_q, acc_imag) &
+    !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, wj, mj, q, stot, a, a_imag, da)
     do i = 1, n
-      wi = 1.0_wp/(4.0_wp*pi*pi*x(1, i)*rho(i)**2)
+      wi = wgt(i)
       a(1) = -sig(4, i)/(rho(i)*x(1, i))
       a(2) = 0.0_wp
       a_imag = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
-        call neighbour_view(nbr_list(k), x, v, sig, mass, j, xj, vj, sj, mj)
-        dx = x(:, i) - xj
+        j = abs(nbr_list(k))
+        sg = entry_sign(nbr_list(k))
+        dx(1) = x(1, i) - sg*x(1, j)
+        dx(2) = x(2, i) - x(2, j)
         dist2 = dx(1)**2 + dx(2)**2
         pair_q(k) = 0.0_wp
         if (dist2 <= 0.0_wp) cycle
-        dist = sqrt(dist2)
         hij = 0.5_wp*(h(i) + h(j))
-        dw = kernel_dwdr(dist, hij)
-        grad = dw*dx/dist
-        wj = 1.0_wp/(4.0_wp*pi*pi*xj(1)*rho(j)**2)
-        q = pair_viscosity(dx, v(:, i) - vj, dist2, hij, 0.5_wp*(rho(i) + rho(j)), &
-                           0.5_wp*(c(i) + c(j)), c_q, c_l)
+        grad = kernel_gradient_factor(dist2, 1.0_wp/hij)*dx
+        dv(1) = v(1, i) - sg*v(1, j)
+        dv(2) = v(2, i) - v(2, j)
+        q = pair_viscosity(dx, dv, dist2, hij, 0.5_wp*(rho(i) + rho(j)), 0.5_wp*(c(i) + c(j)), c_q, c_l)
         pair_q(k) = q
-        stot = pair_stress(wi, sig(:, i), wj, sj, q)
-        da = two_pi*mj*[stot(1)*grad(1) + stot(3)*grad(2), stot(3)*grad(1) + stot(2)*grad(2)]
+        wj = sg*wgt(j)
+        mj = sg*mass(j)
+        stot = pair_stress(wi, sig(:, i), wj, sig(:, j), sg, q)
+        da(1) = two_pi*mj*(stot(1)*grad(1) + stot(3)*grad(2))
+        da(2) = two_pi*mj*(stot(3)*grad(1) + stot(2)*grad(2))
         a = a + da
-        if (nbr_list(k) > n) a_imag = a_imag + da
+        a_imag = a_imag + merge(da, [0.0_wp, 0.0_wp], nbr_list(k) > n)
       end do
       acc(:, i) = a
       acc_imag(:, i) = a_imag
@@ -151,57 +162,54 @@ contains
     !$omp end parallel do
   end subroutine sph_accelerations
 
-  !> Rates for the update of density (eq 1), specific internal energy
-  !> (eq 3, with the same pair stress as the momentum equation, so the
-  !> energy of the sums is conserved) and the velocity gradient, corrected
-  !> (Randles-Libersky) so that a linear velocity field is differentiated
-  !> exactly: strain rates d (rr, zz, rz, tt) with d_tt = v_r/r, and spin.
-  subroutine sph_rates(n, ntot, x, v, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, drho, de, d, spin)
+  !> Rates for the update of density (eq 1) and the velocity gradient,
+  !> corrected (Randles-Libersky) so that a linear velocity field is
+  !> differentiated exactly: strain rates d (rr, zz, rz, tt) with
+  !> d_tt = v_r/r, and spin. area is the planar area of pair_weights at
+  !> these positions and densities. The kernel gradient of every entry is
+  !> returned in grad for the energy sum at the same positions
+  !> (sph_energy_rate, eq 3).
+  subroutine sph_rates(n, ntot, x, v, rho, h, area, nbr_ptr, nbr_list, grad, drho, d, spin)
     integer, intent(in) :: n, ntot
-    real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), sig(4, ntot)
+    real(wp), intent(in) :: x(2, ntot), v(2, ntot), rho(ntot), h(ntot), area(ntot)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
-    real(wp), intent(in) :: pair_q(*)    !< viscous pressures of the accelerations [Pa]
+    real(wp), intent(out) :: grad(2, *)  !< kernel gradient grad_i W of each entry [1/m^3]
     real(wp), intent(out) :: drho(n)     !< [kg/(m^3 s)]
-    real(wp), intent(out) :: de(n)       !< [J/(kg s)]
     real(wp), intent(out) :: d(4, n), spin(n) !< [1/s]
     integer :: i, k, j
-    real(wp) :: xj(2), vj(2), sj(4), mj, dx(2), dvji(2), dist2, dist, hij, dw, grad(2), wi, wj
-    real(wp) :: stot(4), vol_j, gv(2, 2), lm(2, 2), inv(2, 2), det, g(2, 2), sum_rho, sum_e
+    real(wp) :: sg, dx(2), dvji(2), dist2, g_ij(2), vol_j, gv(2, 2), lm(2, 2)
+    real(wp) :: inv(2, 2), det, g(2, 2), sum_rho
     !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x, v, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, drho, de, d, spin) &
-    !$omp private(i, k, j, xj, vj, sj, mj, dx, dvji, dist2, dist, hij, dw, grad, wi, wj, stot) &
-    !$omp private(vol_j, gv, lm, inv, det, g, sum_rho, sum_e)
+    !$omp shared(n, x, v, rho, h, area, nbr_ptr, nbr_list, grad, drho, d, spin) &
+    !$omp private(i, k, j, sg, dx, dvji, dist2, g_ij, vol_j, gv, lm, inv, det, g, sum_rho)
     do i = 1, n
-      wi = 1.0_wp/(4.0_wp*pi*pi*x(1, i)*rho(i)**2)
       sum_rho = 0.0_wp
-      sum_e = 0.0_wp
       gv = 0.0_wp
       lm = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
-        call neighbour_view(nbr_list(k), x, v, sig, mass, j, xj, vj, sj, mj)
-        dx = x(:, i) - xj
+        j = abs(nbr_list(k))
+        sg = entry_sign(nbr_list(k))
+        dx(1) = x(1, i) - sg*x(1, j)
+        dx(2) = x(2, i) - x(2, j)
         dist2 = dx(1)**2 + dx(2)**2
-        if (dist2 <= 0.0_wp) cycle
-        dist = sqrt(dist2)
-        hij = 0.5_wp*(h(i) + h(j))
-        dw = kernel_dwdr(dist, hij)
-        grad = dw*dx/dist
-        dvji = vj - v(:, i)
-        ! (1): (1/2 pi) sum m_j/r_j (v_i - v_j).grad W
-        sum_rho = sum_rho - mj/xj(1)*(dvji(1)*grad(1) + dvji(2)*grad(2))
-        ! (3): pi sum m_j S : (v_j - v_i) grad W
-        wj = 1.0_wp/(4.0_wp*pi*pi*xj(1)*rho(j)**2)
-        stot = pair_stress(wi, sig(:, i), wj, sj, pair_q(k))
-        sum_e = sum_e + mj*pair_work(stot, dvji, grad)
+        if (dist2 <= 0.0_wp) then
+          grad(:, k) = 0.0_wp
+          cycle
+        end if
+        g_ij = kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j)))*dx
+        grad(:, k) = g_ij
+        dvji(1) = sg*v(1, j) - v(1, i)
+        dvji(2) = v(2, j) - v(2, i)
+        vol_j = area(j)
+        ! (1): (1/2 pi) sum m_j/r_j (v_i - v_j).grad W, m_j/r_j = 2 pi rho_j A_j
+        sum_rho = sum_rho - rho(j)*vol_j*(dvji(1)*g_ij(1) + dvji(2)*g_ij(2))
         ! velocity gradient and its correction matrix, planar volume A_j
-        vol_j = mj/(two_pi*xj(1)*rho(j))
-        gv(:, 1) = gv(:, 1) + vol_j*dvji*grad(1)
-        gv(:, 2) = gv(:, 2) + vol_j*dvji*grad(2)
-        lm(:, 1) = lm(:, 1) - vol_j*dx*grad(1)
-        lm(:, 2) = lm(:, 2) - vol_j*dx*grad(2)
+        gv(:, 1) = gv(:, 1) + vol_j*dvji*g_ij(1)
+        gv(:, 2) = gv(:, 2) + vol_j*dvji*g_ij(2)
+        lm(:, 1) = lm(:, 1) - vol_j*dx*g_ij(1)
+        lm(:, 2) = lm(:, 2) - vol_j*dx*g_ij(2)
       end do
-      drho(i) = -rho(i)*v(1, i)/x(1, i) + sum_rho/two_pi
-      de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + pi*sum_e
+      drho(i) = -rho(i)*v(1, i)/x(1, i) + sum_rho
       ! g = gv L^-1 where the correction applies
       det = lm(1, 1)*lm(2, 2) - lm(1, 2)*lm(2, 1)
       if (det > correction_det_min .and. det < correction_det_max) then
@@ -221,45 +229,46 @@ contains
     !$omp end parallel do
   end subroutine sph_rates
 
-  !> Energy rate of eq 3 alone [J/(kg s)] for the stress, density and
-  !> velocity given (the cycle passes mid-step values, so the stress work
-  !> matches the time-centred force), with the viscous work of the pair
-  !> pressures pair_q charged at the velocities v_visc (the cycle passes the
-  !> mean of the velocities before and after the kick, which is exactly the
+  !> Energy rate of eq 3 alone [J/(kg s)] for the stress and velocities
+  !> given, with the kernel gradients grad of each entry (sph_rates at the
+  !> same positions) and the stress weights wgt of the densities given
+  !> (the cycle passes mid-step values, so the stress work matches the
+  !> time-centred force), with the viscous work of the pair pressures
+  !> pair_q charged at the velocities v_visc (the cycle passes the mean of
+  !> the velocities before and after the kick, which is exactly the
   !> kinetic energy those forces removed).
-  subroutine sph_energy_rate(n, ntot, x, v, v_visc, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, de)
+  subroutine sph_energy_rate(n, ntot, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, pair_q, &
+                             grad, de)
     integer, intent(in) :: n, ntot
-    real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot), h(ntot)
-    real(wp), intent(in) :: sig(4, ntot)
+    real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
+    real(wp), intent(in) :: sig(4, ntot), wgt(ntot)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
-    real(wp), intent(in) :: pair_q(*)
+    real(wp), intent(in) :: pair_q(*), grad(2, *)
     real(wp), intent(out) :: de(n)
     integer :: i, k, j
-    real(wp) :: xj(2), vj(2), sj(4), mj, dx(2), dvji(2), dist2, dist, hij, grad(2), wi, wj, sum_e
-    real(wp) :: vq(2), qwork(4)
+    real(wp) :: sg, dvji(2), wi, wj, mj, sum_e, vq(2), qwork(4), q
     !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x, v, v_visc, mass, rho, h, sig, nbr_ptr, nbr_list, pair_q, de) &
-    !$omp private(i, k, j, xj, vj, sj, mj, dx, dvji, dist2, dist, hij, grad, wi, wj, sum_e, vq, qwork)
+    !$omp shared(n, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, pair_q, grad, de) &
+    !$omp private(i, k, j, sg, dvji, wi, wj, mj, sum_e, vq, qwork, q)
     do i = 1, n
-      wi = 1.0_wp/(4.0_wp*pi*pi*x(1, i)*rho(i)**2)
+      wi = wgt(i)
       sum_e = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
-        call neighbour_view(nbr_list(k), x, v, sig, mass, j, xj, vj, sj, mj)
-        dx = x(:, i) - xj
-        dist2 = dx(1)**2 + dx(2)**2
-        if (dist2 <= 0.0_wp) cycle
-        dist = sqrt(dist2)
-        hij = 0.5_wp*(h(i) + h(j))
-        grad = kernel_dwdr(dist, hij)*dx/dist
-        dvji = vj - v(:, i)
-        wj = 1.0_wp/(4.0_wp*pi*pi*xj(1)*rho(j)**2)
-        sum_e = sum_e + mj*pair_work(pair_stress(wi, sig(:, i), wj, sj, 0.0_wp), dvji, grad)
-        if (pair_q(k) > 0.0_wp) then
-          vq = v_visc(:, j)
-          if (nbr_list(k) < 0) vq(1) = -vq(1)
-          qwork = pair_stress(wi, [0.0_wp, 0.0_wp, 0.0_wp, 0.0_wp], wj, &
-                              [0.0_wp, 0.0_wp, 0.0_wp, 0.0_wp], pair_q(k))
-          sum_e = sum_e + mj*pair_work(qwork, vq - v_visc(:, i), grad)
+        j = abs(nbr_list(k))
+        sg = entry_sign(nbr_list(k))
+        dvji(1) = sg*v(1, j) - v(1, i)
+        dvji(2) = v(2, j) - v(2, i)
+        wj = sg*wgt(j)
+        mj = sg*mass(j)
+        sum_e = sum_e + mj*pair_work(pair_stress(wi, sig(:, i), wj, sig(:, j), sg, 0.0_wp), dvji, grad(:, k))
+        q = pair_q(k)
+        if (q > 0.0_wp) then
+          vq(1) = sg*v_visc(1, j) - v_visc(1, i)
+          vq(2) = v_visc(2, j) - v_visc(2, i)
+          qwork = 0.0_wp
+          qwork(1) = -q*(wi + wj)
+          qwork(2) = qwork(1)
+          sum_e = sum_e + mj*pair_work(qwork, vq, grad(:, k))
         end if
       end do
       de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + pi*sum_e
@@ -278,17 +287,31 @@ contains
     real(wp), intent(in) :: x(2, n), h(n), c(n), v(2, n)
     real(wp), intent(out) :: dt_min
     integer, intent(out) :: icontrol
-    real(wp) :: dti
-    integer :: i
+    real(wp) :: dti, t_min
+    integer :: i, t_i
     dt_min = huge(1.0_wp)
     icontrol = 0
+    ! per-thread minima combined to the lowest index among equal values, as
+    ! a serial scan would find it
+    !$omp parallel default(none) shared(n, x, h, c, v, dt_min, icontrol) private(i, dti, t_min, t_i)
+    t_min = huge(1.0_wp)
+    t_i = 0
+    !$omp do schedule(static)
     do i = 1, n
       dti = min(h(i), 2.0_wp*x(1, i))/(c(i) + sqrt(v(1, i)**2 + v(2, i)**2))
-      if (dti < dt_min) then
-        dt_min = dti
-        icontrol = i
+      if (dti < t_min) then
+        t_min = dti
+        t_i = i
       end if
     end do
+    !$omp end do
+    !$omp critical (particle_step_minimum)
+    if (t_i > 0 .and. (t_min < dt_min .or. (t_min == dt_min .and. t_i < icontrol))) then
+      dt_min = t_min
+      icontrol = t_i
+    end if
+    !$omp end critical (particle_step_minimum)
+    !$omp end parallel
   end subroutine sph_time_step
 
 end module fsph_sph

@@ -4,6 +4,7 @@
 module fsph_state
   use fsph_kinds, only: wp
   use fsph_material, only: n_hist
+  use fsph_neighbors, only: neighbour_work_t
   implicit none
   private
 
@@ -83,10 +84,13 @@ module fsph_state
     real(wp), allocatable :: hist(:, :)   !< material history (n_hist, capacity): damage, ...
     real(wp), allocatable :: drho(:), de(:), d(:, :), spin(:) !< rates of the last step
     real(wp), allocatable :: e_old(:), rho_old(:), rho_mid(:), sig_mid(:, :) !< cycle work arrays
-    ! neighbour search (fsph_neighbors): cells, same-body and contact lists
-    integer, allocatable :: cell_of(:), cell_start(:), cell_items(:)
+    ! neighbour search (fsph_neighbors): its work arrays, same-body and contact lists
+    type(neighbour_work_t) :: search
     integer, allocatable :: nbr_ptr(:), nbr_list(:), cnt_ptr(:), cnt_list(:)
     real(wp), allocatable :: pair_q(:)    !< viscous pressure per neighbour entry [Pa]
+    real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
+    real(wp), allocatable :: wgt(:)       !< work: stress weight 1/(4 pi^2 r rho^2) per entry [m^5/kg^2]
+    real(wp), allocatable :: planar_area(:) !< work: planar area m/(2 pi r rho) per entry [m^2]
   end type particle_set_t
 
   !> Coupling-interface edges of the element region: node pairs oriented as
@@ -111,6 +115,7 @@ module fsph_state
     integer :: n_converted = 0            !< elements converted so far
     integer :: n_events = 0               !< cycles in which a conversion happened
     real(wp) :: heat = 0.0_wp             !< kinetic energy turned into heat at conversion [J]
+    logical, allocatable :: hit(:)        !< work: elements meeting the criterion this cycle
   end type conversion_t
 
   !> Contact between bodies (ALGORITHMS.md section 5): the element-region
@@ -260,8 +265,9 @@ contains
                 pt%d(4, cap), pt%spin(cap), pt%e_old(cap), pt%rho_old(cap), pt%rho_mid(cap), &
                 pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
                 pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap), &
-                pt%hist(n_hist, cap))
+                pt%hist(n_hist, cap), pt%wgt(cap), pt%planar_area(cap))
       pt%hist = 0.0_wp
+      pt%wgt = 0.0_wp; pt%planar_area = 0.0_wp
       pt%x = 0.0_wp; pt%x0 = 0.0_wp; pt%x_old = 0.0_wp; pt%x_mid = 0.0_wp; pt%v = 0.0_wp
       pt%v_bar = 0.0_wp; pt%acc = 0.0_wp; pt%acc_imag = 0.0_wp; pt%mass = 0.0_wp; pt%h = 0.0_wp; pt%radius = 0.0_wp
       pt%mat = 0; pt%body = 0; pt%rho = 0.0_wp; pt%s = 0.0_wp; pt%sig = 0.0_wp; pt%p = 0.0_wp

@@ -6,7 +6,7 @@ import pytest
 
 import fsph
 from fsph import deck as deck_module
-from fsph.simulation import kernel
+from fsph.simulation import kernel, kernel_gradient_factor
 from conftest import rod_deck
 
 
@@ -51,6 +51,17 @@ def test_kernel_gradient_matches_finite_difference():
     assert np.allclose(dw, fd, rtol=1e-6, atol=1e-9 * np.abs(dw).max())
 
 
+def test_kernel_gradient_factor_is_derivative_over_distance():
+    """The factor the pair sums use, F = (dW/dr)/r, times r is dW/dr on
+    both branches of the spline, and zero beyond the support."""
+    h = 0.2e-3
+    r = np.linspace(0.01 * h, 2.4 * h, 239)
+    _, dw = kernel(r, h)
+    factor = kernel_gradient_factor(r, h)
+    assert np.allclose(factor * r, dw, rtol=1e-13, atol=1e-12 * np.abs(dw).max())
+    assert np.all(factor[r >= 2.0 * h] == 0.0)
+
+
 # ---- neighbours -----------------------------------------------------------
 def test_neighbour_lists_match_brute_force(rod):
     """The cell-list search finds exactly the pairs (and axis mirrors) within
@@ -69,6 +80,41 @@ def test_neighbour_lists_match_brute_force(rod):
         real = {j + 1 for j in np.nonzero(d_real[i] < 2.0 * hij[i])[0] if j != i}
         ghosts = {-(j + 1) for j in np.nonzero(d_ghost[i] < 2.0 * hij[i])[0]}
         assert got == real | ghosts, i
+
+
+def test_neighbour_lists_of_any_length_match_brute_force(rod):
+    """Lists from 10 to 80 entries: a jittered lattice with smoothing lengths
+    from 1.2 to 3 spacings. Every count the search's row buffers can meet
+    (below, at and above their width, which then grows) gives exactly the
+    pairs an all-pairs check finds, with no duplicates."""
+    from fsph.simulation import _api
+    part = rod.snapshot()["particles"]
+    rng = np.random.default_rng(7)
+    spacing = 0.1e-3
+    x = part["x"] + rng.uniform(-0.2, 0.2, part["x"].shape) * spacing
+    x[:, 0] = np.maximum(x[:, 0], 0.2 * spacing)
+    h = rng.uniform(1.2, 3.0, len(x)) * spacing
+    ierr = _api.set_particles(np.asfortranarray(x.T), np.zeros((2, len(x)), order="F"), part["mass"], h,
+                              (part["material"] + 1).astype(np.int32), (part["body"] + 1).astype(np.int32))
+    assert ierr == 0
+    assert _api.initialise()[0] == 0
+    rod.particle_rates()
+    counts = np.diff(rod.neighbors()[0])
+    assert counts.min() < 32 < counts.max()
+    hij = 0.5 * (h[:, None] + h[None, :])
+    d_real = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
+    d_ghost = np.linalg.norm(x[:, None, :] - (x * [-1.0, 1.0])[None, :, :], axis=2)
+    # rows exactly as wide as the longest list (full rows), and narrower
+    # than many lists (rows that overflow and grow)
+    for width in (counts.max(), int(np.median(counts))):
+        _api.set_neighbour_width(int(width))
+        rod.particle_rates()
+        ptr, lst = rod.neighbors()
+        for i in range(len(x)):
+            entries = lst[ptr[i] - 1:ptr[i + 1] - 1].tolist()
+            real = {j + 1 for j in np.nonzero(d_real[i] < 2.0 * hij[i])[0] if j != i}
+            ghosts = {-(j + 1) for j in np.nonzero(d_ghost[i] < 2.0 * hij[i])[0]}
+            assert len(entries) == len(set(entries)) and set(entries) == real | ghosts, (width, i)
 
 
 # ---- SPH gradients ----------------------------------------------------------

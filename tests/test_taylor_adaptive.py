@@ -27,14 +27,7 @@ def test_adaptive_reaches_end_and_converts(adaptive):
     assert adaptive["n_elements"] + adaptive["n_particles"] == 2680
 
 
-# W sits at the edge of its bar: 8.284 mm (-3.67 %) before the particle
-# radius was bounded by the reference density (particles at the mushroom
-# lip reach 0.4 of it in the SPH continuity density), 8.244 mm (-4.14 %)
-# since. The bar stays; the gap stays visible.
-W_GAP = pytest.mark.xfail(strict=True, reason="measured W 8.244 mm, -4.14 % against the 4 % bar")
-
-
-@pytest.mark.parametrize("key", ["L_mm", "D_mm", pytest.param("W_mm", marks=W_GAP)])
+@pytest.mark.parametrize("key", ["L_mm", "D_mm", "W_mm"])
 def test_adaptive_each_length(adaptive, key):
     got = adaptive["metrics"]["taylor"][key]
     ref = REF["taylor"][key]

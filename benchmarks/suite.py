@@ -1,0 +1,198 @@
+"""fsph benchmark suite: one command for the figures of docs/performance.md.
+
+    python benchmarks/suite.py [--sections a,b,c,d,e,m] [--quick] [--json FILE]
+
+Sections (each at 1 and 2 OpenMP threads, each measurement in a child
+process of its own; peak memory is that child's resident set):
+  a  T3 cycle alone on a large block (100 000 elements, EPP +
+     Mie-Grueneisen): ns per element-cycle and the phase split
+  b  pure SPH on a large block (40 000 particles, about 21 neighbours):
+     us per particle-cycle, split into neighbour search, sums, stress update
+  c  cases/taylor_armco.nml (adaptive, 60 us) through `fsph run`: wall time
+     from process start, cycles, time share of elements, particles,
+     coupling, conversion and contact (as seed 002's table 2)
+  d  the 508 m/s plate case to 200 us, adaptive and pure SPH, and their
+     wall-time ratio
+  e  the adaptive Taylor case refined x1, x2, x4 in each direction (2 680,
+     10 720, 42 880 elements): cost growth exponent against the number of
+     elements (ideal explicit 2D: 1.5)
+  m  the machine: clock and memory bandwidth (STREAM add over 3 x 160 MB)
+     for the roofline estimate
+Speed-ups of 2 threads over 1 go with every section (f); peak memory with
+every measurement (g). --quick: smaller blocks, no pure SPH plate run, no
+x4 refinement, 2 threads only where a section is long.
+"""
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from common import machine, machine_line, refined_deck, run_workload
+
+REPO = Path(__file__).resolve().parents[1]
+CASES = REPO / "cases"
+THREADS = (1, 2)
+
+#: phases of the cycle (fsph.simulation.PHASES) grouped as seed 002's table 2
+GROUPS = {"elements": ("element_forces", "element_update"),
+          "particles": ("neighbours", "sph_sums", "particle_update"),
+          "coupling": ("coupling",),
+          "conversion": ("conversion",),
+          "contact": ("contact", "particle_contact"),
+          "other": ("integrate", "time_step")}
+
+
+def grouped(phases):
+    return {g: sum(phases.get(p, 0.0) for p in names) for g, names in GROUPS.items()}
+
+
+def shares_text(phases, total):
+    return ", ".join(f"{g} {100.0 * t / total:.0f} %" for g, t in grouped(phases).items()
+                     if t / total >= 0.005)
+
+
+# ---- sections --------------------------------------------------------------
+def section_block(kind, n_radial, n_axial, cycles):
+    rows = [run_workload("block", {"kind": kind, "n_radial": n_radial, "n_axial": n_axial,
+                                   "cycles": cycles}, t) for t in THREADS]
+    unit, scale = ("ns/element-cycle", 1.0) if kind == "fem" else ("us/particle-cycle", 1e-3)
+    print(f"\n({'a' if kind == 'fem' else 'b'}) {kind.upper()} block: {rows[0]['items']} "
+          f"{'elements' if kind == 'fem' else 'particles'}, {rows[0]['cycles']} cycles")
+    for r in rows:
+        phases = r["phases_s"]
+        per = {k: v / (r["cycles"] * r["items"]) * 1e9 * scale for k, v in phases.items()}
+        if kind == "fem":
+            split = (f"forces {per['element_forces']:.1f}, update {per['element_update']:.1f}, "
+                     f"integrate {per['integrate']:.1f}, step {per['time_step']:.1f}")
+        else:
+            split = (f"search {per['neighbours']:.3f}, sums {per['sph_sums']:.3f}, "
+                     f"stress {per['particle_update']:.3f}, other "
+                     f"{sum(per.values()) - per['neighbours'] - per['sph_sums'] - per['particle_update']:.3f}")
+        print(f"  {r['threads']} thread(s): {r['ns_per_item_cycle'] * scale:8.3f} {unit} "
+              f"(speed-up {rows[0]['advance_s'] / r['advance_s']:.2f}); {split}; "
+              f"peak memory {r['peak_rss_mb']:.0f} MB")
+    return {"rows": rows, "speedup_2": rows[0]["advance_s"] / rows[1]["advance_s"]}
+
+
+def section_run(label, deck, outroot, threads=THREADS):
+    rows = []
+    for t in threads:
+        r = run_workload("run", {"deck": str(deck), "outdir": str(outroot / f"{Path(deck).stem}_t{t}")}, t)
+        rows.append(r)
+        total = sum(r["phases_s"].values())
+        print(f"  {label} {t} thread(s): {r['process_wall_s']:7.2f} s wall from launch "
+              f"({r['solver_wall_s']:.2f} s in fsph.driver.run), {r['cycles']} cycles, "
+              f"{r['n_elements_initial']} elements at t = 0, {r['n_particles_end']} particles at "
+              f"the end; {shares_text(r['phases_s'], total)}; peak memory {r['peak_rss_mb']:.0f} MB")
+    out = {"rows": rows}
+    if len(rows) == 2:
+        out["speedup_2"] = rows[0]["process_wall_s"] / rows[1]["process_wall_s"]
+        print(f"  {label} speed-up 2 threads / 1: {out['speedup_2']:.2f}")
+    return out
+
+
+def section_taylor(outroot):
+    print("\n(c) adaptive Taylor rod, cases/taylor_armco.nml, 60 us")
+    return section_run("taylor_armco", CASES / "taylor_armco.nml", outroot)
+
+
+def section_plate(outroot, quick):
+    print("\n(d) ogive rod through the 26.3 mm plate, 508 m/s, 200 us")
+    adaptive = section_run("al_plate_508", CASES / "al_plate_508.nml", outroot,
+                           threads=(2,) if quick else THREADS)
+    result = {"adaptive": adaptive}
+    if not quick:
+        sph = section_run("al_plate_508_sph", CASES / "al_plate_508_sph.nml", outroot)
+        result["sph"] = sph
+        result["ratio_sph_over_adaptive_2_threads"] = (sph["rows"][-1]["process_wall_s"]
+                                                       / adaptive["rows"][-1]["process_wall_s"])
+        print(f"  pure SPH / adaptive wall time (2 threads): "
+              f"{result['ratio_sph_over_adaptive_2_threads']:.2f}")
+    return result
+
+
+def section_refinement(outroot, quick):
+    factors = (1, 2) if quick else (1, 2, 4)
+    print(f"\n(e) adaptive Taylor rod refined x{', x'.join(map(str, factors))} in each direction")
+    rows = []
+    for f in factors:
+        deck = CASES / "taylor_armco.nml"
+        if f > 1:
+            deck = refined_deck(deck, outroot / "decks", (("n_radial", f), ("n_axial", f)), f"x{f}")
+        rows.append({"factor": f, **section_run(f"x{f}", deck, outroot / f"x{f}", threads=(2,))["rows"][0]})
+    n = np.array([r["n_elements_initial"] for r in rows], float)
+    wall = np.array([r["solver_wall_s"] for r in rows])
+    cycles = np.array([r["cycles"] for r in rows], float)
+    exponent = float(np.polyfit(np.log(n), np.log(wall), 1)[0])
+    cycle_exponent = float(np.polyfit(np.log(n), np.log(cycles), 1)[0])
+    print(f"  cost exponent (wall of the run against elements at t = 0, 2 threads): {exponent:.2f}; "
+          f"cycles grow as N^{cycle_exponent:.2f} (ideal 0.5)")
+    return {"rows": rows, "exponent": exponent, "cycle_exponent": cycle_exponent}
+
+
+def section_machine():
+    """Sustained memory bandwidth of one core: best of 5 passes of STREAM's
+    add, a = b + c, over 2 x 10^7 doubles (3 x 160 MB), counted as STREAM
+    counts it: 24 bytes per entry (the store's write-allocate not counted)."""
+    n = 20_000_000
+    b = np.random.default_rng(0).random(n)
+    c = np.random.default_rng(1).random(n)
+    a = np.empty(n)
+    best = math.inf
+    for _ in range(5):
+        t0 = time.perf_counter()
+        np.add(b, c, out=a)
+        best = min(best, time.perf_counter() - t0)
+    bandwidth = 3 * 8 * n / best / 1e9
+    del a, b, c   # the measurements' children are forked from this process
+    info = machine()
+    mhz = _cpu_mhz()
+    print(f"\n(m) {machine_line(info)}; clock {mhz:.0f} MHz; STREAM add bandwidth (one core) "
+          f"{bandwidth:.1f} GB/s")
+    return {"machine": info, "cpu_mhz": mhz, "stream_add_gb_s": bandwidth}
+
+
+def _cpu_mhz():
+    try:
+        with open("/proc/cpuinfo") as fh:
+            return float(next(line.split(":")[1] for line in fh if line.startswith("cpu MHz")))
+    except (OSError, StopIteration, ValueError):
+        return float("nan")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sections", default="m,a,b,c,d,e", help="comma-separated, of m a b c d e")
+    ap.add_argument("--quick", action="store_true", help="smaller and fewer runs")
+    ap.add_argument("--out", default=str(REPO / "out" / "bench"), help="folder for run outputs")
+    ap.add_argument("--json", help="write the results here")
+    args = ap.parse_args(argv)
+    sections = [s.strip() for s in args.sections.split(",") if s.strip()]
+    outroot = Path(args.out)
+    results = {"date": time.strftime("%Y-%m-%d"), "quick": args.quick}
+    fem_size, sph_size = ((25, 250), (50, 200)) if args.quick else ((50, 500), (100, 400))
+    for s in sections:
+        if s == "m":
+            results["machine"] = section_machine()
+        elif s == "a":
+            results["fem_block"] = section_block("fem", *fem_size, cycles=50 if args.quick else 100)
+        elif s == "b":
+            results["sph_block"] = section_block("sph", *sph_size, cycles=20 if args.quick else 40)
+        elif s == "c":
+            results["taylor_adaptive"] = section_taylor(outroot / "taylor")
+        elif s == "d":
+            results["plate_508"] = section_plate(outroot / "plate", args.quick)
+        elif s == "e":
+            results["refinement"] = section_refinement(outroot / "refinement", args.quick)
+        else:
+            ap.error(f"unknown section {s!r}: expected m, a, b, c, d or e")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+!> Wall-clock time spent in each phase of the cycle, accumulated since the
+!> last reset (for the benchmarks' cost split, as seed 002's table 2). A
+!> timer reads the clock twice per phase per cycle, about 50 ns, which is
+!> below 0.1 % of the cheapest cycle that is benchmarked. Serial code calls
+!> the timers, never a parallel region.
+module fsph_timers
+  use fsph_kinds, only: wp
+  !$ use omp_lib, only: omp_get_wtime
+  implicit none
+  private
+
+  !> Phases of the cycle (fsph_solver).
+  integer, parameter, public :: phase_element_forces = 1   !< corner forces and their gather
+  integer, parameter, public :: phase_element_update = 2   !< strain rates, geometry, stress update
+  integer, parameter, public :: phase_neighbours = 3       !< imaginary particles, cell list, neighbour lists
+  integer, parameter, public :: phase_sph_sums = 4         !< accelerations, rates and energy sums
+  integer, parameter, public :: phase_particle_update = 5  !< particle stress and energy update
+  integer, parameter, public :: phase_particle_contact = 6 !< particle-particle contact between bodies
+  integer, parameter, public :: phase_coupling = 7         !< edge reactions, ties, imaginary refill
+  integer, parameter, public :: phase_contact = 8          !< slide lines and particle-element contact
+  integer, parameter, public :: phase_integrate = 9        !< kick, boundaries, drift
+  integer, parameter, public :: phase_conversion = 10      !< erosion, conversion, surfaces and ties
+  integer, parameter, public :: phase_step = 11            !< stable step, history
+  integer, parameter, public :: n_phases = 11
+
+  real(wp), save :: elapsed(n_phases) = 0.0_wp   !< accumulated wall time [s]
+  real(wp), save :: started(n_phases) = 0.0_wp   !< clock at the open start [s]
+
+  public :: timer_start, timer_stop, timer_reset, timer_elapsed, wall_clock
+
+contains
+
+  !> Wall clock [s].
+  function wall_clock() result(t)
+    real(wp) :: t
+    integer(kind=8) :: count, rate
+    !$ t = omp_get_wtime()
+    !$ return
+    call system_clock(count, rate)
+    t = real(count, wp)/real(rate, wp)
+  end function wall_clock
+
+  subroutine timer_start(phase)
+    integer, intent(in) :: phase
+    started(phase) = wall_clock()
+  end subroutine timer_start
+
+  subroutine timer_stop(phase)
+    integer, intent(in) :: phase
+    elapsed(phase) = elapsed(phase) + (wall_clock() - started(phase))
+  end subroutine timer_stop
+
+  subroutine timer_reset()
+    elapsed = 0.0_wp
+  end subroutine timer_reset
+
+  !> Accumulated time of every phase [s].
+  subroutine timer_elapsed(times)
+    real(wp), intent(out) :: times(n_phases)
+    times = elapsed
+  end subroutine timer_elapsed
+
+end module fsph_timers
