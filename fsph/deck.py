@@ -272,6 +272,18 @@ SCHEMA = {
                                   "(contact thickness) use the reference density as a lower "
                                   "bound for the same reason.",
                                   lower=0.0, upper=1.0, lower_open=True, upper_open=True),
+            "neighbour_skin": Key("float", 0.1, "-",
+                                  "Skin of the neighbour lists, as a fraction of the smallest "
+                                  "kernel support 2h: the lists hold the pairs within 2h plus "
+                                  "the skin and are rebuilt only when a particle or an element "
+                                  "centroid may have crossed it (twice the largest displacement "
+                                  "since the build, plus the growth of the elements' h, reaches "
+                                  "the skin), or after a conversion. The results do not depend "
+                                  "on it (pairs beyond the support add exact zeros, the lists "
+                                  "are in index order); 0 rebuilds every cycle. It trades the "
+                                  "cost of the search against that of the extra pairs "
+                                  "(docs/performance.md).",
+                                  lower=0.0, upper=1.0),
             "contact_penalty": Key("float", 0.03, "-",
                                    "Particle-particle contact between bodies: a particle's "
                                    "filling by the other bodies' kernels beyond its value at "

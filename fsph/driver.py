@@ -273,6 +273,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
         "threads": threads(),
         # wall time of each phase of the cycle (benchmarks' cost split)
         "phase_times_s": sim.phase_times(),
+        "neighbour_list_builds": sim.list_rebuilds,
         "n_elements": sim.n_elements,
         "n_nodes": sim.n_nodes,
         "n_particles": sim.n_particles,

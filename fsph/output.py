@@ -132,7 +132,9 @@ class RunWriter:
     def _add_series(self, kind, time, mesh):
         """One .vtu per snapshot and kind; the .pvd collection rewritten."""
         name = f"vtu/{kind}_{self.n_snapshots:05d}.vtu"
-        meshio.write(self.outdir / name, mesh)
+        # uncompressed binary: double-precision fields hardly compress, and
+        # zlib was the largest output cost of a short run
+        meshio.write(self.outdir / name, mesh, binary=True, compression=None)
         entries = self.pvd_entries.setdefault(kind, [])
         entries.append((time, name))
         rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="0" file="{f}"/>'

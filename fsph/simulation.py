@@ -74,7 +74,7 @@ class Simulation:
         sph = deck["sph"]
         touch, slope = contact_filling(sph["alpha_h"])
         _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"], touch, slope,
-                             sph["debris_density"])
+                             sph["debris_density"], sph["neighbour_skin"])
         props, strength, eos = property_table(materials)
         self._call(_api.set_materials(props, strength, eos), "material table")
 
@@ -246,6 +246,12 @@ class Simulation:
     @staticmethod
     def reset_phase_times():
         _api.reset_phase_times()
+
+    @property
+    def list_rebuilds(self):
+        """Neighbour-list builds so far (the lists are kept while their
+        skin allows: &sph neighbour_skin)."""
+        return int(_api.get_list_rebuilds())
 
     @property
     def n_nodes(self):
@@ -421,9 +427,13 @@ class Simulation:
 
     def neighbors(self):
         """Neighbour lists of the last search: CSR pointer (n+1,) and entries
-        (+j neighbour, -j mirror of j), 1-based as in Fortran."""
+        (+j neighbour, -j mirror of j across the axis), 1-based as in Fortran;
+        a pair of real particles is in both lists. Raises if the search's
+        pair bookkeeping is inconsistent."""
         n_entries = int(_api.get_neighbor_count())
-        ptr, lst = _api.get_neighbors(self.n_particles, n_entries)
+        ptr, lst, consistent = _api.get_neighbors(self.n_particles, n_entries)
+        if not consistent:
+            raise FsphError("neighbour lists: a low entry does not point at its pair")
         return ptr.copy(), lst.copy()
 
     # ---- verification hooks (used by tests) ----------------------------

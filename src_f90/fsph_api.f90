@@ -21,7 +21,7 @@ module fsph_api
   public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
   public :: set_erosion, get_erosion_stats, get_material_history
   public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain, get_debris_count
-  public :: phase_count, get_phase_times, reset_phase_times, set_neighbour_width
+  public :: phase_count, get_phase_times, reset_phase_times, set_neighbour_width, get_list_rebuilds
 
 contains
 
@@ -91,11 +91,17 @@ contains
 
   !> SPH parameters: viscosity coefficients [-] and the particle contact:
   !> penalty (fraction of an approach pushed back per step), other-body
-  !> filling at touching and its rate per spacing of approach [-].
-  subroutine set_sph_control(c_q, c_l, contact_penalty, contact_touch, contact_slope, debris_ratio)
+  !> filling at touching and its rate per spacing of approach [-]; the
+  !> debris density fraction [-]; the neighbour lists' skin as a fraction
+  !> of the smallest kernel support (0: lists rebuilt every cycle) [-].
+  subroutine set_sph_control(c_q, c_l, contact_penalty, contact_touch, contact_slope, debris_ratio, &
+                             neighbour_skin)
     use fsph_state, only: sim
     real(wp), intent(in) :: c_q, c_l, contact_penalty, contact_touch, contact_slope
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
+    real(wp), intent(in) :: neighbour_skin
+    sim%control%neighbour_skin = max(neighbour_skin, 0.0_wp)
+    sim%particles%lists_valid = .false.
     sim%control%sph_c_q = c_q
     sim%control%sph_c_l = c_l
     sim%control%contact_penalty = contact_penalty
@@ -179,21 +185,21 @@ contains
     real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
     integer, intent(out) :: ierr
     integer :: ntot
-    real(wp), allocatable :: pair_q(:), grad(:, :)
     ierr = status_bad_input
     acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
     if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
     call prepare_particle_sums(ntot)
     associate (pt => sim%particles)
-      allocate (pair_q(max(size(pt%nbr_list), 1)), grad(2, max(size(pt%nbr_list), 1)))
       call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
       call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%nbr_ptr, &
-                             pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, acc, pair_q, pt%acc_imag)
+                             pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, sim%control%sph_c_q, &
+                             sim%control%sph_c_l, acc, pt%pair_q, pt%pair_force, pt%pair_in, pt%acc_imag)
       call sph_rates(np, ntot, pt%x, pt%v, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
-                     grad, drho, d, spin)
+                     pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, drho, d, spin)
       ! eq 3 with the stress, viscosity and velocities of this state
       call sph_energy_rate(np, ntot, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%nbr_ptr, &
-                           pt%nbr_list, pair_q, grad, de)
+                           pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%nbr_grad, &
+                           pt%pair_work, de)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
@@ -610,35 +616,69 @@ contains
     factor = kernel_gradient_factor(dist**2, 1.0_wp/h)
   end subroutine kernel_values
 
+  !> Number of neighbour-list builds of the cycle so far (the lists are
+  !> kept while their skin allows, fsph_verlet).
+  subroutine get_list_rebuilds(n)
+    use fsph_state, only: sim
+    integer, intent(out) :: n
+    n = sim%particles%n_rebuilds
+  end subroutine get_list_rebuilds
+
   !> Row width of the neighbour search's buffers (verification: the lists
   !> must not depend on it; it grows by itself when a list is longer).
   subroutine set_neighbour_width(width)
     use fsph_state, only: sim
     integer, intent(in) :: width
     sim%particles%search%width = max(width, 1)
+    sim%particles%lists_valid = .false.
   end subroutine set_neighbour_width
 
-  !> Total number of neighbour entries (ghosts included) of the last search.
+  !> Total number of neighbour entries (ghosts included) of the last search,
+  !> each pair of real particles counted in both particles' lists.
   subroutine get_neighbor_count(nentries)
     use fsph_state, only: sim
     integer, intent(out) :: nentries
+    integer :: n
     nentries = 0
-    if (sim%particles%n > 0 .and. allocated(sim%particles%nbr_list)) &
-      nentries = sim%particles%nbr_ptr(sim%particles%n + 1) - 1
+    n = sim%particles%n
+    if (n > 0 .and. allocated(sim%particles%nbr_list)) &
+      nentries = sim%particles%nbr_ptr(n + 1) - 1 + sim%particles%low_ptr(n + 1) - 1
   end subroutine get_neighbor_count
 
-  !> Neighbour lists of the last search: CSR pointer (np+1) and entries
-  !> (+j neighbour, -j mirror of j across the axis).
-  subroutine get_neighbors(np, nentries, ptr, list)
+  !> Full neighbour lists of the last search: CSR pointer (np+1) and entries
+  !> (+j neighbour, -j mirror of j across the axis): each particle's own
+  !> row (half and one-way entries) followed by its low partners.
+  !> consistent = 1 when every low entry points at the pair entry that
+  !> holds the particle in its partner's half row (verification).
+  subroutine get_neighbors(np, nentries, ptr, list, consistent)
     use fsph_state, only: sim
     integer, intent(in) :: np, nentries
-    integer, intent(out) :: ptr(np + 1), list(nentries)
+    integer, intent(out) :: ptr(np + 1), list(nentries), consistent
+    integer :: i, n_own, n_low, m, k, j
     ptr = 1
     list = 0
+    consistent = 0
     if (np /= sim%particles%n .or. np == 0) return
-    if (nentries /= sim%particles%nbr_ptr(np + 1) - 1) return
-    ptr = sim%particles%nbr_ptr(1:np + 1)
-    list = sim%particles%nbr_list(1:nentries)
+    associate (pt => sim%particles)
+      if (nentries /= pt%nbr_ptr(np + 1) - 1 + pt%low_ptr(np + 1) - 1) return
+      consistent = 1
+      do i = 1, np
+        n_own = pt%nbr_ptr(i + 1) - pt%nbr_ptr(i)
+        n_low = pt%low_ptr(i + 1) - pt%low_ptr(i)
+        ptr(i + 1) = ptr(i) + n_own + n_low
+        list(ptr(i):ptr(i) + n_own - 1) = pt%nbr_list(pt%nbr_ptr(i):pt%nbr_ptr(i + 1) - 1)
+        list(ptr(i) + n_own:ptr(i + 1) - 1) = pt%low_other(pt%low_ptr(i):pt%low_ptr(i + 1) - 1)
+        do m = pt%low_ptr(i), pt%low_ptr(i + 1) - 1
+          j = pt%low_other(m)
+          k = pt%low_pair(m)
+          if (j >= i .or. k < pt%nbr_ptr(j) .or. k >= pt%half_end(j)) then
+            consistent = 0
+          else if (pt%nbr_list(k) /= i) then
+            consistent = 0
+          end if
+        end do
+      end do
+    end associate
   end subroutine get_neighbors
 
   !> Material table: props(nprop, nmat) in the fsph_material layout and the
@@ -856,6 +896,7 @@ contains
     if (np /= sim%particles%n) return
     sim%particles%x(:, 1:np) = x
     sim%particles%v(:, 1:np) = v
+    sim%particles%lists_valid = .false.
     ierr = status_ok
   end subroutine set_particle_motion
 

@@ -10,11 +10,12 @@ module fsph_convert
   use fsph_state, only: sim
   use fsph_arrays, only: compact
   use fsph_material, only: equivalent_stress
-  use fsph_coupling, only: coupled_body, update_tie_masses, fill_imaginary, stage_start
+  use fsph_coupling, only: coupled_body, update_tie_masses, fill_imaginary, stage_select
   use fsph_neighbors, only: build_neighbors
   use fsph_kernel, only: kernel_support
   use fsph_topology, only: rebuild_corner_map, nodal_masses, elements_with_edge, element_across
   use fsph_contact, only: contact_rebuild_surface
+  use fsph_verlet, only: invalidate_lists
   implicit none
   private
 
@@ -185,10 +186,13 @@ contains
     n = sim%particles%n
     sim%coupling%n_edges = 0
     if (n == 0 .or. sim%elements%n == 0) return
-    call fill_imaginary(stage_start)
+    call fill_imaginary(stage_select)
     associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
-      call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, pt%search, &
-                           pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
+      ! lists without a skin, for this search only: the cycle rebuilds its own
+      call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, 0.0_wp, pt%search, pt%nbr_ptr, &
+                           pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, pt%cnt_ptr, &
+                           pt%cnt_list)
+      pt%lists_valid = .false.
       pt%radius(1:n) = 0.5_wp*sqrt(pt%mass(1:n)/(2.0_wp*pi*pt%x(1, 1:n)*pt%rho(1:n)))
       do i = 1, n
         ! release a tie whose edge left the surface
@@ -284,6 +288,7 @@ contains
       call associate_particles(association_reach)
       call update_tie_masses()
       call contact_rebuild_surface()
+      call invalidate_lists()
       cv%n_converted = cv%n_converted + n_new
       cv%n_events = cv%n_events + 1
     end associate

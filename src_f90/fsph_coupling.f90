@@ -27,6 +27,7 @@ module fsph_coupling
   public :: coupled_body
 
   !> Stage of the cycle at which imaginary particles are filled.
+  integer, parameter, public :: stage_select = 0 !< choose the elements, then fill at x^n
   integer, parameter, public :: stage_start = 1  !< positions x^n, velocities v^(n-1/2)
   integer, parameter, public :: stage_mid = 2    !< positions x^(n+1/2), velocities v^(n+1/2)
 
@@ -43,21 +44,25 @@ contains
   end function coupled_body
 
   !> Refill the imaginary particles from the elements of coupled bodies. At
-  !> stage_start the elements are chosen: those of a continuum with real
-  !> particles whose centroid lies within the kernel reach of the bounding
-  !> box of those particles (an element farther away is no particle's
-  !> neighbour; leaving it out keeps the neighbour grid fine and the search
-  !> O(real particles)). At stage_mid the same elements are refilled, so
-  !> the neighbour lists of the cycle stay valid.
-  subroutine fill_imaginary(stage)
+  !> stage_select the elements are chosen: those of a continuum with real
+  !> particles whose centroid lies within the kernel reach, plus `margin`
+  !> [m] (the neighbour lists' skin), of the bounding box of those
+  !> particles (an element farther away is no particle's neighbour; leaving
+  !> it out keeps the neighbour grid fine and the search O(real
+  !> particles)). At stage_start and stage_mid the same elements are
+  !> refilled, so neighbour lists built on them stay valid.
+  subroutine fill_imaginary(stage, margin)
     use fsph_kernel, only: kernel_support
     integer, intent(in) :: stage
+    real(wp), intent(in), optional :: margin
     integer :: ie, k, n0, i, c, nc
-    real(wp) :: xe(2), reach
+    real(wp) :: xe(2), reach, extra
     real(wp), allocatable :: lo(:, :), hi(:, :), h_max(:)
     associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
       n0 = pt%n
-      if (stage == stage_start) then
+      if (stage == stage_select) then
+        extra = 0.0_wp
+        if (present(margin)) extra = margin
         nc = 0
         if (allocated(sim%continuum_of_body)) nc = maxval(sim%continuum_of_body)
         allocate (lo(2, nc), hi(2, nc), h_max(nc))
@@ -76,7 +81,7 @@ contains
           c = sim%continuum_of_body(el%body(ie))
           if (h_max(c) < 0.0_wp) cycle          ! no real particle in this continuum
           xe = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
-          reach = kernel_support*0.5_wp*(h_max(c) + sim%conversion%alpha_h*sqrt(el%area(ie)))
+          reach = kernel_support*0.5_wp*(h_max(c) + sim%conversion%alpha_h*sqrt(el%area(ie))) + extra
           if (any(xe < lo(:, c) - reach) .or. any(xe > hi(:, c) + reach)) cycle
           k = k + 1
           if (n0 + k > pt%capacity) exit

@@ -12,6 +12,7 @@ module fsph_erosion
   use fsph_convert, only: remove_elements, remove_nodes
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface
+  use fsph_verlet, only: invalidate_lists
   implicit none
   private
 
@@ -98,6 +99,7 @@ contains
       call rebuild_corner_map()
       call nodal_masses()
       call contact_rebuild_surface()
+      call invalidate_lists()
       er%n_eroded = er%n_eroded + n_eroded
     end associate
   end subroutine erode_elements

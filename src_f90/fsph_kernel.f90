@@ -11,7 +11,7 @@ module fsph_kernel
   !> Support radius in units of h [-].
   real(wp), parameter, public :: kernel_support = 2.0_wp
 
-  public :: kernel_w, kernel_dwdr, kernel_gradient_factor
+  public :: kernel_w, kernel_dwdr, kernel_gradient_factor, in_support
 
 contains
 
@@ -65,5 +65,16 @@ contains
     f = merge(-3.0_wp + 2.25_wp*q, -0.75_wp*max(2.0_wp - q, 0.0_wp)**2/q, q < 1.0_wp) &
         *kernel_norm_2d*inv_h2*inv_h2
   end function kernel_gradient_factor
+
+  !> Whether a pair at squared distance dist2 [m^2] with smoothing lengths
+  !> hi, hj [m] lies within the kernel support 2 h_ij, h_ij = (hi + hj)/2:
+  !> the one test, with the same rounding, that the neighbour search
+  !> applies (its reach per particle is kernel_support h/2), so that a pair
+  !> counts or not by the same bits whether it was listed with a skin or
+  !> not (the spline's own cut-off q < 2 can round the other way).
+  pure elemental logical function in_support(dist2, hi, hj)
+    real(wp), intent(in) :: dist2, hi, hj
+    in_support = dist2 < (0.5_wp*kernel_support*hi + 0.5_wp*kernel_support*hj)**2
+  end function in_support
 
 end module fsph_kernel

@@ -1,21 +1,30 @@
 !> O(N) neighbour search for particles: a cell (bucket) list rebuilt every
-!> step, then per-particle neighbour lists in CSR form. The points are
-!> copied into cell order (positions, half-supports and bodies side by
-!> side), so the candidates of a cell are read as one contiguous run, and
-!> each particle's accepted neighbours are appended without a branch into
-!> its own row of a strided buffer in a single threaded pass (a row that
-!> overflows makes the rows wider and the pass run again, which is rare:
-!> the width follows the longest list seen). The rows are then packed into
-!> the CSR lists. No shared writes; the order of each list is fixed, so
-!> results do not depend on the thread count.
+!> step, then per-particle lists in CSR form, built so that the SPH sums
+!> evaluate each pair of real particles once (a half list) and still
+!> gather every particle's sum in a fixed order, whatever the thread count.
 !>
-!> Three kinds of entries (ALGORITHMS.md sections 2 and 5):
-!>  - same-body neighbours j within the kernel support 2 h_ij, stored as +j;
-!>  - ghosts: the mirror image of a same-body particle j across the axis
-!>    r = 0, within the support of particle i, stored as -j (i's own mirror
-!>    included);
-!>  - contact candidates: particles j of another body within 2 h_ij, in a
-!>    separate list. SPH sums never cross body boundaries.
+!> The points are copied into cell order (positions, half-supports and
+!> bodies side by side), so the candidates of a cell are read as one
+!> contiguous run; each particle's accepted neighbours are appended without
+!> a branch into its own rows of strided buffers in one threaded pass (a
+!> row that overflows makes the rows wider and the pass run again, which is
+!> rare: the width follows the longest list seen).
+!>
+!> The row of particle i (nbr_ptr(i) .. nbr_ptr(i+1)-1) holds
+!>  - first its half entries, up to half_end(i)-1: the real particles j > i
+!>    of its continuum within the kernel support 2 h_ij plus the skin (the
+!>    lists are kept while no pair can have crossed the skin, fsph_verlet).
+!>    Entry k is the pair (i, j): the sums compute it once, in i's row;
+!>  - then its one-way entries: ghosts, the mirror images of same-body
+!>    particles j across the axis r = 0 within the support (stored as -j,
+!>    i's own mirror included), and the imaginary particles j > nq of its
+!>    continuum (ALGORITHMS.md sections 2 and 3).
+!> Its low list (low_ptr(i) .. low_ptr(i+1)-1) holds the real particles
+!> j < i within the support, as low_other = j and low_pair = the entry of
+!> the pair (j, i) in j's row. Entries come in the order of the scan
+!> (cells, then points), which depends on the positions only. Contact candidates, particles of
+!> another body within the support (section 5), have a separate full list
+!> (cnt_ptr, cnt_list). SPH sums never cross continuum boundaries.
 module fsph_neighbors
   use fsph_kinds, only: wp
   use fsph_kernel, only: kernel_support
@@ -27,19 +36,20 @@ module fsph_neighbors
   !> Work arrays of the search, kept between calls so the cycle does not
   !> allocate once their sizes have settled.
   type, public :: neighbour_work_t
-    integer :: width = 32                  !< row width of the neighbour buffer
+    integer :: width = 32                  !< row width of the half, low and one-way buffers
     integer :: contact_width = 4           !< row width of the contact buffer
     integer, allocatable :: cell_start(:)  !< CSR of cells into the sorted points (ncell + 1)
     integer, allocatable :: cell_of(:)     !< cell of each point
     integer, allocatable :: fill(:)        !< next free sorted slot of each cell (ncell)
     integer, allocatable :: item(:)        !< point at each sorted position
     real(wp), allocatable :: xs(:, :)      !< sorted positions (r, z) [m]
-    real(wp), allocatable :: reach_s(:)    !< sorted half-supports kernel_support h/2 [m]
+    real(wp), allocatable :: reach_s(:)    !< sorted reaches (kernel_support h + skin)/2 [m]
     integer, allocatable :: body_s(:)      !< sorted continuum indices
-    integer, allocatable :: nbr_row(:, :), cnt_row(:, :) !< strided buffers (width + 1, nq): the
-                                                         !< last slot takes the writes of rejected
-                                                         !< candidates once a row is full
-    integer, allocatable :: n_nbr(:), n_cnt(:)           !< row lengths
+    !> strided buffers (width + 1, nq): the last slot takes the writes of
+    !> rejected candidates once a row is full
+    integer, allocatable :: half_row(:, :), low_row(:, :), one_row(:, :)
+    integer, allocatable :: cnt_row(:, :)  !< (contact_width, nq)
+    integer, allocatable :: n_half(:), n_low(:), n_one(:), n_cnt(:) !< row lengths
   end type neighbour_work_t
 
   !> Rows are made this much wider than the longest list that overflowed [-].
@@ -66,57 +76,109 @@ contains
     nz = int(z_ext/cell) + 1
   end subroutine make_grid
 
-  !> Build the neighbour and contact lists of the first nq of n points (the
-  !> real particles; the others, imaginary particles, appear only as
-  !> neighbours and never as contact candidates). `body` is the continuum
-  !> index: SPH neighbours share it, contact candidates do not. The
-  !> allocatable lists grow as needed (no fixed capacity).
-  subroutine build_neighbors(nq, n, x, h, body, work, nbr_ptr, nbr_list, cnt_ptr, cnt_list)
+  !> Build the lists (see the module header) of the first nq of n points
+  !> (the real particles; the others, imaginary particles, appear only as
+  !> one-way entries and never as contact candidates). `body` is the
+  !> continuum index. The allocatable lists grow as needed.
+  subroutine build_neighbors(nq, n, x, h, body, skin, work, nbr_ptr, nbr_list, half_end, low_ptr, low_pair, &
+                             low_other, cnt_ptr, cnt_list)
     integer, intent(in) :: nq, n
     real(wp), intent(in) :: x(2, n)        !< positions (r >= 0, z) [m]
     real(wp), intent(in) :: h(n)           !< smoothing lengths [m]
+    real(wp), intent(in) :: skin           !< added to every pair's reach, so the lists last [m]
     integer, intent(in) :: body(n)         !< continuum index
     type(neighbour_work_t), intent(inout) :: work
-    integer, intent(out) :: nbr_ptr(nq + 1), cnt_ptr(nq + 1)
-    integer, allocatable, intent(inout) :: nbr_list(:), cnt_list(:)
+    integer, intent(out) :: nbr_ptr(nq + 1), half_end(nq), low_ptr(nq + 1), cnt_ptr(nq + 1)
+    integer, allocatable, intent(inout) :: nbr_list(:), low_pair(:), low_other(:), cnt_list(:)
     real(wp) :: cell, z0
-    integer :: nr, nz, i
+    integer :: nr, nz, i, m, j, k, found
 
     nbr_ptr(1) = 1
+    low_ptr(1) = 1
     cnt_ptr(1) = 1
     if (nq == 0 .or. n == 0) return
-    call make_grid(n, x, maxval(h), cell, nr, nz, z0)
-    call sort_into_cells(n, x, h, body, cell, nr, nz, z0, work)
+    call make_grid(n, x, maxval(h) + skin/kernel_support, cell, nr, nz, z0)
+    call sort_into_cells(n, x, h, body, skin, cell, nr, nz, z0, work)
     call ensure_rows(work, nq)
     do
-      call scan_points(nq, n, x, h, body, cell, nr, nz, z0, work)
-      if (maxval(work%n_nbr(1:nq)) <= work%width .and. maxval(work%n_cnt(1:nq)) <= work%contact_width) exit
+      call scan_points(nq, n, x, h, body, skin, cell, nr, nz, z0, work)
+      if (max(maxval(work%n_half(1:nq)), maxval(work%n_low(1:nq)), maxval(work%n_one(1:nq))) <= work%width &
+          .and. maxval(work%n_cnt(1:nq)) <= work%contact_width) exit
       ! a row overflowed: widen the rows to the longest list and scan again
-      work%width = max(work%width, maxval(work%n_nbr(1:nq)) + width_margin)
+      work%width = max(work%width, maxval(work%n_half(1:nq)) + width_margin, &
+                       maxval(work%n_low(1:nq)) + width_margin, maxval(work%n_one(1:nq)) + width_margin)
       work%contact_width = max(work%contact_width, maxval(work%n_cnt(1:nq)) + width_margin)
       call ensure_rows(work, nq)
     end do
 
     do i = 1, nq
-      nbr_ptr(i + 1) = nbr_ptr(i) + work%n_nbr(i)
+      nbr_ptr(i + 1) = nbr_ptr(i) + work%n_half(i) + work%n_one(i)
+      half_end(i) = nbr_ptr(i) + work%n_half(i)
+      low_ptr(i + 1) = low_ptr(i) + work%n_low(i)
       cnt_ptr(i + 1) = cnt_ptr(i) + work%n_cnt(i)
     end do
     call ensure_size(nbr_list, nbr_ptr(nq + 1) - 1)
+    call ensure_size(low_pair, low_ptr(nq + 1) - 1)
+    call ensure_size(low_other, low_ptr(nq + 1) - 1)
     call ensure_size(cnt_list, cnt_ptr(nq + 1) - 1)
-    !$omp parallel do default(none) shared(nq, work, nbr_ptr, cnt_ptr, nbr_list, cnt_list) private(i)
+    ! rows in place, each part ascending: the order of the entries, and so
+    ! of every sum, depends only on which particles are listed, not on the
+    ! cells or on when the lists were built (entries beyond the support
+    ! that a skin adds contribute exact zeros)
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(nq, work, nbr_ptr, half_end, low_ptr, cnt_ptr, nbr_list, low_other, cnt_list) private(i)
     do i = 1, nq
-      nbr_list(nbr_ptr(i):nbr_ptr(i + 1) - 1) = work%nbr_row(1:work%n_nbr(i), i)
+      call sort_ascending(work%half_row(1:work%n_half(i), i))
+      call sort_ascending(work%low_row(1:work%n_low(i), i))
+      call sort_ascending(work%one_row(1:work%n_one(i), i))
+      call sort_ascending(work%cnt_row(1:work%n_cnt(i), i))
+      nbr_list(nbr_ptr(i):half_end(i) - 1) = work%half_row(1:work%n_half(i), i)
+      nbr_list(half_end(i):nbr_ptr(i + 1) - 1) = work%one_row(1:work%n_one(i), i)
+      low_other(low_ptr(i):low_ptr(i + 1) - 1) = work%low_row(1:work%n_low(i), i)
       cnt_list(cnt_ptr(i):cnt_ptr(i + 1) - 1) = work%cnt_row(1:work%n_cnt(i), i)
     end do
     !$omp end parallel do
+    ! the pair of each low entry: the entry holding i in the half row of j
+    ! (the support test is symmetric in i and j, so it is there, once),
+    ! found by a branch-free scan of that short row
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(nq, nbr_ptr, half_end, low_ptr, nbr_list, low_other, low_pair) private(i, m, j, k, found)
+    do i = 1, nq
+      do m = low_ptr(i), low_ptr(i + 1) - 1
+        j = low_other(m)
+        found = 0
+        do k = nbr_ptr(j), half_end(j) - 1
+          found = found + merge(k, 0, nbr_list(k) == i)
+        end do
+        low_pair(m) = found
+      end do
+    end do
+    !$omp end parallel do
+
   end subroutine build_neighbors
 
+  !> Insertion sort of a short list (a row of some tens of entries).
+  pure subroutine sort_ascending(a)
+    integer, intent(inout) :: a(:)
+    integer :: i, k, v
+    do i = 2, size(a)
+      v = a(i)
+      k = i - 1
+      do while (k >= 1)
+        if (a(k) <= v) exit
+        a(k + 1) = a(k)
+        k = k - 1
+      end do
+      a(k + 1) = v
+    end do
+  end subroutine sort_ascending
+
   !> Counting sort of the points into cells (point order kept within a
-  !> cell), with copies of their positions, half-supports and continua in
-  !> that order.
-  subroutine sort_into_cells(n, x, h, body, cell, nr, nz, z0, work)
+  !> cell), with copies of their positions, reaches (half-support plus half
+  !> the skin) and continua in that order.
+  subroutine sort_into_cells(n, x, h, body, skin, cell, nr, nz, z0, work)
     integer, intent(in) :: n, nr, nz
-    real(wp), intent(in) :: x(2, n), h(n), cell, z0
+    real(wp), intent(in) :: x(2, n), h(n), skin, cell, z0
     integer, intent(in) :: body(n)
     type(neighbour_work_t), intent(inout) :: work
     integer :: ncell, i, k, c
@@ -147,7 +209,7 @@ contains
       work%fill(c) = k + 1
       work%item(k) = i
       work%xs(:, k) = x(:, i)
-      work%reach_s(k) = 0.5_wp*kernel_support*h(i)
+      work%reach_s(k) = 0.5_wp*kernel_support*h(i) + 0.5_wp*skin
       work%body_s(k) = body(i)
     end do
   end subroutine sort_into_cells
@@ -157,43 +219,51 @@ contains
   subroutine ensure_rows(work, nq)
     type(neighbour_work_t), intent(inout) :: work
     integer, intent(in) :: nq
-    if (allocated(work%nbr_row)) then
-      if (size(work%nbr_row, 1) < work%width + 1 .or. size(work%cnt_row, 1) < work%contact_width .or. &
-          size(work%nbr_row, 2) < nq) deallocate (work%nbr_row, work%cnt_row, work%n_nbr, work%n_cnt)
+    if (allocated(work%half_row)) then
+      if (size(work%half_row, 1) < work%width + 1 .or. size(work%cnt_row, 1) < work%contact_width .or. &
+          size(work%half_row, 2) < nq) &
+        deallocate (work%half_row, work%low_row, work%one_row, work%cnt_row, work%n_half, work%n_low, &
+                    work%n_one, work%n_cnt)
     end if
-    if (.not. allocated(work%nbr_row)) allocate (work%nbr_row(work%width + 1, nq), &
-                                                 work%cnt_row(work%contact_width, nq), &
-                                                 work%n_nbr(nq), work%n_cnt(nq))
+    if (.not. allocated(work%half_row)) &
+      allocate (work%half_row(work%width + 1, nq), work%low_row(work%width + 1, nq), &
+                work%one_row(work%width + 1, nq), work%cnt_row(work%contact_width, nq), &
+                work%n_half(nq), work%n_low(nq), work%n_one(nq), work%n_cnt(nq))
   end subroutine ensure_rows
 
-  !> One pass over the real points: their neighbours, ghosts and contact
-  !> candidates go to their rows (up to the row width; the counts go on, so
-  !> the caller sees an overflow).
-  subroutine scan_points(nq, n, x, h, body, cell, nr, nz, z0, work)
+  !> One pass over the real points: each accepted candidate goes to the
+  !> half, low or one-way row or the contact row (up to the row width; the
+  !> counts go on, so the caller sees an overflow).
+  subroutine scan_points(nq, n, x, h, body, skin, cell, nr, nz, z0, work)
     integer, intent(in) :: nq, n, nr, nz
-    real(wp), intent(in) :: x(2, n), h(n), cell, z0
+    real(wp), intent(in) :: x(2, n), h(n), skin, cell, z0
     integer, intent(in) :: body(n)
     type(neighbour_work_t), intent(inout) :: work
-    integer :: ii, jj, ir, iz, jz, c, kk, n_nbr, n_cnt, bi, width, cwidth, near, same
+    integer :: ii, jj, ir, iz, jz, c, kk, n_half, n_low, n_one, n_cnt, bi, width, cwidth
+    integer :: near, same, real_j, up
     real(wp) :: ri, zi, reach_i, reach, d2
     ! a row holds width entries; writes past them go to the scratch slot
     ! width + 1, and a count above width makes the caller widen and rescan
     width = work%width
     cwidth = work%contact_width
     !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(nq, x, h, body, cell, z0, nr, nz, work, width, cwidth) &
-    !$omp private(ii, jj, ir, iz, jz, c, kk, n_nbr, n_cnt, bi, ri, zi, reach_i, reach, d2, near, same)
+    !$omp shared(nq, x, h, body, skin, cell, z0, nr, nz, work, width, cwidth) &
+    !$omp private(ii, jj, ir, iz, jz, c, kk, n_half, n_low, n_one, n_cnt, bi, ri, zi, reach_i, reach, d2) &
+    !$omp private(near, same, real_j, up)
     do ii = 1, nq
       ri = x(1, ii)
       zi = x(2, ii)
-      reach_i = 0.5_wp*kernel_support*h(ii)
+      reach_i = 0.5_wp*kernel_support*h(ii) + 0.5_wp*skin
       bi = body(ii)
       ir = min(int(max(ri, 0.0_wp)/cell), nr - 1)
       iz = min(int((zi - z0)/cell), nz - 1)
-      n_nbr = 0
+      n_half = 0
+      n_low = 0
+      n_one = 0
       n_cnt = 0
       do jz = max(iz - 1, 0), min(iz + 1, nz - 1)
-        ! real neighbours and contact candidates
+        ! real and imaginary neighbours and contact candidates: the cells
+        ! ir-1 .. ir+1 of a row are one run of sorted points
         c = 1 + max(ir - 1, 0) + nr*jz
         do kk = work%cell_start(c), work%cell_start(1 + min(ir + 1, nr - 1) + nr*jz + 1) - 1
           jj = work%item(kk)
@@ -202,8 +272,14 @@ contains
           ! 0/1 flags, so the common path has no data-dependent branch
           near = merge(1, 0, d2 < reach*reach)*merge(1, 0, jj /= ii)
           same = merge(1, 0, work%body_s(kk) == bi)
-          work%nbr_row(min(n_nbr + 1, width + 1), ii) = jj
-          n_nbr = n_nbr + near*same
+          real_j = merge(1, 0, jj <= nq)
+          up = merge(1, 0, jj > ii)
+          work%half_row(min(n_half + 1, width + 1), ii) = jj
+          work%low_row(min(n_low + 1, width + 1), ii) = jj
+          work%one_row(min(n_one + 1, width + 1), ii) = jj
+          n_half = n_half + near*same*real_j*up
+          n_low = n_low + near*same*real_j*(1 - up)
+          n_one = n_one + near*same*(1 - real_j)
           if (near > same) then
             ! another body within reach: a contact candidate if real
             if (jj <= nq) then
@@ -219,12 +295,14 @@ contains
           do kk = work%cell_start(c), work%cell_start(c + 1) - 1
             d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
             reach = reach_i + work%reach_s(kk)
-            work%nbr_row(min(n_nbr + 1, width + 1), ii) = -work%item(kk)
-            n_nbr = n_nbr + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
+            work%one_row(min(n_one + 1, width + 1), ii) = -work%item(kk)
+            n_one = n_one + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
           end do
         end if
       end do
-      work%n_nbr(ii) = n_nbr
+      work%n_half(ii) = n_half
+      work%n_low(ii) = n_low
+      work%n_one(ii) = n_one
       work%n_cnt(ii) = n_cnt
     end do
     !$omp end parallel do

@@ -8,7 +8,7 @@ module fsph_particles
   use fsph_material, only: n_props, n_hist, material_update, eos_pressure, sound_speed, &
                            prop_pmin, prop_shear, prop_rho0, eos_hjc
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use fsph_kernel, only: kernel_w, kernel_dwdr
+  use fsph_kernel, only: kernel_w, kernel_dwdr, in_support
   implicit none
   private
 
@@ -186,6 +186,9 @@ contains
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = cnt_list(k)
         dx = x(:, i) - x(:, j)
+        ! candidates beyond the support (the lists' skin) add nothing, by the
+        ! search's own test
+        if (.not. in_support(dx(1)**2 + dx(2)**2, h(i), h(j))) cycle
         dist = sqrt(dx(1)**2 + dx(2)**2)
         excess(i) = excess(i) + area(j)*kernel_w(dist, 0.5_wp*(h(i) + h(j)))
       end do
@@ -200,6 +203,7 @@ contains
         j = cnt_list(k)
         if (excess(i) == 0.0_wp .and. excess(j) == 0.0_wp) cycle
         dx = x(:, i) - x(:, j)
+        if (.not. in_support(dx(1)**2 + dx(2)**2, h(i), h(j))) cycle
         dist = sqrt(dx(1)**2 + dx(2)**2)
         if (dist <= 0.0_wp) cycle
         dw = kernel_dwdr(dist, 0.5_wp*(h(i) + h(j)))

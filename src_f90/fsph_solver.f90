@@ -18,7 +18,8 @@ module fsph_solver
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
-                           update_tie_masses, stage_start, stage_mid
+                           update_tie_masses, stage_select, stage_start, stage_mid
+  use fsph_verlet, only: lists_still_valid, record_lists, list_skin
   use fsph_convert, only: assign_groups, convert_elements, associate_particles, association_reach
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct
@@ -357,8 +358,9 @@ contains
         call timer_start(phase_sph_sums)
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
         call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
-                               pt%nbr_ptr, pt%nbr_list, sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, &
-                               pt%pair_q, pt%acc_imag)
+                               pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                               sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, pt%pair_q, pt%pair_force, &
+                               pt%pair_in, pt%acc_imag)
         call timer_stop(phase_sph_sums)
         call timer_start(phase_particle_contact)
         call update_particle_radius()
@@ -376,27 +378,39 @@ contains
     end associate
   end subroutine compute_forces
 
-  !> Imaginary particles at t^n, neighbour lists of the real particles,
-  !> their total stress s - p I and room for the pair viscosities; ntot is
-  !> the number of real and imaginary entries.
+  !> Imaginary particles at t^n, neighbour lists of the real particles
+  !> (rebuilt, with the imaginary elements chosen again, only when the kept
+  !> lists may miss a pair: fsph_verlet), their total stress s - p I and
+  !> room for the pair work arrays; ntot is the number of real and
+  !> imaginary entries.
   subroutine prepare_particle_sums(ntot)
     integer, intent(out) :: ntot
     integer :: i, n
+    real(wp) :: skin
     associate (pt => sim%particles)
       n = pt%n
-      pt%n_imag = 0
-      if (sim%elements%n > 0) call fill_imaginary(stage_start)
+      if (pt%lists_valid .and. sim%elements%n > 0 .and. pt%n_imag > 0) call fill_imaginary(stage_start)
+      if (.not. lists_still_valid()) then
+        skin = list_skin()
+        pt%n_imag = 0
+        if (sim%elements%n > 0) call fill_imaginary(stage_select, skin)
+        call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, skin, pt%search, pt%nbr_ptr, &
+                             pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, pt%cnt_ptr, &
+                             pt%cnt_list)
+        call record_lists(skin)
+      end if
       ntot = n + pt%n_imag
-      call build_neighbors(n, ntot, pt%x, pt%h, pt%continuum, pt%search, &
-                           pt%nbr_ptr, pt%nbr_list, pt%cnt_ptr, pt%cnt_list)
       do i = 1, n
         pt%sig(:, i) = pt%s(:, i)
         pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
       end do
       if (allocated(pt%pair_q)) then
-        if (size(pt%pair_q) < size(pt%nbr_list)) deallocate (pt%pair_q, pt%nbr_grad)
+        if (size(pt%pair_q) < size(pt%nbr_list)) &
+          deallocate (pt%pair_q, pt%nbr_grad, pt%pair_force, pt%pair_work, pt%pair_in)
       end if
-      if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)), pt%nbr_grad(2, size(pt%nbr_list)))
+      if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)), pt%nbr_grad(2, size(pt%nbr_list)), &
+                                                pt%pair_force(2, size(pt%nbr_list)), pt%pair_work(size(pt%nbr_list)), &
+                                                pt%pair_in(size(pt%nbr_list)))
     end associate
   end subroutine prepare_particle_sums
 
@@ -513,7 +527,8 @@ contains
       call timer_start(phase_sph_sums)
       call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho, pt%wgt, pt%planar_area)
       call sph_rates(n, ntot, pt%x_mid, pt%v, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
-                     pt%nbr_grad, pt%drho, pt%d, pt%spin)
+                     pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
+                     pt%d, pt%spin)
       call timer_stop(phase_sph_sums)
       call timer_start(phase_particle_update)
       pt%e_old(1:n) = pt%e(1:n)
@@ -531,7 +546,8 @@ contains
         end do
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
         call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, pt%wgt, &
-                             pt%nbr_ptr, pt%nbr_list, pt%pair_q, pt%nbr_grad, pt%de)
+                             pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
+                             pt%nbr_grad, pt%pair_work, pt%de)
         call timer_stop(phase_sph_sums)
         call timer_start(phase_particle_update)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &

@@ -1,9 +1,12 @@
 !> Axisymmetric SPH sums (seed 000 eqs 1-4; ALGORITHMS.md section 2) over
-!> the neighbour lists of fsph_neighbors. Every routine is a gather loop
-!> over particles i (each writes only its own entries), so it threads
-!> without races and gives the same bits for any thread count. Pair terms
-!> are evaluated identically from both sides, so the axial momentum of the
-!> sums is conserved to round-off.
+!> the neighbour lists of fsph_neighbors. A pair of real particles is
+!> evaluated once, in the row of the lower index, which keeps what the
+!> partner needs per entry (force, kernel gradient, work); a second loop
+!> over every particle's low list adds the partners' terms in a fixed
+!> order. Each loop writes only its own particle's entries, so the sums
+!> thread without races and give the same bits for any thread count, and
+!> the pair terms are equal and opposite, so the axial momentum of the sums
+!> is conserved to round-off.
 !>
 !> With full-ring masses m, the planar density is eta = 2 pi r rho and the
 !> stress weights r sigma / eta^2 = sigma / (4 pi^2 r rho^2). Ghost entries
@@ -23,7 +26,7 @@
 !> alpha = C_L, beta = C_Q^2.
 module fsph_sph
   use fsph_kinds, only: wp, pi, two_pi
-  use fsph_kernel, only: kernel_gradient_factor
+  use fsph_kernel, only: kernel_gradient_factor, in_support
   implicit none
   private
 
@@ -110,25 +113,32 @@ contains
   !>  a_z =                   2 pi sum m_j [S^rz dW/dr + S^zz dW/dz]
   !> with S = r_i sig_i/eta_i^2 + r_j sig_j/eta_j^2 - q_ij (...) I; wgt are
   !> the stress weights of pair_weights at these positions and densities.
-  !> The pairwise viscous pressures are stored per neighbour entry in
-  !> pair_q so that the energy equation charges exactly the viscous work
-  !> these forces do.
-  subroutine sph_accelerations(n, ntot, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, c_q, c_l, &
-                               acc, pair_q, acc_imag)
+  !> Every entry k of i's row is evaluated once, in i's row: its force per
+  !> unit neighbour mass f = 2 pi S grad_i W goes to pair_force(:, k), its
+  !> viscous pressure to pair_q(k) (so the energy equation charges exactly
+  !> the viscous work these forces do); the partner j of a half entry then
+  !> takes -m_i f (S is symmetric and grad_j W = -grad_i W), in a second
+  !> loop over j's low list, in a fixed order.
+  subroutine sph_accelerations(n, ntot, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, low_ptr, &
+                               low_pair, low_other, c_q, c_l, acc, pair_q, pair_force, pair_in, acc_imag)
     integer, intent(in) :: n             !< real particles (rows computed)
     integer, intent(in) :: ntot          !< real and imaginary particles (neighbours)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), c(ntot), sig(4, ntot)
     real(wp), intent(in) :: wgt(ntot)    !< stress weights 1/(4 pi^2 r rho^2)
-    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
+    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
     real(wp), intent(out) :: acc(2, n)
     real(wp), intent(out) :: pair_q(*)   !< viscous pressure of each entry [Pa]
+    real(wp), intent(out) :: pair_force(2, *) !< 2 pi S grad_i W of each entry [m^4/(kg s^2)]
+    logical, intent(out) :: pair_in(*)   !< the entry lies within the kernel support at these positions
     real(wp), intent(out) :: acc_imag(2, n) !< the part of acc from imaginary neighbours [m/s^2]
-    integer :: i, k, j
-    real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, wj, mj, q, stot(4), a(2), a_imag(2), da(2)
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, c_q, c_l, acc, pair_q, acc_imag) &
-    !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, wj, mj, q, stot, a, a_imag, da)
+    integer :: i, k, j, m
+    real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2)
+    !$omp parallel default(none) &
+    !$omp shared(n, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, low_ptr, low_pair, low_other) &
+    !$omp shared(c_q, c_l, acc, pair_q, pair_force, pair_in, acc_imag) &
+    !$omp private(i, k, j, m, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da)
+    !$omp do schedule(dynamic, 64)
     do i = 1, n
       wi = wgt(i)
       a(1) = -sig(4, i)/(rho(i)*x(1, i))
@@ -140,52 +150,96 @@ contains
         dx(1) = x(1, i) - sg*x(1, j)
         dx(2) = x(2, i) - x(2, j)
         dist2 = dx(1)**2 + dx(2)**2
-        pair_q(k) = 0.0_wp
-        if (dist2 <= 0.0_wp) cycle
+        ! the pairs of this cycle: those within the support now, by the
+        ! search's own test (a listed pair beyond it, from the lists' skin,
+        ! adds exact zeros here and in the mid-step sums)
+        pair_in(k) = in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp
+        if (dist2 <= 0.0_wp) then
+          pair_q(k) = 0.0_wp
+          pair_force(:, k) = 0.0_wp
+          cycle
+        end if
         hij = 0.5_wp*(h(i) + h(j))
-        grad = kernel_gradient_factor(dist2, 1.0_wp/hij)*dx
+        grad = merge(kernel_gradient_factor(dist2, 1.0_wp/hij), 0.0_wp, pair_in(k))*dx
         dv(1) = v(1, i) - sg*v(1, j)
         dv(2) = v(2, i) - v(2, j)
         q = pair_viscosity(dx, dv, dist2, hij, 0.5_wp*(rho(i) + rho(j)), 0.5_wp*(c(i) + c(j)), c_q, c_l)
         pair_q(k) = q
-        wj = sg*wgt(j)
-        mj = sg*mass(j)
-        stot = pair_stress(wi, sig(:, i), wj, sig(:, j), sg, q)
-        da(1) = two_pi*mj*(stot(1)*grad(1) + stot(3)*grad(2))
-        da(2) = two_pi*mj*(stot(3)*grad(1) + stot(2)*grad(2))
+        stot = pair_stress(wi, sig(:, i), sg*wgt(j), sig(:, j), sg, q)
+        f(1) = two_pi*(stot(1)*grad(1) + stot(3)*grad(2))
+        f(2) = two_pi*(stot(3)*grad(1) + stot(2)*grad(2))
+        pair_force(:, k) = f
+        da = sg*mass(j)*f
         a = a + da
         a_imag = a_imag + merge(da, [0.0_wp, 0.0_wp], nbr_list(k) > n)
       end do
       acc(:, i) = a
       acc_imag(:, i) = a_imag
     end do
-    !$omp end parallel do
+    !$omp end do
+    ! the partners' side of the half entries
+    !$omp do schedule(dynamic, 64)
+    do i = 1, n
+      a = acc(:, i)
+      do m = low_ptr(i), low_ptr(i + 1) - 1
+        a = a - mass(low_other(m))*pair_force(:, low_pair(m))
+      end do
+      acc(:, i) = a
+    end do
+    !$omp end do
+    !$omp end parallel
   end subroutine sph_accelerations
+
+  !> The terms of one neighbour in the rate sums of a particle: density
+  !> (eq 1; m_j/r_j = 2 pi rho_j A_j), velocity gradient and its correction
+  !> matrix, for separation dx = x_i - x_j, velocity difference
+  !> dvji = v_j - v_i, kernel gradient g = grad_i W, planar area A_j and
+  !> density rho_j. sums = (density sum, gv(1,1), gv(2,1), gv(1,2),
+  !> gv(2,2), L(1,1), L(2,1), L(1,2), L(2,2)).
+  pure subroutine add_rate_terms(dx, dvji, g, vol_j, rho_j, sums)
+    real(wp), intent(in) :: dx(2), dvji(2), g(2), vol_j, rho_j
+    real(wp), intent(inout) :: sums(9)
+    sums(1) = sums(1) - rho_j*vol_j*(dvji(1)*g(1) + dvji(2)*g(2))
+    sums(2) = sums(2) + vol_j*dvji(1)*g(1)
+    sums(3) = sums(3) + vol_j*dvji(2)*g(1)
+    sums(4) = sums(4) + vol_j*dvji(1)*g(2)
+    sums(5) = sums(5) + vol_j*dvji(2)*g(2)
+    sums(6) = sums(6) - vol_j*dx(1)*g(1)
+    sums(7) = sums(7) - vol_j*dx(2)*g(1)
+    sums(8) = sums(8) - vol_j*dx(1)*g(2)
+    sums(9) = sums(9) - vol_j*dx(2)*g(2)
+  end subroutine add_rate_terms
 
   !> Rates for the update of density (eq 1) and the velocity gradient,
   !> corrected (Randles-Libersky) so that a linear velocity field is
   !> differentiated exactly: strain rates d (rr, zz, rz, tt) with
   !> d_tt = v_r/r, and spin. area is the planar area of pair_weights at
-  !> these positions and densities. The kernel gradient of every entry is
-  !> returned in grad for the energy sum at the same positions
-  !> (sph_energy_rate, eq 3).
-  subroutine sph_rates(n, ntot, x, v, rho, h, area, nbr_ptr, nbr_list, grad, drho, d, spin)
+  !> these positions and densities; the sums run over the entries pair_in
+  !> marks (the pairs within the support at the start of the cycle, as the
+  !> accelerations). The kernel gradient grad_i W of every
+  !> entry of i's row is computed once and kept in grad, for the partner's
+  !> terms (grad_j W = -grad_i W, in a second loop over the low lists) and
+  !> for the energy sum at the same positions (sph_energy_rate, eq 3).
+  !> sums is work space (9, n).
+  subroutine sph_rates(n, ntot, x, v, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, &
+                       pair_in, grad, sums, drho, d, spin)
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), rho(ntot), h(ntot), area(ntot)
-    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
+    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
+    logical, intent(in) :: pair_in(*)    !< the entries of this cycle (sph_accelerations)
     real(wp), intent(out) :: grad(2, *)  !< kernel gradient grad_i W of each entry [1/m^3]
+    real(wp), intent(out) :: sums(9, n)
     real(wp), intent(out) :: drho(n)     !< [kg/(m^3 s)]
     real(wp), intent(out) :: d(4, n), spin(n) !< [1/s]
-    integer :: i, k, j
-    real(wp) :: sg, dx(2), dvji(2), dist2, g_ij(2), vol_j, gv(2, 2), lm(2, 2)
-    real(wp) :: inv(2, 2), det, g(2, 2), sum_rho
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x, v, rho, h, area, nbr_ptr, nbr_list, grad, drho, d, spin) &
-    !$omp private(i, k, j, sg, dx, dvji, dist2, g_ij, vol_j, gv, lm, inv, det, g, sum_rho)
+    integer :: i, k, j, m
+    real(wp) :: sg, dx(2), dvji(2), dist2, g_ij(2), acc9(9), gv(2, 2), lm(2, 2), inv(2, 2), det, g(2, 2)
+    !$omp parallel default(none) &
+    !$omp shared(n, x, v, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_in, grad, sums) &
+    !$omp shared(drho, d, spin) &
+    !$omp private(i, k, j, m, sg, dx, dvji, dist2, g_ij, acc9, gv, lm, inv, det, g)
+    !$omp do schedule(dynamic, 64)
     do i = 1, n
-      sum_rho = 0.0_wp
-      gv = 0.0_wp
-      lm = 0.0_wp
+      acc9 = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         j = abs(nbr_list(k))
         sg = entry_sign(nbr_list(k))
@@ -196,20 +250,27 @@ contains
           grad(:, k) = 0.0_wp
           cycle
         end if
-        g_ij = kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j)))*dx
+        g_ij = merge(kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j))), 0.0_wp, &
+                     pair_in(k) .and. in_support(dist2, h(i), h(j)))*dx
         grad(:, k) = g_ij
         dvji(1) = sg*v(1, j) - v(1, i)
         dvji(2) = v(2, j) - v(2, i)
-        vol_j = area(j)
-        ! (1): (1/2 pi) sum m_j/r_j (v_i - v_j).grad W, m_j/r_j = 2 pi rho_j A_j
-        sum_rho = sum_rho - rho(j)*vol_j*(dvji(1)*g_ij(1) + dvji(2)*g_ij(2))
-        ! velocity gradient and its correction matrix, planar volume A_j
-        gv(:, 1) = gv(:, 1) + vol_j*dvji*g_ij(1)
-        gv(:, 2) = gv(:, 2) + vol_j*dvji*g_ij(2)
-        lm(:, 1) = lm(:, 1) - vol_j*dx*g_ij(1)
-        lm(:, 2) = lm(:, 2) - vol_j*dx*g_ij(2)
+        call add_rate_terms(dx, dvji, g_ij, area(j), rho(j), acc9)
       end do
-      drho(i) = -rho(i)*v(1, i)/x(1, i) + sum_rho
+      sums(:, i) = acc9
+    end do
+    !$omp end do
+    ! the partners' side of the half entries, then the rates
+    !$omp do schedule(dynamic, 64)
+    do i = 1, n
+      acc9 = sums(:, i)
+      do m = low_ptr(i), low_ptr(i + 1) - 1
+        j = low_other(m)
+        call add_rate_terms(x(:, i) - x(:, j), v(:, j) - v(:, i), -grad(:, low_pair(m)), area(j), rho(j), acc9)
+      end do
+      drho(i) = -rho(i)*v(1, i)/x(1, i) + acc9(1)
+      gv = reshape(acc9(2:5), [2, 2])
+      lm = reshape(acc9(6:9), [2, 2])
       ! g = gv L^-1 where the correction applies
       det = lm(1, 1)*lm(2, 2) - lm(1, 2)*lm(2, 1)
       if (det > correction_det_min .and. det < correction_det_max) then
@@ -226,7 +287,8 @@ contains
       d(4, i) = v(1, i)/x(1, i)
       spin(i) = 0.5_wp*(g(1, 2) - g(2, 1))
     end do
-    !$omp end parallel do
+    !$omp end do
+    !$omp end parallel
   end subroutine sph_rates
 
   !> Energy rate of eq 3 alone [J/(kg s)] for the stress and velocities
@@ -236,20 +298,26 @@ contains
   !> time-centred force), with the viscous work of the pair pressures
   !> pair_q charged at the velocities v_visc (the cycle passes the mean of
   !> the velocities before and after the kick, which is exactly the
-  !> kinetic energy those forces removed).
-  subroutine sph_energy_rate(n, ntot, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, pair_q, &
-                             grad, de)
+  !> kinetic energy those forces removed). The work per unit neighbour mass
+  !> of each entry, w = S : (v_j - v_i) grad_i W, is kept in pair_work_k: the
+  !> partner of a half entry takes m_i w (the same for both particles), in a
+  !> second loop over its low list.
+  subroutine sph_energy_rate(n, ntot, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, low_ptr, &
+                             low_pair, low_other, pair_q, grad, pair_work_k, de)
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
     real(wp), intent(in) :: sig(4, ntot), wgt(ntot)
-    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
+    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: pair_q(*), grad(2, *)
+    real(wp), intent(out) :: pair_work_k(*) !< work rate of each entry per unit neighbour mass [m^2/(kg s^3)]
     real(wp), intent(out) :: de(n)
-    integer :: i, k, j
-    real(wp) :: sg, dvji(2), wi, wj, mj, sum_e, vq(2), qwork(4), q
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, pair_q, grad, de) &
-    !$omp private(i, k, j, sg, dvji, wi, wj, mj, sum_e, vq, qwork, q)
+    integer :: i, k, j, m
+    real(wp) :: sg, dvji(2), wi, wj, sum_e, vq(2), qwork(4), q, w
+    !$omp parallel default(none) &
+    !$omp shared(n, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, low_ptr, low_pair, low_other) &
+    !$omp shared(pair_q, grad, pair_work_k, de) &
+    !$omp private(i, k, j, m, sg, dvji, wi, wj, sum_e, vq, qwork, q, w)
+    !$omp do schedule(dynamic, 64)
     do i = 1, n
       wi = wgt(i)
       sum_e = 0.0_wp
@@ -259,8 +327,7 @@ contains
         dvji(1) = sg*v(1, j) - v(1, i)
         dvji(2) = v(2, j) - v(2, i)
         wj = sg*wgt(j)
-        mj = sg*mass(j)
-        sum_e = sum_e + mj*pair_work(pair_stress(wi, sig(:, i), wj, sig(:, j), sg, 0.0_wp), dvji, grad(:, k))
+        w = pair_work(pair_stress(wi, sig(:, i), wj, sig(:, j), sg, 0.0_wp), dvji, grad(:, k))
         q = pair_q(k)
         if (q > 0.0_wp) then
           vq(1) = sg*v_visc(1, j) - v_visc(1, i)
@@ -268,12 +335,25 @@ contains
           qwork = 0.0_wp
           qwork(1) = -q*(wi + wj)
           qwork(2) = qwork(1)
-          sum_e = sum_e + mj*pair_work(qwork, vq, grad(:, k))
+          w = w + pair_work(qwork, vq, grad(:, k))
         end if
+        pair_work_k(k) = w
+        sum_e = sum_e + sg*mass(j)*w
+      end do
+      de(i) = sum_e
+    end do
+    !$omp end do
+    ! the partners' side of the half entries, then the rates
+    !$omp do schedule(dynamic, 64)
+    do i = 1, n
+      sum_e = de(i)
+      do m = low_ptr(i), low_ptr(i + 1) - 1
+        sum_e = sum_e + mass(low_other(m))*pair_work_k(low_pair(m))
       end do
       de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + pi*sum_e
     end do
-    !$omp end parallel do
+    !$omp end do
+    !$omp end parallel
   end subroutine sph_energy_rate
 
   !> Stable particle step before the safety factor: min L/(c + |v|) [s]

@@ -86,8 +86,21 @@ module fsph_state
     real(wp), allocatable :: e_old(:), rho_old(:), rho_mid(:), sig_mid(:, :) !< cycle work arrays
     ! neighbour search (fsph_neighbors): its work arrays, same-body and contact lists
     type(neighbour_work_t) :: search
+    ! lists kept across cycles (fsph_verlet)
+    logical :: lists_valid = .false.      !< the lists may be reused (false forces a rebuild)
+    real(wp) :: skin = 0.0_wp             !< skin of the current lists [m]
+    integer :: n_listed = 0               !< real particles when the lists were built
+    integer :: n_rebuilds = 0             !< list builds so far
+    real(wp), allocatable :: x_listed(:, :) !< real particle positions at the build (2, capacity) [m]
+    real(wp), allocatable :: elem_listed(:, :) !< element centroids (r, z) and h at the build (3, ne) [m]
     integer, allocatable :: nbr_ptr(:), nbr_list(:), cnt_ptr(:), cnt_list(:)
+    integer, allocatable :: half_end(:)   !< end (exclusive) of the half entries of each row
+    integer, allocatable :: low_ptr(:), low_pair(:), low_other(:) !< low lists: partner and pair entry
     real(wp), allocatable :: pair_q(:)    !< viscous pressure per neighbour entry [Pa]
+    real(wp), allocatable :: pair_force(:, :) !< 2 pi S grad W per neighbour entry [m^4/(kg s^2)]
+    real(wp), allocatable :: pair_work(:) !< energy work rate per entry and unit neighbour mass [m^2/(kg s^3)]
+    logical, allocatable :: pair_in(:)    !< entry within the kernel support at the start of the cycle
+    real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
     real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
     real(wp), allocatable :: wgt(:)       !< work: stress weight 1/(4 pi^2 r rho^2) per entry [m^5/kg^2]
     real(wp), allocatable :: planar_area(:) !< work: planar area m/(2 pi r rho) per entry [m^2]
@@ -174,6 +187,7 @@ module fsph_state
     real(wp) :: contact_touch = 0.2367_wp !< particle contact: other-body filling C at touching [-]
     real(wp) :: contact_slope = 0.45_wp  !< particle contact: dC per spacing of approach at touching [-]
     real(wp) :: debris_ratio = 0.1_wp    !< particles below this fraction of the reference density are debris [-]
+    real(wp) :: neighbour_skin = 0.1_wp  !< skin of the neighbour lists, fraction of the smallest support [-]
   end type control_t
 
   !> Columns of a time-history record.
@@ -265,7 +279,8 @@ contains
                 pt%d(4, cap), pt%spin(cap), pt%e_old(cap), pt%rho_old(cap), pt%rho_mid(cap), &
                 pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
                 pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap), &
-                pt%hist(n_hist, cap), pt%wgt(cap), pt%planar_area(cap))
+                pt%hist(n_hist, cap), pt%wgt(cap), pt%planar_area(cap), pt%half_end(cap), &
+                pt%low_ptr(cap + 1), pt%rate_sums(9, cap))
       pt%hist = 0.0_wp
       pt%wgt = 0.0_wp; pt%planar_area = 0.0_wp
       pt%x = 0.0_wp; pt%x0 = 0.0_wp; pt%x_old = 0.0_wp; pt%x_mid = 0.0_wp; pt%v = 0.0_wp

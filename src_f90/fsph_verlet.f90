@@ -1,0 +1,108 @@
+!> Neighbour lists kept across cycles (Verlet lists): the lists of
+!> fsph_neighbors are built with every pair's reach widened by a skin, and
+!> reused while no pair can have come within the kernel support unlisted:
+!> while 2 d_max + kernel_support dh_max < skin, with d_max the largest
+!> displacement since the build of a real particle or of the centroid of an
+!> element of a coupled body (an imaginary particle, listed or not), and
+!> dh_max the largest growth of such an element's h = alpha_h sqrt(A) (a
+!> particle's h does not change). Rows are sorted, and entries beyond the
+!> support contribute exact zeros, so the sums, and the run, are the same
+!> bit for bit as with lists rebuilt every cycle (tested). A conversion,
+!> an erosion, a restart or a verification hook that moves particles
+!> forces a rebuild.
+module fsph_verlet
+  use fsph_kinds, only: wp
+  use fsph_state, only: sim
+  use fsph_kernel, only: kernel_support
+  use fsph_coupling, only: coupled_body
+  implicit none
+  private
+
+  public :: lists_still_valid, record_lists, invalidate_lists, list_skin
+
+contains
+
+  !> Skin for lists built now [m]: the control fraction of the smallest
+  !> kernel support of the real particles (0: lists rebuilt every cycle).
+  real(wp) function list_skin()
+    integer :: n
+    n = sim%particles%n
+    list_skin = 0.0_wp
+    if (n > 0) list_skin = sim%control%neighbour_skin*kernel_support*minval(sim%particles%h(1:n))
+  end function list_skin
+
+  !> Forget the lists: the next cycle rebuilds them.
+  subroutine invalidate_lists()
+    sim%particles%lists_valid = .false.
+  end subroutine invalidate_lists
+
+  !> Positions of the real particles and centroids and h of the elements at
+  !> a build with skin `skin` [m].
+  subroutine record_lists(skin)
+    real(wp), intent(in) :: skin
+    integer :: n, ne, ie
+    n = sim%particles%n
+    ne = sim%elements%n
+    if (.not. allocated(sim%particles%x_listed)) allocate (sim%particles%x_listed(2, sim%particles%capacity))
+    sim%particles%x_listed(:, 1:n) = sim%particles%x(:, 1:n)
+    if (allocated(sim%particles%elem_listed)) then
+      if (size(sim%particles%elem_listed, 2) < ne) deallocate (sim%particles%elem_listed)
+    end if
+    if (.not. allocated(sim%particles%elem_listed)) allocate (sim%particles%elem_listed(3, max(ne, 1)))
+    !$omp parallel do default(none) shared(sim, ne) private(ie)
+    do ie = 1, ne
+      sim%particles%elem_listed(1:2, ie) = element_centroid(ie)
+      sim%particles%elem_listed(3, ie) = element_h(ie)
+    end do
+    !$omp end parallel do
+    sim%particles%skin = skin
+    sim%particles%n_listed = n
+    sim%particles%lists_valid = skin > 0.0_wp
+    sim%particles%n_rebuilds = sim%particles%n_rebuilds + 1
+  end subroutine record_lists
+
+  !> Whether the lists of the last build still hold every pair within the
+  !> kernel support (see the module header).
+  logical function lists_still_valid()
+    integer :: n, ne, ie
+    real(wp) :: d2_max, dh_max, xe(2)
+    lists_still_valid = .false.
+    n = sim%particles%n
+    ne = sim%elements%n
+    if (.not. sim%particles%lists_valid .or. n /= sim%particles%n_listed .or. n == 0) return
+    d2_max = 0.0_wp
+    dh_max = 0.0_wp
+    !$omp parallel do default(none) shared(sim, n) private(ie) reduction(max:d2_max)
+    do ie = 1, n
+      d2_max = max(d2_max, sum((sim%particles%x(:, ie) - sim%particles%x_listed(:, ie))**2))
+    end do
+    !$omp end parallel do
+    if (ne > 0) then
+      if (size(sim%particles%elem_listed, 2) < ne) return
+      !$omp parallel do default(none) shared(sim, ne) private(ie, xe) reduction(max:d2_max, dh_max)
+      do ie = 1, ne
+        if (.not. coupled_body(sim%elements%body(ie))) cycle
+        xe = element_centroid(ie)
+        d2_max = max(d2_max, sum((xe - sim%particles%elem_listed(1:2, ie))**2))
+        dh_max = max(dh_max, element_h(ie) - sim%particles%elem_listed(3, ie))
+      end do
+      !$omp end parallel do
+    end if
+    lists_still_valid = 2.0_wp*sqrt(d2_max) + kernel_support*dh_max < sim%particles%skin
+  end function lists_still_valid
+
+  !> Centroid (r, z) of element ie [m].
+  pure function element_centroid(ie) result(xe)
+    integer, intent(in) :: ie
+    real(wp) :: xe(2)
+    xe = (sim%nodes%x(:, sim%elements%conn(1, ie)) + sim%nodes%x(:, sim%elements%conn(2, ie)) &
+          + sim%nodes%x(:, sim%elements%conn(3, ie)))/3.0_wp
+  end function element_centroid
+
+  !> Smoothing length of element ie as an imaginary particle, alpha_h sqrt(A) [m].
+  pure real(wp) function element_h(ie)
+    integer, intent(in) :: ie
+    element_h = sim%conversion%alpha_h*sqrt(max(sim%elements%area(ie), 0.0_wp))
+  end function element_h
+
+end module fsph_verlet
