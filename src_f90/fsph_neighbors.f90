@@ -3,7 +3,8 @@
 !> evaluate each pair of real particles once (a half list) and still
 !> gather every particle's sum in a fixed order, whatever the thread count.
 !>
-!> The points are copied into cell order (positions, half-supports and
+!> The points are binned by size (a factor 2 in h per level, each level its
+!> own cell grid) and copied into cell order (positions, reaches and
 !> bodies side by side), so the candidates of a cell are read as one
 !> contiguous run; each particle's accepted neighbours are appended without
 !> a branch into its own rows of strided buffers in one threaded pass (a
@@ -33,11 +34,22 @@ module fsph_neighbors
 
   public :: build_neighbors
 
+  !> Largest number of size levels (a factor 2 in h each; the last takes
+  !> all larger points).
+  integer, parameter :: max_levels = 12
+
   !> Work arrays of the search, kept between calls so the cycle does not
   !> allocate once their sizes have settled.
   type, public :: neighbour_work_t
     integer :: width = 32                  !< row width of the half, low and one-way buffers
     integer :: contact_width = 4           !< row width of the contact buffer
+    ! one grid per size level: points with h in [h_min 2^(l-1), h_min 2^l)
+    integer :: n_levels = 0
+    real(wp) :: level_cell(max_levels) = 0.0_wp  !< cell side [m]
+    real(wp) :: level_z0(max_levels) = 0.0_wp    !< lowest z of the level's points [m]
+    real(wp) :: level_reach(max_levels) = 0.0_wp !< largest reach (kernel_support h + skin)/2 [m]
+    integer :: level_nr(max_levels) = 0, level_nz(max_levels) = 0 !< cells (0: empty level)
+    integer :: level_offset(max_levels) = 0       !< cells of the levels before
     integer, allocatable :: cell_start(:)  !< CSR of cells into the sorted points (ncell + 1)
     integer, allocatable :: cell_of(:)     !< cell of each point
     integer, allocatable :: fill(:)        !< next free sorted slot of each cell (ncell)
@@ -57,24 +69,64 @@ module fsph_neighbors
 
 contains
 
-  !> Cell size and grid: cells of side >= 2 h_max starting at r = 0 and the
-  !> lowest z; the side grows if needed so the grid never has more than
-  !> about 4 cells per particle (memory stays O(N) when particles scatter).
-  subroutine make_grid(n, x, h_max, cell, nr, nz, z0)
+  !> Size levels and their grids: level l holds the points with h in
+  !> [h_min 2^(l-1), h_min 2^l) (the last, all larger ones); its cells, of
+  !> side at least twice its largest reach, start at r = 0 and its lowest
+  !> z; a side grows if needed so that a level never has more than about 4
+  !> cells per point (memory stays O(N) when particles scatter). One grid
+  !> for all would be as coarse as the largest particle: a graded plate's
+  !> rim particles, 40 times the impact zone's, put thousands of candidates
+  !> in every cell.
+  subroutine make_levels(n, x, h, skin, level, work)
     integer, intent(in) :: n
-    real(wp), intent(in) :: x(2, n), h_max
-    real(wp), intent(out) :: cell, z0
-    integer, intent(out) :: nr, nz
-    real(wp) :: r_ext, z_ext
-    real(wp), parameter :: cells_per_particle = 4.0_wp
-    z0 = minval(x(2, :))
-    r_ext = max(maxval(x(1, :)), 0.0_wp)
-    z_ext = maxval(x(2, :)) - z0
-    cell = kernel_support*h_max
-    cell = max(cell, sqrt((r_ext + cell)*(z_ext + cell)/(cells_per_particle*n)))
-    nr = int(r_ext/cell) + 1
-    nz = int(z_ext/cell) + 1
-  end subroutine make_grid
+    real(wp), intent(in) :: x(2, n), h(n), skin
+    integer, intent(out) :: level(n)
+    type(neighbour_work_t), intent(inout) :: work
+    real(wp), parameter :: cells_per_point = 4.0_wp
+    real(wp) :: h_min, z_lo(max_levels), z_hi(max_levels), r_hi(max_levels), cell
+    integer :: i, l, count(max_levels), offset
+    h_min = minval(h)
+    z_lo = huge(1.0_wp); z_hi = -huge(1.0_wp); r_hi = 0.0_wp
+    count = 0
+    work%level_reach = 0.0_wp
+    do i = 1, n
+      l = min(exponent(h(i)/h_min), max_levels)
+      level(i) = l
+      count(l) = count(l) + 1
+      z_lo(l) = min(z_lo(l), x(2, i))
+      z_hi(l) = max(z_hi(l), x(2, i))
+      r_hi(l) = max(r_hi(l), x(1, i))
+      work%level_reach(l) = max(work%level_reach(l), 0.5_wp*kernel_support*h(i) + 0.5_wp*skin)
+    end do
+    work%n_levels = maxval(level)
+    offset = 0
+    do l = 1, work%n_levels
+      work%level_offset(l) = offset
+      if (count(l) == 0) then
+        work%level_nr(l) = 0
+        work%level_nz(l) = 0
+        cycle
+      end if
+      cell = 2.0_wp*work%level_reach(l)
+      cell = max(cell, sqrt((r_hi(l) + cell)*(z_hi(l) - z_lo(l) + cell)/(cells_per_point*count(l))))
+      work%level_cell(l) = cell
+      work%level_z0(l) = z_lo(l)
+      work%level_nr(l) = int(max(r_hi(l), 0.0_wp)/cell) + 1
+      work%level_nz(l) = int((z_hi(l) - z_lo(l))/cell) + 1
+      offset = offset + work%level_nr(l)*work%level_nz(l)
+    end do
+  end subroutine make_levels
+
+  !> Global cell of a point at (r, z) in level l's grid.
+  pure integer function cell_index(work, l, r, z)
+    type(neighbour_work_t), intent(in) :: work
+    integer, intent(in) :: l
+    real(wp), intent(in) :: r, z
+    cell_index = work%level_offset(l) + 1 &
+                 + min(int(max(r, 0.0_wp)/work%level_cell(l)), work%level_nr(l) - 1) &
+                 + work%level_nr(l)*min(int((z - work%level_z0(l))/work%level_cell(l)), work%level_nz(l) - 1)
+  end function cell_index
+
 
   !> Build the lists (see the module header) of the first nq of n points
   !> (the real particles; the others, imaginary particles, appear only as
@@ -90,18 +142,16 @@ contains
     type(neighbour_work_t), intent(inout) :: work
     integer, intent(out) :: nbr_ptr(nq + 1), half_end(nq), low_ptr(nq + 1), cnt_ptr(nq + 1)
     integer, allocatable, intent(inout) :: nbr_list(:), low_pair(:), low_other(:), cnt_list(:)
-    real(wp) :: cell, z0
-    integer :: nr, nz, i, m, j, k, found
+    integer :: i, m, j, k, found
 
     nbr_ptr(1) = 1
     low_ptr(1) = 1
     cnt_ptr(1) = 1
     if (nq == 0 .or. n == 0) return
-    call make_grid(n, x, maxval(h) + skin/kernel_support, cell, nr, nz, z0)
-    call sort_into_cells(n, x, h, body, skin, cell, nr, nz, z0, work)
+    call sort_into_cells(n, x, h, body, skin, work)
     call ensure_rows(work, nq)
     do
-      call scan_points(nq, n, x, h, body, skin, cell, nr, nz, z0, work)
+      call scan_points(nq, n, x, h, body, skin, work)
       if (max(maxval(work%n_half(1:nq)), maxval(work%n_low(1:nq)), maxval(work%n_one(1:nq))) <= work%width &
           .and. maxval(work%n_cnt(1:nq)) <= work%contact_width) exit
       ! a row overflowed: widen the rows to the longest list and scan again
@@ -173,28 +223,31 @@ contains
     end do
   end subroutine sort_ascending
 
-  !> Counting sort of the points into cells (point order kept within a
-  !> cell), with copies of their positions, reaches (half-support plus half
-  !> the skin) and continua in that order.
-  subroutine sort_into_cells(n, x, h, body, skin, cell, nr, nz, z0, work)
-    integer, intent(in) :: n, nr, nz
-    real(wp), intent(in) :: x(2, n), h(n), skin, cell, z0
+  !> Counting sort of the points into the cells of their levels (point
+  !> order kept within a cell), with copies of their positions, reaches
+  !> (half-support plus half the skin) and continua in that order.
+  subroutine sort_into_cells(n, x, h, body, skin, work)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(2, n), h(n), skin
     integer, intent(in) :: body(n)
     type(neighbour_work_t), intent(inout) :: work
-    integer :: ncell, i, k, c
-    ncell = nr*nz
-    if (allocated(work%cell_start)) then
-      if (size(work%cell_start) < ncell + 1) deallocate (work%cell_start, work%fill)
-    end if
-    if (.not. allocated(work%cell_start)) allocate (work%cell_start(ncell + 1), work%fill(ncell))
+    integer :: ncell, i, k, c, l
     if (allocated(work%cell_of)) then
       if (size(work%cell_of) < n) deallocate (work%cell_of, work%item, work%xs, work%reach_s, work%body_s)
     end if
     if (.not. allocated(work%cell_of)) allocate (work%cell_of(n), work%item(n), work%xs(2, n), &
                                                  work%reach_s(n), work%body_s(n))
+    ! cell_of holds the levels first, then the cells
+    call make_levels(n, x, h, skin, work%cell_of, work)
+    l = work%n_levels
+    ncell = work%level_offset(l) + work%level_nr(l)*work%level_nz(l)
+    if (allocated(work%cell_start)) then
+      if (size(work%cell_start) < ncell + 1) deallocate (work%cell_start, work%fill)
+    end if
+    if (.not. allocated(work%cell_start)) allocate (work%cell_start(ncell + 1), work%fill(ncell))
     work%cell_start(1:ncell + 1) = 0
     do i = 1, n
-      c = 1 + min(int(max(x(1, i), 0.0_wp)/cell), nr - 1) + nr*min(int((x(2, i) - z0)/cell), nz - 1)
+      c = cell_index(work, work%cell_of(i), x(1, i), x(2, i))
       work%cell_of(i) = c
       work%cell_start(c + 1) = work%cell_start(c + 1) + 1
     end do
@@ -233,72 +286,81 @@ contains
 
   !> One pass over the real points: each accepted candidate goes to the
   !> half, low or one-way row or the contact row (up to the row width; the
-  !> counts go on, so the caller sees an overflow).
-  subroutine scan_points(nq, n, x, h, body, skin, cell, nr, nz, z0, work)
-    integer, intent(in) :: nq, n, nr, nz
-    real(wp), intent(in) :: x(2, n), h(n), skin, cell, z0
+  !> counts go on, so the caller sees an overflow). A point looks, in every
+  !> level, at the cells within its reach plus the level's largest reach:
+  !> in its own level and the coarser ones, the 3 x 3 cells around it.
+  subroutine scan_points(nq, n, x, h, body, skin, work)
+    integer, intent(in) :: nq, n
+    real(wp), intent(in) :: x(2, n), h(n), skin
     integer, intent(in) :: body(n)
     type(neighbour_work_t), intent(inout) :: work
-    integer :: ii, jj, ir, iz, jz, c, kk, n_half, n_low, n_one, n_cnt, bi, width, cwidth
-    integer :: near, same, real_j, up
-    real(wp) :: ri, zi, reach_i, reach, d2
+    integer :: ii, jj, l, jz, kk, n_half, n_low, n_one, n_cnt, bi, width, cwidth
+    integer :: near, same, real_j, up, jr_lo, jr_hi, jz_lo, jz_hi, row
+    real(wp) :: ri, zi, reach_i, reach, d2, big, cell
     ! a row holds width entries; writes past them go to the scratch slot
     ! width + 1, and a count above width makes the caller widen and rescan
     width = work%width
     cwidth = work%contact_width
     !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(nq, x, h, body, skin, cell, z0, nr, nz, work, width, cwidth) &
-    !$omp private(ii, jj, ir, iz, jz, c, kk, n_half, n_low, n_one, n_cnt, bi, ri, zi, reach_i, reach, d2) &
-    !$omp private(near, same, real_j, up)
+    !$omp shared(nq, x, h, body, skin, work, width, cwidth) &
+    !$omp private(ii, jj, l, jz, kk, n_half, n_low, n_one, n_cnt, bi, ri, zi, reach_i, reach, d2, big, cell) &
+    !$omp private(near, same, real_j, up, jr_lo, jr_hi, jz_lo, jz_hi, row)
     do ii = 1, nq
       ri = x(1, ii)
       zi = x(2, ii)
       reach_i = 0.5_wp*kernel_support*h(ii) + 0.5_wp*skin
       bi = body(ii)
-      ir = min(int(max(ri, 0.0_wp)/cell), nr - 1)
-      iz = min(int((zi - z0)/cell), nz - 1)
       n_half = 0
       n_low = 0
       n_one = 0
       n_cnt = 0
-      do jz = max(iz - 1, 0), min(iz + 1, nz - 1)
-        ! real and imaginary neighbours and contact candidates: the cells
-        ! ir-1 .. ir+1 of a row are one run of sorted points
-        c = 1 + max(ir - 1, 0) + nr*jz
-        do kk = work%cell_start(c), work%cell_start(1 + min(ir + 1, nr - 1) + nr*jz + 1) - 1
-          jj = work%item(kk)
-          d2 = (ri - work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
-          reach = reach_i + work%reach_s(kk)
-          ! 0/1 flags, so the common path has no data-dependent branch
-          near = merge(1, 0, d2 < reach*reach)*merge(1, 0, jj /= ii)
-          same = merge(1, 0, work%body_s(kk) == bi)
-          real_j = merge(1, 0, jj <= nq)
-          up = merge(1, 0, jj > ii)
-          work%half_row(min(n_half + 1, width + 1), ii) = jj
-          work%low_row(min(n_low + 1, width + 1), ii) = jj
-          work%one_row(min(n_one + 1, width + 1), ii) = jj
-          n_half = n_half + near*same*real_j*up
-          n_low = n_low + near*same*real_j*(1 - up)
-          n_one = n_one + near*same*(1 - real_j)
-          if (near > same) then
-            ! another body within reach: a contact candidate if real
-            if (jj <= nq) then
-              n_cnt = n_cnt + 1
-              if (n_cnt <= cwidth) work%cnt_row(n_cnt, ii) = jj
+      do l = 1, work%n_levels
+        if (work%level_nr(l) == 0) cycle
+        cell = work%level_cell(l)
+        big = reach_i + work%level_reach(l)      ! farthest a neighbour of this level can be
+        jr_lo = max(floor((ri - big)/cell), 0)
+        jr_hi = min(floor((ri + big)/cell), work%level_nr(l) - 1)
+        jz_lo = max(floor((zi - big - work%level_z0(l))/cell), 0)
+        jz_hi = min(floor((zi + big - work%level_z0(l))/cell), work%level_nz(l) - 1)
+        do jz = jz_lo, jz_hi
+          ! real and imaginary neighbours and contact candidates: the cells
+          ! jr_lo .. jr_hi of a row are one run of sorted points
+          row = work%level_offset(l) + 1 + work%level_nr(l)*jz
+          do kk = work%cell_start(row + jr_lo), work%cell_start(row + jr_hi + 1) - 1
+            jj = work%item(kk)
+            d2 = (ri - work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
+            reach = reach_i + work%reach_s(kk)
+            ! 0/1 flags, so the common path has no data-dependent branch
+            near = merge(1, 0, d2 < reach*reach)*merge(1, 0, jj /= ii)
+            same = merge(1, 0, work%body_s(kk) == bi)
+            real_j = merge(1, 0, jj <= nq)
+            up = merge(1, 0, jj > ii)
+            work%half_row(min(n_half + 1, width + 1), ii) = jj
+            work%low_row(min(n_low + 1, width + 1), ii) = jj
+            work%one_row(min(n_one + 1, width + 1), ii) = jj
+            n_half = n_half + near*same*real_j*up
+            n_low = n_low + near*same*real_j*(1 - up)
+            n_one = n_one + near*same*(1 - real_j)
+            if (near > same) then
+              ! another body within reach: a contact candidate if real
+              if (jj <= nq) then
+                n_cnt = n_cnt + 1
+                if (n_cnt <= cwidth) work%cnt_row(n_cnt, ii) = jj
+              end if
             end if
+          end do
+          ! ghosts: mirrors (-r_j, z_j) of same-body points within reach of
+          ! the axis side, for points whose reach crosses it
+          if (big > ri) then
+            do kk = work%cell_start(row), work%cell_start(row + min(floor((big - ri)/cell), &
+                                                                     work%level_nr(l) - 1) + 1) - 1
+              d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
+              reach = reach_i + work%reach_s(kk)
+              work%one_row(min(n_one + 1, width + 1), ii) = -work%item(kk)
+              n_one = n_one + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
+            end do
           end if
         end do
-        ! ghosts: mirrors (-r_j, z_j) of same-body points in the first
-        ! column, for points whose support can reach the axis
-        if (ir <= 1) then
-          c = 1 + nr*jz
-          do kk = work%cell_start(c), work%cell_start(c + 1) - 1
-            d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
-            reach = reach_i + work%reach_s(kk)
-            work%one_row(min(n_one + 1, width + 1), ii) = -work%item(kk)
-            n_one = n_one + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
-          end do
-        end if
       end do
       work%n_half(ii) = n_half
       work%n_low(ii) = n_low

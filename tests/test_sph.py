@@ -124,6 +124,33 @@ def test_neighbour_lists_of_any_length_match_brute_force(write_deck):
             assert set(entries) == brute_force_pairs(x, h, i), (width, i)
 
 
+def test_neighbour_lists_across_size_levels_match_brute_force(write_deck):
+    """Particles whose smoothing lengths span a factor 16 (several of the
+    search's size levels, each with its own cell grid, as on a graded
+    plate): every list is exactly what an all-pairs check finds, mirror
+    images across the axis included."""
+    from fsph.simulation import _api
+    path = write_deck(particle_deck(body="n_radial = 10\n n_axial = 40",
+                                    extra="&sph\n neighbour_skin = 0.0\n/\n"))
+    rod = fsph.Simulation(deck_module.load(path))
+    part = rod.snapshot()["particles"]
+    rng = np.random.default_rng(11)
+    spacing = 0.1e-3
+    x = part["x"] + rng.uniform(-0.2, 0.2, part["x"].shape) * spacing
+    x[:, 0] = np.maximum(x[:, 0], 0.2 * spacing)
+    h = spacing * np.exp(rng.uniform(np.log(0.5), np.log(8.0), len(x)))
+    ierr = _api.set_particles(np.asfortranarray(x.T), np.zeros((2, len(x)), order="F"), part["mass"], h,
+                              (part["material"] + 1).astype(np.int32), (part["body"] + 1).astype(np.int32))
+    assert ierr == 0
+    assert _api.initialise()[0] == 0
+    rod.particle_rates()
+    ptr, lst = rod.neighbors()
+    for i in range(len(x)):
+        entries = lst[ptr[i] - 1:ptr[i + 1] - 1].tolist()
+        assert len(entries) == len(set(entries)), i
+        assert set(entries) == brute_force_pairs(x, h, i), i
+
+
 # ---- SPH gradients ----------------------------------------------------------
 def set_particle_velocity(sim, v):
     """Rebuild the particle state with velocities v (n, 2) [m/s]."""
