@@ -106,27 +106,33 @@ contains
   pure subroutine rotate_deviator(omega_dt, s)
     real(wp), intent(in) :: omega_dt   !< spin times step [rad]
     real(wp), intent(inout) :: s(4)
-    !> Below this angle the Taylor series of sin and cos to the 9th and
-    !> 8th power are exact to round-off (next terms < 3e-17) [rad].
-    real(wp), parameter :: series_angle = 0.1_wp
-    real(wp) :: cs, sn, srr, szz, srz, a2
-    if (abs(omega_dt) < series_angle) then
-      ! a step's rotation is tiny: the series costs a few multiplications
-      ! where sin and cos are library calls
-      a2 = omega_dt*omega_dt
-      cs = 1.0_wp - a2*(1.0_wp/2.0_wp)*(1.0_wp - a2*(1.0_wp/12.0_wp)*(1.0_wp - a2*(1.0_wp/30.0_wp) &
-           *(1.0_wp - a2*(1.0_wp/56.0_wp))))
-      sn = omega_dt*(1.0_wp - a2*(1.0_wp/6.0_wp)*(1.0_wp - a2*(1.0_wp/20.0_wp)*(1.0_wp - a2*(1.0_wp/42.0_wp) &
-           *(1.0_wp - a2*(1.0_wp/72.0_wp)))))
-    else
-      cs = cos(omega_dt)
-      sn = sin(omega_dt)
-    end if
+    real(wp) :: cs, sn, srr, szz, srz
+    call rotation_cos_sin(omega_dt, cs, sn)
     srr = s(1); szz = s(2); srz = s(3)
     s(1) = cs*cs*srr + 2.0_wp*cs*sn*srz + sn*sn*szz
     s(2) = sn*sn*srr - 2.0_wp*cs*sn*srz + cs*cs*szz
     s(3) = (cs*cs - sn*sn)*srz + cs*sn*(szz - srr)
   end subroutine rotate_deviator
+
+  !> cos and sin of a step's rotation angle [rad]. Below 0.1 rad the Taylor
+  !> series to the 8th and 9th power are exact to round-off (next terms
+  !> < 3e-17), a few multiplications where sin and cos are library calls.
+  pure subroutine rotation_cos_sin(angle, cs, sn)
+    real(wp), intent(in) :: angle
+    real(wp), intent(out) :: cs, sn
+    real(wp), parameter :: series_angle = 0.1_wp
+    real(wp) :: a2
+    if (abs(angle) < series_angle) then
+      a2 = angle*angle
+      cs = 1.0_wp - a2*(1.0_wp/2.0_wp)*(1.0_wp - a2*(1.0_wp/12.0_wp)*(1.0_wp - a2*(1.0_wp/30.0_wp) &
+           *(1.0_wp - a2*(1.0_wp/56.0_wp))))
+      sn = angle*(1.0_wp - a2*(1.0_wp/6.0_wp)*(1.0_wp - a2*(1.0_wp/20.0_wp)*(1.0_wp - a2*(1.0_wp/42.0_wp) &
+           *(1.0_wp - a2*(1.0_wp/72.0_wp)))))
+    else
+      cs = cos(angle)
+      sn = sin(angle)
+    end if
+  end subroutine rotation_cos_sin
 
   !> Equation of state written as p = a + b e (e specific internal energy),
   !> which holds for both models here; also the derivative da/drho used for
@@ -216,12 +222,14 @@ contains
     real(wp), intent(in) :: rate_factor, thermal_factor, eps_p
     real(wp), intent(inout) :: s(4)
     real(wp), intent(out) :: deps_p, sy
-    real(wp) :: seq_trial, g3, dsy, lo, hi, f, df, x, dx
+    real(wp) :: seq_trial, seq2, g3, dsy, lo, hi, f, df, x, dx
     integer :: it
     deps_p = 0.0_wp
     call flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, sy, dsy)
-    seq_trial = equivalent_stress(s)
-    if (seq_trial <= sy) return
+    ! an elastic point (the common case) needs no square root
+    seq2 = 1.5_wp*deviator_double_contraction(s, s)
+    if (seq2 <= sy*sy) return
+    seq_trial = sqrt(seq2)
     g3 = 3.0_wp*props(prop_shear)
     select case (istrength)
     case (strength_epp, strength_bilinear)
@@ -271,20 +279,29 @@ contains
   !> Start of every strength step: Jaumann rotation of s by the exact angle
   !> spin*dt (s_old, the rotated start-of-step deviator), the deviatoric
   !> strain rate d_dev and the elastic trial deviator s + 2 G dt d_dev.
+  !> Written component by component from scalars: an element's deviator
+  !> stored in part and read back whole stalled the processor's store
+  !> forwarding, a fifth of a FEM cycle.
   pure subroutine elastic_trial(g, dt, d, spin, s, s_old, d_dev)
     real(wp), intent(in) :: g               !< shear modulus [Pa]
     real(wp), intent(in) :: dt, d(4), spin  !< [s], [1/s], [1/s]
     real(wp), intent(inout) :: s(4)         !< deviator: start of step in, trial out [Pa]
     real(wp), intent(out) :: s_old(4), d_dev(4)
-    real(wp) :: trace
-    call rotate_deviator(spin*dt, s)
-    s_old = s
+    real(wp) :: cs, sn, r1, r2, r3, r4, trace, d1, d2, d3, d4, k
+    call rotation_cos_sin(spin*dt, cs, sn)
+    r1 = cs*cs*s(1) + 2.0_wp*cs*sn*s(3) + sn*sn*s(2)
+    r2 = sn*sn*s(1) - 2.0_wp*cs*sn*s(3) + cs*cs*s(2)
+    r3 = (cs*cs - sn*sn)*s(3) + cs*sn*(s(2) - s(1))
+    r4 = s(4)
     trace = (d(1) + d(2) + d(4))*one_third
-    d_dev = d
-    d_dev(1) = d(1) - trace
-    d_dev(2) = d(2) - trace
-    d_dev(4) = d(4) - trace
-    s = s + 2.0_wp*g*dt*d_dev
+    d1 = d(1) - trace
+    d2 = d(2) - trace
+    d3 = d(3)
+    d4 = d(4) - trace
+    k = 2.0_wp*g*dt
+    s_old(1) = r1; s_old(2) = r2; s_old(3) = r3; s_old(4) = r4
+    d_dev(1) = d1; d_dev(2) = d2; d_dev(3) = d3; d_dev(4) = d4
+    s(1) = r1 + k*d1; s(2) = r2 + k*d2; s(3) = r3 + k*d3; s(4) = r4 + k*d4
   end subroutine elastic_trial
 
   !> Deviatoric part of a constitutive step, shared by elements and
@@ -362,7 +379,7 @@ contains
     ! pressure work -(q + (p_n + p_n+1)/2) dv solved with p_n+1 = a + b e_n+1;
     ! one reciprocal gives both 1/rho_mid and dv = 1/rho_new - 1/rho_old
     rho_sum = rho_old + rho_new
-    inv = 1.0_wp/(rho_old*rho_new*rho_sum)
+    inv = 1.0_wp/(rho_old*rho_new*rho_sum)    ! so 1/rho_new = rho_old rho_sum inv
     dw_dev = dt*deviator_double_contraction(0.5_wp*(s_old + s), d_dev)*(2.0_wp*rho_old*rho_new*inv)
     dv = (rho_old - rho_new)*rho_sum*inv
     e_star = e + dw_dev - (q + 0.5_wp*p)*dv
@@ -374,7 +391,7 @@ contains
       e = e_star - 0.5_wp*p_new*dv
     end if
     p = p_new
-    if (istrength /= strength_hjc) c = sound_speed(props(prop_shear), dadrho, b, rho_new, p)
+    if (istrength /= strength_hjc) c = sound_speed_inv(props(prop_shear), dadrho, b, rho_old*rho_sum*inv, p)
   end subroutine material_update
 
   ! ---- Holmquist-Johnson-Cook concrete ----------------------------------
@@ -538,9 +555,16 @@ contains
     real(wp), intent(in) :: dadrho  !< (dp/drho) at constant e [m^2/s^2]
     real(wp), intent(in) :: b       !< (dp/de) at constant rho [kg/m^3]
     real(wp), intent(in) :: rho, p  !< density [kg/m^3], pressure [Pa]
-    real(wp) :: c, inv_rho
-    inv_rho = 1.0_wp/rho
-    c = sqrt(max(dadrho + p*b*inv_rho**2, 0.0_wp) + 4.0_wp*one_third*g*inv_rho)
+    real(wp) :: c
+    c = sound_speed_inv(g, dadrho, b, 1.0_wp/rho, p)
   end function sound_speed
+
+  !> The same with 1/rho given [m^3/kg] (a caller that has it saves a
+  !> division).
+  pure function sound_speed_inv(g, dadrho, b, inv_rho, p) result(c)
+    real(wp), intent(in) :: g, dadrho, b, inv_rho, p
+    real(wp) :: c
+    c = sqrt(max(dadrho + p*b*inv_rho**2, 0.0_wp) + 4.0_wp*one_third*g*inv_rho)
+  end function sound_speed_inv
 
 end module fsph_material
