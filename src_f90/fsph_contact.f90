@@ -113,6 +113,8 @@ contains
         end do
       end do
       ct%n_seg = n_seg
+      ct%several_continua = .false.
+      if (n_seg > 0) ct%several_continua = any(ct%seg_cont(1:n_seg) /= ct%seg_cont(1))
       ct%n_snode = count(on_surface)
       if (allocated(ct%snode)) deallocate (ct%snode, ct%snode_cont)
       ct%snode = pack([(a, a = 1, nd%n)], on_surface)
@@ -334,6 +336,8 @@ contains
     associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
       ct%n_active = 0
       if (.not. ct%enabled .or. ct%n_seg == 0) return
+      ! one body's surface and no particle: nothing can touch anything
+      if (.not. ct%several_continua .and. pt%n == 0) return
       call keep_start_velocities()
       call build_buckets(dt)
       do pass = 1, ct%n_passes

@@ -121,13 +121,17 @@ contains
     real(wp), intent(in) :: angle
     real(wp), intent(out) :: cs, sn
     real(wp), parameter :: series_angle = 0.1_wp
-    real(wp) :: a2
+    real(wp) :: a2, a4, a8
     if (abs(angle) < series_angle) then
+      ! Estrin's scheme: the powers and partial sums are independent, so
+      ! the series does not wait on a chain of nested multiplications
       a2 = angle*angle
-      cs = 1.0_wp - a2*(1.0_wp/2.0_wp)*(1.0_wp - a2*(1.0_wp/12.0_wp)*(1.0_wp - a2*(1.0_wp/30.0_wp) &
-           *(1.0_wp - a2*(1.0_wp/56.0_wp))))
-      sn = angle*(1.0_wp - a2*(1.0_wp/6.0_wp)*(1.0_wp - a2*(1.0_wp/20.0_wp)*(1.0_wp - a2*(1.0_wp/42.0_wp) &
-           *(1.0_wp - a2*(1.0_wp/72.0_wp)))))
+      a4 = a2*a2
+      a8 = a4*a4
+      cs = (1.0_wp - a2*(1.0_wp/2.0_wp)) + a4*((1.0_wp/24.0_wp) - a2*(1.0_wp/720.0_wp)) &
+           + a8*(1.0_wp/40320.0_wp)
+      sn = angle*((1.0_wp - a2*(1.0_wp/6.0_wp)) + a4*((1.0_wp/120.0_wp) - a2*(1.0_wp/5040.0_wp)) &
+                  + a8*(1.0_wp/362880.0_wp))
     else
       cs = cos(angle)
       sn = sin(angle)

@@ -142,6 +142,7 @@ module fsph_state
     real(wp) :: dissipated = 0.0_wp       !< kinetic energy removed by the corrections [J]
     integer :: n_active = 0               !< contact pairs corrected in the last cycle
     integer :: n_seg = 0
+    logical :: several_continua = .false. !< the surface belongs to more than one continuum
     integer, allocatable :: seg(:, :)     !< (2, n_seg) surface edges, element region on the left
     integer, allocatable :: seg_cont(:)   !< continuum of each segment's body
     integer :: n_snode = 0
