@@ -1,7 +1,7 @@
 # fsph: the README's two commands.
 #   make run   set up what is missing, build, run the default Taylor-rod case
 #   make test  set up what is missing, build, run the test suite (CI)
-# Other targets: make bench (performance figures), make docs (deck reference),
+# Other targets: make bench (benchmark suite, docs/performance.md), make docs (deck reference),
 # make test-slow (long studies), make clean.
 
 PYTHON ?= python3
@@ -36,9 +36,9 @@ test: toolchain $(STAMP)
 test-slow: toolchain $(STAMP)
 	$(VENV)/bin/pytest -m slow
 
+# the benchmark suite (docs/performance.md); BENCH_ARGS=--quick for a short run
 bench: toolchain $(STAMP)
-	$(VPY) benchmarks/bench_fem.py --json docs/performance_fem.json
-	$(VPY) benchmarks/bench_sph.py --json docs/performance_sph.json
+	$(VPY) benchmarks/suite.py --json docs/performance.json $(BENCH_ARGS)
 
 docs: toolchain $(STAMP)
 	$(VENV)/bin/fsph decks-reference -o docs/decks.md
