@@ -158,7 +158,6 @@ contains
     integer, parameter :: cells_per_segment = 16
     real(wp) :: lo(2), hi(2), l_sum, r_max, xa(2), xb(2), seg_lo(2), seg_hi(2), reach
     integer :: k, ic, n_cells, n_items, ir, iz, c_lo(2), c_hi(2), pass
-    integer, allocatable :: fill(:)
     associate (ct => sim%contact, pt => sim%particles)
       r_max = 0.0_wp
       if (pt%n > 0) r_max = maxval(pt%radius(1:pt%n))
@@ -190,7 +189,11 @@ contains
         if (size(ct%cell_start) < n_cells + 1) deallocate (ct%cell_start)
       end if
       if (.not. allocated(ct%cell_start)) allocate (ct%cell_start(n_cells + 1))
-      allocate (fill(n_cells + 1))
+      if (allocated(ct%fill)) then
+        if (size(ct%fill) < n_cells + 1) deallocate (ct%fill)
+      end if
+      if (.not. allocated(ct%fill)) allocate (ct%fill(n_cells + 1))
+      associate (fill => ct%fill(1:n_cells + 1))
       ! two passes: count the registrations per cell, then store them
       fill = 0
       do pass = 1, 2
@@ -227,6 +230,7 @@ contains
           fill(1:n_cells) = ct%cell_start(1:n_cells)
         end if
       end do
+      end associate
     end associate
   end subroutine build_buckets
 

@@ -148,14 +148,17 @@ contains
   subroutine coupling_tractions()
     integer :: i, k, slot, a, b, c, nc, n_assoc
     real(wp) :: f(2), l, rbar, share
-    real(wp), allocatable :: loose_z(:), ring(:)
-    integer, allocatable :: edge_cont(:)
     associate (cp => sim%coupling, pt => sim%particles, nd => sim%nodes)
       nc = maxval(sim%continuum_of_body)
-      allocate (loose_z(nc), ring(nc), edge_cont(max(cp%n_edges, 1)))
+      ! work arrays that only grow (no allocation in an ordinary cycle)
+      if (allocated(cp%edge_cont)) then
+        if (size(cp%edge_cont) < cp%n_edges .or. size(cp%loose_z) < nc) deallocate (cp%edge_cont, cp%loose_z, cp%ring)
+      end if
+      if (.not. allocated(cp%edge_cont)) allocate (cp%edge_cont(max(cp%n_edges, 1) + 64), cp%loose_z(nc), cp%ring(nc))
+      associate (loose_z => cp%loose_z(1:nc), ring => cp%ring(1:nc), edge_cont => cp%edge_cont)
       loose_z = 0.0_wp
       ring = 0.0_wp
-      edge_cont = 0
+      edge_cont(1:max(cp%n_edges, 1)) = 0
       do i = 1, pt%n
         if (pt%tie_a(i) /= 0) cycle
         f = -pt%mass(i)*pt%acc_imag(:, i)
@@ -192,6 +195,7 @@ contains
         nd%f(2, a) = nd%f(2, a) + 0.5_wp*share
         nd%f(2, b) = nd%f(2, b) + 0.5_wp*share
       end do
+      end associate
     end associate
   end subroutine coupling_tractions
 

@@ -67,18 +67,22 @@ contains
   !> map and the contact surfaces. Returns the number of elements deleted.
   subroutine erode_elements(n_eroded)
     integer, intent(out) :: n_eroded
-    real(wp), allocatable :: strain(:)
     logical, allocatable :: erode(:), keep_node(:)
     integer :: ie, a, k
     integer :: no_pending(2, 2, 0)
     n_eroded = 0
     associate (el => sim%elements, nd => sim%nodes, er => sim%erosion)
       if (.not. er%enabled .or. el%n == 0) return
-      allocate (strain(el%n))
-      call principal_strains(el%n, nd%n, el%conn, nd%x, nd%x0, strain)
-      erode = strain >= er%strain_limit
-      n_eroded = count(erode)
+      ! the strains in a work array that only grows; the deletion mask only
+      ! when an element goes
+      if (allocated(er%strain)) then
+        if (size(er%strain) < el%n) deallocate (er%strain)
+      end if
+      if (.not. allocated(er%strain)) allocate (er%strain(el%n))
+      call principal_strains(el%n, nd%n, el%conn, nd%x, nd%x0, er%strain)
+      n_eroded = count(er%strain(1:el%n) >= er%strain_limit)
       if (n_eroded == 0) return
+      erode = er%strain(1:el%n) >= er%strain_limit
       do ie = 1, el%n
         if (.not. erode(ie)) cycle
         do k = 1, 3

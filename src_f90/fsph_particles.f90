@@ -159,25 +159,20 @@ contains
   !> m_i Delta_i^2 / (dt^2 slope^2), so a normal approach delta changes C
   !> by slope delta/Delta_i and is pushed back by the fraction `penalty`
   !> per step (Delta_i = sqrt(V_i), slope = dC/d(y/Delta) at touching).
-  subroutine particle_contact_accelerations(n, x, mass, rho, h, cnt_ptr, cnt_list, dt, penalty, &
-                                           c_touch, slope, acc)
+  subroutine particle_contact_accelerations(n, x, mass, area, h, cnt_ptr, cnt_list, dt, penalty, &
+                                           c_touch, slope, excess, acc)
     integer, intent(in) :: n
-    real(wp), intent(in) :: x(2, n), mass(n), rho(n), h(n)
+    real(wp), intent(in) :: x(2, n), mass(n), h(n)
+    real(wp), intent(in) :: area(n)     !< planar areas m/(2 pi r rho) [m^2]
     integer, intent(in) :: cnt_ptr(n + 1), cnt_list(*)
     real(wp), intent(in) :: dt          !< step the force acts over [s]
     real(wp), intent(in) :: penalty     !< fraction of an approach pushed back per step [-]
     real(wp), intent(in) :: c_touch     !< other-body filling at contact [-]
     real(wp), intent(in) :: slope       !< its rate per spacing of approach [-]
+    real(wp), intent(out) :: excess(n)  !< work: each particle's contact stiffness times its excess filling
     real(wp), intent(inout) :: acc(2, n)
     integer :: i, k, j
     real(wp) :: dx(2), dist, f(2), dw
-    real(wp), allocatable :: area(:), excess(:)
-    allocate (area(n), excess(n))
-    !$omp parallel do default(none) shared(n, x, mass, rho, area) private(i)
-    do i = 1, n
-      area(i) = mass(i)/(two_pi*x(1, i)*rho(i))
-    end do
-    !$omp end parallel do
     !$omp parallel do default(none) shared(n, x, mass, h, cnt_ptr, cnt_list, dt, penalty, c_touch, slope) &
     !$omp shared(area, excess) private(i, k, j, dx, dist)
     do i = 1, n

@@ -364,9 +364,10 @@ contains
         call timer_stop(phase_sph_sums)
         call timer_start(phase_particle_contact)
         call update_particle_radius()
-        call particle_contact_accelerations(n, pt%x, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, &
-                                            dt_step, sim%control%contact_penalty, &
-                                            sim%control%contact_touch, sim%control%contact_slope, pt%acc)
+        ! planar areas of pair_weights, from the positions and densities of this stage
+        call particle_contact_accelerations(n, pt%x, pt%mass, pt%planar_area, pt%h, pt%cnt_ptr, pt%cnt_list, &
+                                            dt_step, sim%control%contact_penalty, sim%control%contact_touch, &
+                                            sim%control%contact_slope, pt%contact_excess, pt%acc)
         call timer_stop(phase_particle_contact)
         if (el%n > 0) then
           call timer_start(phase_coupling)

@@ -101,6 +101,7 @@ module fsph_state
     real(wp), allocatable :: pair_work(:) !< energy work rate per entry and unit neighbour mass [m^2/(kg s^3)]
     logical, allocatable :: pair_in(:)    !< entry within the kernel support at the start of the cycle
     real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
+    real(wp), allocatable :: contact_excess(:) !< work: particle contact stiffness times excess filling
     real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
     real(wp), allocatable :: wgt(:)       !< work: stress weight 1/(4 pi^2 r rho^2) per entry [m^5/kg^2]
     real(wp), allocatable :: planar_area(:) !< work: planar area m/(2 pi r rho) per entry [m^2]
@@ -112,6 +113,8 @@ module fsph_state
   type, public :: coupling_t
     integer :: n_edges = 0
     integer, allocatable :: edge(:, :)    !< (2, n_edges) node pairs
+    integer, allocatable :: edge_cont(:)  !< work: continuum loading each edge this cycle
+    real(wp), allocatable :: loose_z(:), ring(:) !< work: per continuum, unassociated axial force, edge ring area
   end type coupling_t
 
   !> Conversion of elements to particles (seed 000 section 2.3).
@@ -148,7 +151,7 @@ module fsph_state
     integer :: n_snode = 0
     integer, allocatable :: snode(:)      !< surface nodes (slaves of the slide lines)
     integer, allocatable :: snode_cont(:) !< continuum of each surface node
-    integer, allocatable :: cell_start(:), cell_items(:) !< work: segment buckets
+    integer, allocatable :: cell_start(:), cell_items(:), fill(:) !< work: segment buckets
     real(wp), allocatable :: v_node0(:, :), v_part0(:, :) !< work: velocities before the corrections [m/s]
   end type contact_t
 
@@ -165,6 +168,7 @@ module fsph_state
     real(wp) :: node_mass = 0.0_wp        !< mass of the nodes removed [kg]
     real(wp) :: kinetic = 0.0_wp          !< kinetic energy of the nodes removed [J]
     real(wp) :: momentum(2) = 0.0_wp      !< momentum (r, z) of the nodes removed [kg m/s]
+    real(wp), allocatable :: strain(:)    !< work: largest principal strain of each element [-]
   end type erosion_t
 
   !> Rigid, fixed, frictionless plane: points x with (x - point).normal >= 0
@@ -281,7 +285,7 @@ contains
                 pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
                 pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap), &
                 pt%hist(n_hist, cap), pt%wgt(cap), pt%planar_area(cap), pt%half_end(cap), &
-                pt%low_ptr(cap + 1), pt%rate_sums(9, cap))
+                pt%low_ptr(cap + 1), pt%rate_sums(9, cap), pt%contact_excess(cap))
       pt%hist = 0.0_wp
       pt%wgt = 0.0_wp; pt%planar_area = 0.0_wp
       pt%x = 0.0_wp; pt%x0 = 0.0_wp; pt%x_old = 0.0_wp; pt%x_mid = 0.0_wp; pt%v = 0.0_wp
