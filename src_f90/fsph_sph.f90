@@ -269,8 +269,8 @@ contains
         call add_rate_terms(x(:, i) - x(:, j), v(:, j) - v(:, i), -grad(:, low_pair(m)), area(j), rho(j), acc9)
       end do
       drho(i) = -rho(i)*v(1, i)/x(1, i) + acc9(1)
-      gv = reshape(acc9(2:5), [2, 2])
-      lm = reshape(acc9(6:9), [2, 2])
+      gv(1, 1) = acc9(2); gv(2, 1) = acc9(3); gv(1, 2) = acc9(4); gv(2, 2) = acc9(5)
+      lm(1, 1) = acc9(6); lm(2, 1) = acc9(7); lm(1, 2) = acc9(8); lm(2, 2) = acc9(9)
       ! g = gv L^-1 where the correction applies
       det = lm(1, 1)*lm(2, 2) - lm(1, 2)*lm(2, 1)
       if (det > correction_det_min .and. det < correction_det_max) then
