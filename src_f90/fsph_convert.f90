@@ -24,7 +24,7 @@ module fsph_convert
   integer, parameter, public :: criterion_equivalent_stress = 3
 
   public :: assign_groups, convert_elements, associate_particles, remove_elements, remove_nodes
-  public :: minimum_angle
+  public :: minimum_angle, conversion_limits
 
   !> A particle is associated with a surface edge of the element region when
   !> its centre lies within this many smoothing lengths of the edge, on its
@@ -133,7 +133,27 @@ contains
       end do
       cv%n_groups = offset
     end associate
+    call conversion_limits()
   end subroutine assign_groups
+
+  !> The minimum-angle criterion of every element from the initial mesh:
+  !> the cosine of theta_c, or, for an element that starts below theta_c
+  !> (graded or mapped meshes), of theta_relative times its initial
+  !> minimum angle, so the check of a cycle is one trigonometry-free test.
+  subroutine conversion_limits()
+    integer :: ie
+    real(wp) :: xe(2, 3), cos_c
+    associate (el => sim%elements, nd => sim%nodes, cv => sim%conversion)
+      if (allocated(el%cos_limit)) deallocate (el%cos_limit)
+      allocate (el%cos_limit(max(el%n, 1)))
+      cos_c = cos(cv%theta_c)
+      do ie = 1, el%n
+        xe = nd%x0(:, el%conn(:, ie))
+        el%cos_limit(ie) = cos_c
+        if (has_angle_below(xe, cos_c)) el%cos_limit(ie) = cos(cv%theta_relative*minimum_angle(xe))
+      end do
+    end associate
+  end subroutine conversion_limits
 
 
 
@@ -254,7 +274,6 @@ contains
     logical, allocatable :: group_hit(:), convert(:), keep_node(:)
     integer, allocatable :: pending(:, :, :)
     integer :: ie, ng
-    real(wp) :: cos_limit
     n_new = 0
     associate (el => sim%elements, cv => sim%conversion)
       if (.not. cv%enabled .or. el%n == 0 .or. cv%n_groups == 0) return
@@ -265,8 +284,7 @@ contains
         if (size(cv%hit) < el%n) deallocate (cv%hit)
       end if
       if (.not. allocated(cv%hit)) allocate (cv%hit(el%n))
-      cos_limit = cos(cv%theta_c)
-      call mark_criterion(cos_limit)
+      call mark_criterion()
       if (.not. any(cv%hit(1:el%n))) return
       allocate (group_hit(ng), convert(el%n))
       group_hit = .false.
@@ -295,23 +313,20 @@ contains
   end subroutine convert_elements
 
   !> conversion%hit(ie): element ie belongs to a group and meets the
-  !> conversion criterion (cos_limit = cos(theta_c)).
-  subroutine mark_criterion(cos_limit)
-    real(wp), intent(in) :: cos_limit
+  !> conversion criterion.
+  subroutine mark_criterion()
     integer :: ie
-    !$omp parallel do default(none) shared(sim, cos_limit) private(ie)
+    !$omp parallel do default(none) shared(sim) private(ie)
     do ie = 1, sim%elements%n
       sim%conversion%hit(ie) = sim%elements%group(ie) > 0
-      if (sim%conversion%hit(ie)) sim%conversion%hit(ie) = meets_criterion(ie, cos_limit)
+      if (sim%conversion%hit(ie)) sim%conversion%hit(ie) = meets_criterion(ie)
     end do
     !$omp end parallel do
   end subroutine mark_criterion
 
-  !> Whether element ie meets the conversion criterion; cos_limit is
-  !> cos(theta_c).
-  logical function meets_criterion(ie, cos_limit)
+  !> Whether element ie meets the conversion criterion.
+  logical function meets_criterion(ie)
     integer, intent(in) :: ie
-    real(wp), intent(in) :: cos_limit
     real(wp) :: xe(2, 3)
     associate (el => sim%elements, cv => sim%conversion)
       select case (cv%criterion)
@@ -321,14 +336,10 @@ contains
         meets_criterion = equivalent_stress(el%s(:, ie)) >= cv%sigma_c
       case default
         ! below theta_c; an element that started below theta_c (graded or
-        ! mapped meshes) also below theta_relative times its initial angle
+        ! mapped meshes) below theta_relative times its initial angle
+        ! (conversion_limits)
         xe = sim%nodes%x(:, el%conn(:, ie))
-        meets_criterion = has_angle_below(xe, cos_limit)
-        if (meets_criterion) then
-          xe = sim%nodes%x0(:, el%conn(:, ie))
-          if (has_angle_below(xe, cos_limit)) meets_criterion = &
-            minimum_angle(sim%nodes%x(:, el%conn(:, ie))) < cv%theta_relative*minimum_angle(xe)
-        end if
+        meets_criterion = has_angle_below(xe, el%cos_limit(ie))
       end select
     end associate
   end function meets_criterion
@@ -419,6 +430,7 @@ contains
       call compact(el%c, keep); call compact(el%area, keep); call compact(el%rbar, keep)
       call compact(el%volume, keep); call compact(el%lmin, keep); call compact(el%d, keep)
       call compact(el%spin, keep); call compact(el%hist, keep)
+      if (allocated(el%cos_limit)) call compact(el%cos_limit, keep)
       el%n = count(keep)
       if (allocated(el%fc)) deallocate (el%fc)
       allocate (el%fc(2, 3, max(el%n, 1)))

@@ -191,12 +191,14 @@ contains
     end select
   end subroutine eos_pressure
 
-  !> Current flow stress of the strength model [Pa] and its slope with
-  !> respect to the equivalent plastic strain [Pa].
-  pure subroutine flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, sy, dsy)
+  !> Current flow stress of the strength model [Pa] and, with with_slope,
+  !> its slope with respect to the equivalent plastic strain [Pa] (only
+  !> the plastic return needs it; a Johnson-Cook slope costs a power).
+  pure subroutine flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, with_slope, sy, dsy)
     real(wp), intent(in) :: props(n_props)
     integer, intent(in) :: istrength
     real(wp), intent(in) :: eps_p, rate_factor, thermal_factor
+    logical, intent(in) :: with_slope
     real(wp), intent(out) :: sy, dsy
     !> Plastic strain below which the Johnson-Cook slope is evaluated at this
     !> value (the slope of eps^n is unbounded at zero for n < 1) [-].
@@ -209,9 +211,15 @@ contains
       sy = props(prop_yield) + props(prop_hard)*eps_p; dsy = props(prop_hard)
     case (strength_johnson_cook)
       f = rate_factor*thermal_factor
-      sy = (props(prop_jc_a) + props(prop_jc_b)*eps_p**props(prop_jc_n))*f
-      dsy = props(prop_jc_b)*props(prop_jc_n)* &
-            max(eps_p, eps_slope_floor)**(props(prop_jc_n) - 1.0_wp)*f
+      ! a point that has not yielded (most of a target) needs no power
+      if (eps_p > 0.0_wp) then
+        sy = (props(prop_jc_a) + props(prop_jc_b)*eps_p**props(prop_jc_n))*f
+      else
+        sy = props(prop_jc_a)*f
+      end if
+      dsy = 0.0_wp
+      if (with_slope) dsy = props(prop_jc_b)*props(prop_jc_n)* &
+                            max(eps_p, eps_slope_floor)**(props(prop_jc_n) - 1.0_wp)*f
     case default
       sy = huge(1.0_wp); dsy = 0.0_wp
     end select
@@ -229,11 +237,12 @@ contains
     real(wp) :: seq_trial, seq2, g3, dsy, lo, hi, f, df, x, dx
     integer :: it
     deps_p = 0.0_wp
-    call flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, sy, dsy)
+    call flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, .false., sy, dsy)
     ! an elastic point (the common case) needs no square root
     seq2 = 1.5_wp*deviator_double_contraction(s, s)
     if (seq2 <= sy*sy) return
     seq_trial = sqrt(seq2)
+    call flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, .true., sy, dsy)
     g3 = 3.0_wp*props(prop_shear)
     select case (istrength)
     case (strength_epp, strength_bilinear)
@@ -245,7 +254,7 @@ contains
       hi = seq_trial/g3
       x = min((seq_trial - sy)/(g3 + dsy), hi)
       do it = 1, return_max_iterations
-        call flow_stress(props, istrength, eps_p + x, rate_factor, thermal_factor, sy, dsy)
+        call flow_stress(props, istrength, eps_p + x, rate_factor, thermal_factor, .true., sy, dsy)
         f = seq_trial - g3*x - sy
         df = -(g3 + dsy)
         if (f > 0.0_wp) then
@@ -260,7 +269,7 @@ contains
       end do
       deps_p = x
     end select
-    call flow_stress(props, istrength, eps_p + deps_p, rate_factor, thermal_factor, sy, dsy)
+    call flow_stress(props, istrength, eps_p + deps_p, rate_factor, thermal_factor, .false., sy, dsy)
     s = s*(sy/seq_trial)
   end subroutine radial_return
 
@@ -275,6 +284,8 @@ contains
       f = 1.0_wp
     else if (tstar >= 1.0_wp) then
       f = 0.0_wp
+    else if (props(prop_jc_m) == 1.0_wp) then
+      f = 1.0_wp - tstar          ! linear softening (6061-T651): no power
     else
       f = 1.0_wp - tstar**props(prop_jc_m)
     end if
@@ -335,8 +346,11 @@ contains
     if (istrength == strength_johnson_cook) then
       ! (1 + C ln eps_dot*) with eps_dot* = eps_dot_eq/eps_dot_0 taken >= 1,
       ! the usual form of the model below the reference rate.
-      rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
-      rate_factor = 1.0_wp + props(prop_jc_c)*log(max(rate_eq/props(prop_eps0), 1.0_wp))
+      ! (no logarithm where it is multiplied by C = 0 or taken of 1)
+      if (props(prop_jc_c) /= 0.0_wp) then
+        rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
+        if (rate_eq > props(prop_eps0)) rate_factor = 1.0_wp + props(prop_jc_c)*log(rate_eq/props(prop_eps0))
+      end if
       thermal_factor = thermal_softening(props, temp)
     end if
     call radial_return(props, istrength, rate_factor, thermal_factor, eps_p, s, deps_p, sy)

@@ -154,12 +154,15 @@ contains
     use fsph_topology, only: rebuild_corner_map
     use fsph_coupling, only: update_tie_masses
     use fsph_contact, only: contact_rebuild_surface
+    use fsph_convert, only: conversion_limits
     if (sim%nodes%n > 0) then
       sim%nodes%on_axis = sim%nodes%on_axis_int(1:sim%nodes%n) /= 0
       call rebuild_corner_map()
     end if
     if (sim%nodes%n > 0) call update_tie_masses()
     call contact_rebuild_surface()
+    ! the conversion criterion of each element, from the initial mesh
+    if (sim%elements%n > 0 .and. sim%conversion%n_groups > 0) call conversion_limits()
     sim%ready = .true.
   end subroutine finish_restore
 

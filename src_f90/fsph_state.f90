@@ -48,6 +48,7 @@ module fsph_state
     real(wp), allocatable :: d(:, :)      !< strain rate of the last step [1/s]
     real(wp), allocatable :: spin(:)      !< spin of the last step [1/s]
     real(wp), allocatable :: fc(:, :, :)  !< corner forces (2, 3, n) [N]
+    real(wp), allocatable :: cos_limit(:) !< cosine of the element's conversion angle (fsph_convert)
   end type element_set_t
 
   !> SPH particles (full-ring masses) and their material-point state.
