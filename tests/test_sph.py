@@ -88,26 +88,44 @@ def test_neighbour_lists_match_brute_force(rod):
         assert brute_force_pairs(x, h, i) <= got <= brute_force_pairs(x, h, i, skin), i
 
 
-def test_neighbour_lists_of_any_length_match_brute_force(write_deck):
-    """Lists from 10 to 80 entries: a jittered lattice with smoothing lengths
-    from 1.2 to 3 spacings, lists without a skin (exact). Every count the search's row buffers can meet
-    (below, at and above their width, which then grows) gives exactly the
-    pairs an all-pairs check finds, with no duplicates, and every pair's
-    bookkeeping (the entry its partner reads) consistent."""
+def jittered_rod(write_deck, seed, smoothing_lengths):
+    """The 10 x 40 particle rod (spacing 0.1 mm) with lists without a skin
+    (exact), its particles moved by up to a fifth of a spacing and given the
+    smoothing lengths smoothing_lengths(rng, n) [m]. Returns the simulation,
+    positions and smoothing lengths."""
     from fsph.simulation import _api
     path = write_deck(particle_deck(body="n_radial = 10\n n_axial = 40",
                                     extra="&sph\n neighbour_skin = 0.0\n/\n"))
     rod = fsph.Simulation(deck_module.load(path))
     part = rod.snapshot()["particles"]
-    rng = np.random.default_rng(7)
+    rng = np.random.default_rng(seed)
     spacing = 0.1e-3
     x = part["x"] + rng.uniform(-0.2, 0.2, part["x"].shape) * spacing
     x[:, 0] = np.maximum(x[:, 0], 0.2 * spacing)
-    h = rng.uniform(1.2, 3.0, len(x)) * spacing
+    h = smoothing_lengths(rng, len(x))
     ierr = _api.set_particles(np.asfortranarray(x.T), np.zeros((2, len(x)), order="F"), part["mass"], h,
                               (part["material"] + 1).astype(np.int32), (part["body"] + 1).astype(np.int32))
     assert ierr == 0
     assert _api.initialise()[0] == 0
+    return rod, x, h
+
+
+def assert_lists_exact(rod, x, h, label):
+    ptr, lst = rod.neighbors()
+    for i in range(len(x)):
+        entries = lst[ptr[i] - 1:ptr[i + 1] - 1].tolist()
+        assert len(entries) == len(set(entries)), (label, i)
+        assert set(entries) == brute_force_pairs(x, h, i), (label, i)
+
+
+def test_neighbour_lists_of_any_length_match_brute_force(write_deck):
+    """Lists from 10 to 80 entries: a jittered lattice with smoothing lengths
+    from 1.2 to 3 spacings. Every count the search's row buffers can meet
+    (below, at and above their width, which then grows) gives exactly the
+    pairs an all-pairs check finds, with no duplicates, and every pair's
+    bookkeeping (the entry its partner reads) consistent."""
+    from fsph.simulation import _api
+    rod, x, h = jittered_rod(write_deck, 7, lambda rng, n: rng.uniform(1.2, 3.0, n) * 0.1e-3)
     rod.particle_rates()
     counts = np.diff(rod.neighbors()[0])
     assert counts.min() < 32 < counts.max()
@@ -117,11 +135,7 @@ def test_neighbour_lists_of_any_length_match_brute_force(write_deck):
     for width in range(4, counts.max() + 2):
         _api.set_neighbour_width(int(width))
         rod.particle_rates()
-        ptr, lst = rod.neighbors()
-        for i in range(len(x)):
-            entries = lst[ptr[i] - 1:ptr[i + 1] - 1].tolist()
-            assert len(entries) == len(set(entries)), (width, i)
-            assert set(entries) == brute_force_pairs(x, h, i), (width, i)
+        assert_lists_exact(rod, x, h, width)
 
 
 def test_neighbour_lists_across_size_levels_match_brute_force(write_deck):
@@ -129,26 +143,10 @@ def test_neighbour_lists_across_size_levels_match_brute_force(write_deck):
     search's size levels, each with its own cell grid, as on a graded
     plate): every list is exactly what an all-pairs check finds, mirror
     images across the axis included."""
-    from fsph.simulation import _api
-    path = write_deck(particle_deck(body="n_radial = 10\n n_axial = 40",
-                                    extra="&sph\n neighbour_skin = 0.0\n/\n"))
-    rod = fsph.Simulation(deck_module.load(path))
-    part = rod.snapshot()["particles"]
-    rng = np.random.default_rng(11)
-    spacing = 0.1e-3
-    x = part["x"] + rng.uniform(-0.2, 0.2, part["x"].shape) * spacing
-    x[:, 0] = np.maximum(x[:, 0], 0.2 * spacing)
-    h = spacing * np.exp(rng.uniform(np.log(0.5), np.log(8.0), len(x)))
-    ierr = _api.set_particles(np.asfortranarray(x.T), np.zeros((2, len(x)), order="F"), part["mass"], h,
-                              (part["material"] + 1).astype(np.int32), (part["body"] + 1).astype(np.int32))
-    assert ierr == 0
-    assert _api.initialise()[0] == 0
+    rod, x, h = jittered_rod(write_deck, 11,
+                             lambda rng, n: 0.1e-3 * np.exp(rng.uniform(np.log(0.5), np.log(8.0), n)))
     rod.particle_rates()
-    ptr, lst = rod.neighbors()
-    for i in range(len(x)):
-        entries = lst[ptr[i] - 1:ptr[i + 1] - 1].tolist()
-        assert len(entries) == len(set(entries)), i
-        assert set(entries) == brute_force_pairs(x, h, i), i
+    assert_lists_exact(rod, x, h, "levels")
 
 
 # ---- SPH gradients ----------------------------------------------------------
