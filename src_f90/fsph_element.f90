@@ -235,17 +235,24 @@ contains
     real(wp), intent(inout) :: s(4, ne), p(ne), eps_p(ne), e(ne), temp(ne), c(ne)
     real(wp), intent(inout) :: hist(n_hist, ne)  !< material history (damage, ...)
     integer, intent(out) :: ierr, ifault
-    integer :: ie, im, ierr_e, ifault_inv, ifault_eos, ifault_nan
+    integer :: ie, im, ierr_e, ifault_inv, ifault_eos, ifault_nan, k, a
+    real(wp) :: xm(2, 3), ve(2, 3), xe(2, 3)
     ifault_inv = ne + 1
     ifault_eos = ne + 1
     ifault_nan = ne + 1
     !$omp parallel do default(none) &
     !$omp shared(ne, conn, x_mid, x, v, props, istrength, ieos, mat, dt, c_q, c_l, mass) &
     !$omp shared(d, spin, area, rbar, volume, lmin, rho, q, s, p, eps_p, e, temp, hist, c) &
-    !$omp private(ie, im, ierr_e) reduction(min:ifault_inv, ifault_eos, ifault_nan)
+    !$omp private(ie, im, ierr_e, k, a, xm, ve, xe) reduction(min:ifault_inv, ifault_eos, ifault_nan)
     do ie = 1, ne
-      call tri_strain_rates(x_mid(:, conn(:, ie)), v(:, conn(:, ie)), d(:, ie), spin(ie))
-      call tri_size(x(:, conn(:, ie)), area(ie), rbar(ie), lmin(ie))
+      do k = 1, 3
+        a = conn(k, ie)
+        xm(:, k) = x_mid(:, a)
+        ve(:, k) = v(:, a)
+        xe(:, k) = x(:, a)
+      end do
+      call tri_strain_rates(xm, ve, d(:, ie), spin(ie))
+      call tri_size(xe, area(ie), rbar(ie), lmin(ie))
       volume(ie) = two_pi*rbar(ie)*area(ie)
       if (.not. (area(ie) > 0.0_wp)) then
         ifault_inv = min(ifault_inv, ie)
@@ -257,8 +264,9 @@ contains
                                 mass(ie), volume(ie), area(ie), rho(ie), q(ie), s(:, ie), p(ie), eps_p(ie), &
                                 e(ie), temp(ie), hist(:, ie), c(ie), ierr_e)
       if (ierr_e /= status_ok) ifault_eos = min(ifault_eos, ie)
-      if (.not. (ieee_is_finite(p(ie)) .and. ieee_is_finite(e(ie)) .and. &
-                 all(ieee_is_finite(s(:, ie))))) ifault_nan = min(ifault_nan, ie)
+      ! one test: a NaN or infinity in any of them makes the sum non-finite
+      if (.not. ieee_is_finite(p(ie) + e(ie) + s(1, ie) + s(2, ie) + s(3, ie) + s(4, ie))) &
+        ifault_nan = min(ifault_nan, ie)
     end do
     !$omp end parallel do
     ierr = status_ok
