@@ -416,9 +416,11 @@ SCHEMA = {
                         "taylor: final length L, maximum diameter D and width W at "
                         "w_height above the impact face; bar_wave: stress plateau and wave "
                         "front along a line r = probe_radius; perforation: the projectile's "
-                        "mass-weighted axial (residual) velocity, penetration depth, whether "
-                        "it has left the target and the hole diameter, with their history at "
-                        "every snapshot.",
+                        "mass-weighted axial velocity and its residual velocity (the "
+                        "component along the striking direction; 0 for a projectile that "
+                        "stopped or rebounds, flagged 'rebounded'), penetration depth, "
+                        "whether it has left the target and the hole diameter, with their "
+                        "history at every snapshot.",
                         choices=("none", "taylor", "bar_wave", "perforation")),
             "body": Key("str", None, "-", "Body measured (default: the first body; "
                         "perforation: the projectile)."),

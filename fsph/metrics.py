@@ -220,10 +220,14 @@ def _body_points(snap, body_index):
             np.concatenate(rs))
 
 
-def perforation(snap, projectile, target):
+def perforation(snap, projectile, target, direction=-1.0):
     """Projectile against a target (body indices): the projectile's
-    mass-weighted axial velocity [m/s] (its residual velocity once it has
-    left the target, or at the time of the snapshot), penetration depth of
+    mass-weighted axial velocity velocity_z [m/s]; its residual velocity,
+    the component of that velocity along the striking direction (direction:
+    -1 towards -z, +1 towards +z), which is 0 for a projectile that has
+    stopped or rebounds (rebounded: the component is negative; its speed is
+    then |velocity_z|), once it has left the target or at the time of the
+    snapshot; penetration depth of
     its lowest point below the target's initial top face [mm], whether it
     has left the target (its lowest point below the target's lowest
     material), and the hole diameter [mm]: twice the smallest radius of
@@ -243,7 +247,9 @@ def perforation(snap, projectile, target):
         total += snap["node_mass"] @ snap["velocity"][:, 1]
     if "particles" in snap:
         total += snap["particles"]["mass"] @ snap["particles"]["velocity"][:, 1]
-    return {"velocity_z_m_s": velocity, "residual_velocity_m_s": abs(velocity),
+    along = direction * velocity
+    return {"velocity_z_m_s": velocity, "residual_velocity_m_s": max(along, 0.0),
+            "rebounded": bool(along < 0.0),
             "momentum_z": float(total),
             "penetration_depth_max_mm": float(snap.get("contact_penetration", 0.0) * 1e3),
             "penetration_relative_max": float(snap.get("contact_penetration_relative", 0.0)),
@@ -258,7 +264,9 @@ def _projectile_and_target(deck):
     names = [b["name"] for b in deck["body"]]
     ib = names.index(met["body"]) if met["body"] else 0
     it = names.index(met["target"]) if met["target"] else (1 if ib == 0 else 0)
-    return ib, it
+    # striking direction: the sign of the projectile's initial velocity
+    # (-z when it starts at rest)
+    return ib, it, (1.0 if deck["body"][ib]["velocity_z"] > 0.0 else -1.0)
 
 
 def snapshot_series(snap, deck):

@@ -446,11 +446,21 @@ def experiment_points(deck_path):
     return sorted(points)
 
 
+def _plus_minus(value, error, decimals):
+    """'value ± error' with at least `decimals` decimals and enough for the
+    error's first significant digit (at most 6)."""
+    if error is None or not np.isfinite(error):
+        return f"{value:.{decimals}f}"
+    if error > 0.0:
+        decimals = min(max(decimals, -int(np.floor(np.log10(error)))), 6)
+    return f"{value:.{decimals}f} ± {error:.{decimals}f}"
+
+
 def _fit_label(fit):
     text = ", ".join(f"{k} = {_format(v)}" for k, v in fit["group"].items())
-    p = f"p = {fit['p']:.2f} ± {fit['p_err']:.2f}" if fit["p_err"] is not None else "p = 2"
-    return (f"{text + ': ' if text else ''}v_bl = {fit['v_bl']:.0f} ± {fit['v_bl_err']:.0f} m/s, "
-            f"a = {fit['a']:.3f} ± {fit['a_err']:.3f}, {p}")
+    p = f"p = {_plus_minus(fit['p'], fit['p_err'], 2)}" if fit["p_err"] is not None else "p = 2"
+    return (f"{text + ': ' if text else ''}v_bl = {_plus_minus(fit['v_bl'], fit['v_bl_err'], 0)} m/s, "
+            f"a = {_plus_minus(fit['a'], fit['a_err'], 3)}, {p}")
 
 
 def write_h5(path, frame, meta):

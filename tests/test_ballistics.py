@@ -50,3 +50,29 @@ def test_recht_ipson_standard_errors_and_free_exponent():
     assert abs(fit["v_bl"] - 260.0) < 3.0 * fit["v_bl_err"]
     fit = fit_recht_ipson(v_s[:2], v_r[:2], a=None)
     assert np.isnan(fit["v_bl_err"]) and fit["dof"] == 0
+
+
+def _two_triangles(v_projectile):
+    """A projectile triangle above a target triangle (body 0 over body 1),
+    the projectile's nodes all at axial velocity v_projectile [m/s]."""
+    x = np.array([[0.0, 1.0], [1.0, 1.0], [0.0, 2.0], [0.0, -1.0], [2.0, -1.0], [0.0, 0.0]]) * 1e-3
+    velocity = np.zeros((6, 2))
+    velocity[:3, 1] = v_projectile
+    return {"conn": np.array([[0, 1, 2], [3, 4, 5]]), "body": np.array([0, 1]), "x": x, "x0": x,
+            "velocity": velocity, "node_mass": np.full(6, 0.1), "time": 1e-4}
+
+
+def test_residual_velocity_is_along_the_striking_direction():
+    """The residual velocity is the projectile's velocity along the line it
+    was shot on: a rod shot towards -z leaving at -350 m/s has 350 m/s; one
+    that stopped and rebounds at +17 m/s has 0 (not 17: it did not
+    perforate), flagged rebounded, velocity_z keeping the sign; shot
+    towards +z the signs turn over."""
+    from fsph.metrics import perforation
+    out = perforation(_two_triangles(-350.0), 0, 1)
+    assert out["residual_velocity_m_s"] == pytest.approx(350.0) and not out["rebounded"]
+    out = perforation(_two_triangles(17.0), 0, 1)
+    assert out["residual_velocity_m_s"] == 0.0 and out["rebounded"]
+    assert out["velocity_z_m_s"] == pytest.approx(17.0)
+    out = perforation(_two_triangles(17.0), 0, 1, direction=1.0)
+    assert out["residual_velocity_m_s"] == pytest.approx(17.0) and not out["rebounded"]

@@ -269,3 +269,14 @@ def _two_body_deck(reference=False):
                     body="z_base = 0.05e-3", boundary=False,
                     output="vtu = .false.\n" + ("reference = 'ref.json'" if reference else ""),
                     metrics="kind = 'perforation'\n body = 'rod'\n target = 'plate'") + PLATE
+
+
+def test_fit_label_keeps_the_first_significant_digit_of_the_error():
+    """A ballistic limit known to 0.13 m/s prints as 265.3 ± 0.1, not
+    265 ± 0; one known to 6 m/s keeps whole metres per second."""
+    from fsph.sweep import _fit_label
+    fit = {"group": {}, "v_bl": 265.259, "v_bl_err": 0.133, "a": 0.98812, "a_err": 0.00123,
+           "p": 2.0, "p_err": None}
+    assert _fit_label(fit) == "v_bl = 265.3 ± 0.1 m/s, a = 0.988 ± 0.001, p = 2"
+    fit.update(v_bl_err=6.2, a_err=0.029)
+    assert _fit_label(fit) == "v_bl = 265 ± 6 m/s, a = 0.988 ± 0.029, p = 2"
