@@ -425,7 +425,9 @@ SCHEMA = {
                         "component along the striking direction; 0 for a projectile that "
                         "stopped or rebounds, flagged 'rebounded'), penetration depth, "
                         "whether it has left the target and the hole diameter, with their "
-                        "history at every snapshot.",
+                        "history at every snapshot, and whether the velocity had settled "
+                        "(changed by at most 1 % of the striking speed over the last fifth "
+                        "of the run; 'settled').",
                         choices=("none", "taylor", "bar_wave", "perforation")),
             "body": Key("str", None, "-", "Body measured (default: the first body; "
                         "perforation: the projectile)."),

@@ -259,6 +259,9 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
     case_metrics = metrics_module.case_metrics(last_good, deck)
     if series:
         case_metrics["series"] = {key: [r[key] for r in series] for key in series[0]}
+        if "perforation" in case_metrics:
+            case_metrics["perforation"].update(metrics_module.perforation_settling(
+                case_metrics["series"]["time_us"], case_metrics["series"]["velocity_z_m_s"]))
     comparison = metrics_module.compare(case_metrics, reference) if reference else {}
     summary = {
         "case": deck_path.stem,

@@ -269,6 +269,32 @@ def _projectile_and_target(deck):
     return ib, it, (1.0 if deck["body"][ib]["velocity_z"] > 0.0 else -1.0)
 
 
+#: Part of a perforation run, at its end, over which the projectile's
+#: velocity must have settled [-], and by how much at most, as a fraction of
+#: the striking speed [-].
+SETTLING_WINDOW = 0.2
+SETTLING_TOLERANCE = 0.01
+
+
+def perforation_settling(time_us, velocity_z, window=SETTLING_WINDOW,
+                         tolerance=SETTLING_TOLERANCE):
+    """Whether a perforation run's residual velocity is final: the change
+    of the projectile's axial velocity [m/s] over the last `window` of the
+    run (from the snapshot series), and settled = that change is at most
+    `tolerance` times the striking speed. A rod still decelerating in the
+    target at the end time is not settled, and its residual velocity is
+    not the one an experiment would measure: a longer end time settles it.
+    None where the series has fewer than two snapshots."""
+    t = np.asarray(time_us, dtype=float)
+    v = np.asarray(velocity_z, dtype=float)
+    if len(t) < 2:
+        return {"velocity_change_end_m_s": None, "settled": None}
+    start = t[-1] - window * (t[-1] - t[0])
+    change = float(v[-1] - v[np.searchsorted(t, start)])
+    return {"velocity_change_end_m_s": change,
+            "settled": bool(abs(change) <= tolerance * abs(v[0]))}
+
+
 def snapshot_series(snap, deck):
     """Per-snapshot record of the case metric that has a history
     (perforation: velocity, penetration, hole), or None."""

@@ -40,6 +40,7 @@ import f90nml
 import numpy as np
 
 from . import deck as deck_module
+from . import metrics as metrics_module
 from .ballistics import fit_recht_ipson
 from .errors import DeckError, FsphError
 
@@ -507,6 +508,20 @@ def write_outputs(output, deck, params, frame, free_p=False):
     return fits
 
 
+def unsettled(frame):
+    """One line for each completed perforation run whose projectile was
+    still changing speed at the end (perforation.settled false): its
+    residual velocity, and any fit through it, is not final."""
+    if "perforation.settled" not in frame.columns:
+        return []
+    rows = frame[(frame["status"] == "completed") & (frame["perforation.settled"] == False)]  # noqa: E712
+    return [f"{r['folder']}: the projectile's velocity changed by "
+            f"{r['perforation.velocity_change_end_m_s']:+.1f} m/s over the last "
+            f"{100 * metrics_module.SETTLING_WINDOW:.0f} % of the run: its residual velocity is "
+            f"not final (a longer control.end_time settles it); it is in the table and the fit"
+            for _, r in rows.iterrows()]
+
+
 def _is_velocity_sweep(params, frame):
     return (any(p.group == "body" and p.key == "velocity_z" for p in params)
             and "perforation.residual_velocity_m_s" in frame.columns)
@@ -576,6 +591,8 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
         _run_all(todo, scheduler, workers, threads, say)
     frame = table(variants)
     frame.attrs["recht_ipson"] = write_outputs(output, deck, params, frame, free_p)
+    for line in unsettled(frame):
+        say(f"fsph sweep: warning: {line}")
     for fit in frame.attrs["recht_ipson"]:
         say(f"fsph sweep: Recht-Ipson ({fit['n']} runs, rms {fit['rms_residual']:.1f} m/s): "
             f"{_fit_label(fit)}")

@@ -76,3 +76,28 @@ def test_residual_velocity_is_along_the_striking_direction():
     assert out["velocity_z_m_s"] == pytest.approx(17.0)
     out = perforation(_two_triangles(17.0), 0, 1, direction=1.0)
     assert out["residual_velocity_m_s"] == pytest.approx(17.0) and not out["rebounded"]
+
+
+def test_perforation_settling_flags_a_rod_still_slowing_down():
+    """Striking at -250 m/s: a rod still braking at the end (-74 -> -59 m/s
+    over the last fifth) is not settled; one whose velocity changed by
+    0.3 m/s (0.1 % of the striking speed) is; one snapshot gives None."""
+    from fsph.metrics import perforation_settling
+    t = [0.0, 40.0, 80.0, 120.0, 160.0, 200.0]
+    out = perforation_settling(t, [-250.0, -210.0, -160.0, -110.0, -74.0, -59.0])
+    assert out["velocity_change_end_m_s"] == pytest.approx(15.0) and out["settled"] is False
+    out = perforation_settling(t, [-250.0, -240.0, -231.0, -230.0, -229.9, -229.6])
+    assert out["velocity_change_end_m_s"] == pytest.approx(0.3) and out["settled"] is True
+    assert perforation_settling([0.0], [-250.0])["settled"] is None
+
+
+def test_sweep_warns_of_unsettled_runs_only():
+    pd = pytest.importorskip("pandas")
+    from fsph.sweep import unsettled
+    frame = pd.DataFrame({"folder": ["v000", "v001", "v002"],
+                          "status": ["completed", "completed", "failed"],
+                          "perforation.settled": [False, True, False],
+                          "perforation.velocity_change_end_m_s": [15.0, 0.3, 40.0]})
+    lines = unsettled(frame)
+    assert len(lines) == 1 and lines[0].startswith("v000: ") and "+15.0 m/s" in lines[0]
+    assert unsettled(frame.drop(columns=["perforation.settled"])) == []
