@@ -1,6 +1,8 @@
 !> Helpers that resize, append to and compact allocatable arrays whose last
-!> dimension runs over items (nodes, elements, particles). Used only when
-!> the discretisation changes (conversion), never in the ordinary cycle.
+!> dimension runs over items (nodes, elements, particles). compact, append
+!> and reset_size are used only when the discretisation changes
+!> (conversion); reserve keeps the cycle's work arrays, which only grow, so
+!> an ordinary cycle allocates nothing.
 module fsph_arrays
   use fsph_kinds, only: wp
   implicit none
@@ -18,6 +20,14 @@ module fsph_arrays
     module procedure append_r1, append_r2, append_i1, append_i2
   end interface append
 
+  !> Make a work array hold at least n items (a rank-2 array: m by n),
+  !> reallocating it (contents lost) only when it is unallocated or too
+  !> small; a larger array is kept as it is.
+  public :: reserve
+  interface reserve
+    module procedure reserve_r1, reserve_r2, reserve_i1, reserve_l1
+  end interface reserve
+
   !> Reallocate to n items (contents discarded, set to zero).
   public :: reset_size
   interface reset_size
@@ -25,6 +35,46 @@ module fsph_arrays
   end interface reset_size
 
 contains
+
+  subroutine reserve_r1(a, n)
+    real(wp), allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    if (allocated(a)) then
+      if (size(a) >= n) return
+      deallocate (a)
+    end if
+    allocate (a(n))
+  end subroutine reserve_r1
+
+  subroutine reserve_r2(a, m, n)
+    real(wp), allocatable, intent(inout) :: a(:, :)
+    integer, intent(in) :: m, n
+    if (allocated(a)) then
+      if (size(a, 1) == m .and. size(a, 2) >= n) return
+      deallocate (a)
+    end if
+    allocate (a(m, n))
+  end subroutine reserve_r2
+
+  subroutine reserve_i1(a, n)
+    integer, allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    if (allocated(a)) then
+      if (size(a) >= n) return
+      deallocate (a)
+    end if
+    allocate (a(n))
+  end subroutine reserve_i1
+
+  subroutine reserve_l1(a, n)
+    logical, allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    if (allocated(a)) then
+      if (size(a) >= n) return
+      deallocate (a)
+    end if
+    allocate (a(n))
+  end subroutine reserve_l1
 
   subroutine compact_r1(a, mask)
     real(wp), allocatable, intent(inout) :: a(:)

@@ -33,6 +33,7 @@
 module fsph_contact
   use fsph_kinds, only: wp
   use fsph_state, only: sim
+  use fsph_arrays, only: reserve
   use fsph_topology, only: elements_with_edge
   implicit none
   private
@@ -185,14 +186,8 @@ contains
       end do
       grid_origin = lo
       n_cells = grid_nr*grid_nz
-      if (allocated(ct%cell_start)) then
-        if (size(ct%cell_start) < n_cells + 1) deallocate (ct%cell_start)
-      end if
-      if (.not. allocated(ct%cell_start)) allocate (ct%cell_start(n_cells + 1))
-      if (allocated(ct%fill)) then
-        if (size(ct%fill) < n_cells + 1) deallocate (ct%fill)
-      end if
-      if (.not. allocated(ct%fill)) allocate (ct%fill(n_cells + 1))
+      call reserve(ct%cell_start, n_cells + 1)
+      call reserve(ct%fill, n_cells + 1)
       associate (fill => ct%fill(1:n_cells + 1))
       ! two passes: count the registrations per cell, then store them
       fill = 0
@@ -374,14 +369,8 @@ contains
   !> Velocities of nodes and free particles before the corrections.
   subroutine keep_start_velocities()
     associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
-      if (allocated(ct%v_node0)) then
-        if (size(ct%v_node0, 2) < nd%n) deallocate (ct%v_node0)
-      end if
-      if (.not. allocated(ct%v_node0)) allocate (ct%v_node0(2, max(nd%n, 1)))
-      if (allocated(ct%v_part0)) then
-        if (size(ct%v_part0, 2) < pt%n) deallocate (ct%v_part0)
-      end if
-      if (.not. allocated(ct%v_part0)) allocate (ct%v_part0(2, max(pt%n, 1)))
+      call reserve(ct%v_node0, 2, max(nd%n, 1))
+      call reserve(ct%v_part0, 2, max(pt%n, 1))
       if (nd%n > 0) ct%v_node0(:, 1:nd%n) = nd%v(:, 1:nd%n)
       if (pt%n > 0) ct%v_part0(:, 1:pt%n) = pt%v(:, 1:pt%n)
     end associate

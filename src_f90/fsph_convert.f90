@@ -8,9 +8,10 @@
 module fsph_convert
   use fsph_kinds, only: wp, pi
   use fsph_state, only: sim
-  use fsph_arrays, only: compact
+  use fsph_arrays, only: compact, reserve
   use fsph_material, only: equivalent_stress
-  use fsph_coupling, only: coupled_body, update_tie_masses, fill_imaginary, stage_select
+  use fsph_coupling, only: coupled_body, update_tie_masses, fill_imaginary, stage_select, &
+                           element_smoothing_length
   use fsph_neighbors, only: build_neighbors
   use fsph_kernel, only: kernel_support
   use fsph_topology, only: rebuild_corner_map, nodal_masses, elements_with_edge, element_across
@@ -280,10 +281,7 @@ contains
       ng = cv%n_groups
       ! the criterion of every element, threaded (it is checked every
       ! cycle, conversions are rare); the work array outlives the call
-      if (allocated(cv%hit)) then
-        if (size(cv%hit) < el%n) deallocate (cv%hit)
-      end if
-      if (.not. allocated(cv%hit)) allocate (cv%hit(el%n))
+      call reserve(cv%hit, el%n)
       call mark_criterion()
       if (.not. any(cv%hit(1:el%n))) return
       allocate (group_hit(ng), convert(el%n))
@@ -389,7 +387,7 @@ contains
         pt%e(i) = el%e(ie) + dke/el%mass(ie)
         pt%temp(i) = el%temp(ie)
         pt%c(i) = el%c(ie)
-        pt%h(i) = cv%alpha_h*sqrt(el%area(ie))
+        pt%h(i) = element_smoothing_length(ie)
         pt%mat(i) = el%mat(ie)
         pt%body(i) = el%body(ie)
         pt%continuum(i) = sim%continuum_of_body(el%body(ie))

@@ -24,7 +24,7 @@ module fsph_coupling
   private
 
   public :: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, update_tie_masses
-  public :: coupled_body
+  public :: coupled_body, element_centroid, element_smoothing_length
 
   !> Stage of the cycle at which imaginary particles are filled.
   integer, parameter, public :: stage_select = 0 !< choose the elements, then fill at x^n
@@ -42,6 +42,23 @@ contains
     if (ib < 1 .or. ib > size(sim%body_coupled)) return
     coupled_body = sim%body_coupled(ib)
   end function coupled_body
+
+  !> Centroid (r, z) [m] of element ie at the node positions x (2, nodes):
+  !> where its imaginary particle stands.
+  pure function element_centroid(x, ie) result(xe)
+    real(wp), intent(in) :: x(:, :)
+    integer, intent(in) :: ie
+    real(wp) :: xe(2)
+    xe = (x(:, sim%elements%conn(1, ie)) + x(:, sim%elements%conn(2, ie)) &
+          + x(:, sim%elements%conn(3, ie)))/3.0_wp
+  end function element_centroid
+
+  !> Smoothing length alpha_h sqrt(A) [m] of the particle that stands for
+  !> element ie (imaginary, or made from it by conversion).
+  pure real(wp) function element_smoothing_length(ie)
+    integer, intent(in) :: ie
+    element_smoothing_length = sim%conversion%alpha_h*sqrt(max(sim%elements%area(ie), 0.0_wp))
+  end function element_smoothing_length
 
   !> Refill the imaginary particles from the elements of coupled bodies. At
   !> stage_select the elements are chosen: those of a continuum with real
@@ -80,8 +97,8 @@ contains
           if (.not. coupled_body(el%body(ie))) cycle
           c = sim%continuum_of_body(el%body(ie))
           if (h_max(c) < 0.0_wp) cycle          ! no real particle in this continuum
-          xe = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
-          reach = kernel_support*0.5_wp*(h_max(c) + sim%conversion%alpha_h*sqrt(el%area(ie))) + extra
+          xe = element_centroid(nd%x, ie)
+          reach = kernel_support*0.5_wp*(h_max(c) + element_smoothing_length(ie)) + extra
           if (any(xe < lo(:, c) - reach) .or. any(xe > hi(:, c) + reach)) cycle
           k = k + 1
           if (n0 + k > pt%capacity) exit
@@ -103,9 +120,9 @@ contains
       ie = sim%particles%imag_elem(k)
       associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
         if (stage == stage_mid) then
-          xe = (nd%x_mid(:, el%conn(1, ie)) + nd%x_mid(:, el%conn(2, ie)) + nd%x_mid(:, el%conn(3, ie)))/3.0_wp
+          xe = element_centroid(nd%x_mid, ie)
         else
-          xe = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
+          xe = element_centroid(nd%x, ie)
         end if
         ve = (nd%v(:, el%conn(1, ie)) + nd%v(:, el%conn(2, ie)) + nd%v(:, el%conn(3, ie)))/3.0_wp
         pt%x(:, k) = xe
@@ -115,7 +132,7 @@ contains
         pt%mass(k) = el%mass(ie)
         pt%rho(k) = el%rho(ie)
         pt%rho_mid(k) = el%rho(ie)
-        pt%h(k) = sim%conversion%alpha_h*sqrt(el%area(ie))
+        pt%h(k) = element_smoothing_length(ie)
         pt%radius(k) = 0.5_wp*sqrt(el%area(ie))
         pt%c(k) = el%c(ie)
         pt%sig(:, k) = el%s(:, ie)

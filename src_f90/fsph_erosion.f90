@@ -12,6 +12,7 @@ module fsph_erosion
   use fsph_convert, only: remove_elements, remove_nodes
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface
+  use fsph_arrays, only: reserve
   use fsph_verlet, only: invalidate_lists
   implicit none
   private
@@ -75,10 +76,7 @@ contains
       if (.not. er%enabled .or. el%n == 0) return
       ! the strains in a work array that only grows; the deletion mask only
       ! when an element goes
-      if (allocated(er%strain)) then
-        if (size(er%strain) < el%n) deallocate (er%strain)
-      end if
-      if (.not. allocated(er%strain)) allocate (er%strain(el%n))
+      call reserve(er%strain, el%n)
       call principal_strains(el%n, nd%n, el%conn, nd%x, nd%x0, er%strain)
       n_eroded = count(er%strain(1:el%n) >= er%strain_limit)
       if (n_eroded == 0) return

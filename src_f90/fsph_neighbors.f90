@@ -29,6 +29,7 @@
 module fsph_neighbors
   use fsph_kinds, only: wp
   use fsph_kernel, only: kernel_support
+  use fsph_arrays, only: reserve
   implicit none
   private
 
@@ -232,19 +233,17 @@ contains
     integer, intent(in) :: body(n)
     type(neighbour_work_t), intent(inout) :: work
     integer :: ncell, i, k, c, l
-    if (allocated(work%cell_of)) then
-      if (size(work%cell_of) < n) deallocate (work%cell_of, work%item, work%xs, work%reach_s, work%body_s)
-    end if
-    if (.not. allocated(work%cell_of)) allocate (work%cell_of(n), work%item(n), work%xs(2, n), &
-                                                 work%reach_s(n), work%body_s(n))
+    call reserve(work%cell_of, n)
+    call reserve(work%item, n)
+    call reserve(work%xs, 2, n)
+    call reserve(work%reach_s, n)
+    call reserve(work%body_s, n)
     ! cell_of holds the levels first, then the cells
     call make_levels(n, x, h, skin, work%cell_of, work)
     l = work%n_levels
     ncell = work%level_offset(l) + work%level_nr(l)*work%level_nz(l)
-    if (allocated(work%cell_start)) then
-      if (size(work%cell_start) < ncell + 1) deallocate (work%cell_start, work%fill)
-    end if
-    if (.not. allocated(work%cell_start)) allocate (work%cell_start(ncell + 1), work%fill(ncell))
+    call reserve(work%cell_start, ncell + 1)
+    call reserve(work%fill, ncell)
     work%cell_start(1:ncell + 1) = 0
     do i = 1, n
       c = cell_index(work, work%cell_of(i), x(1, i), x(2, i))

@@ -6,6 +6,7 @@ module fsph_solver
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
   use fsph_state, only: sim, history_columns
+  use fsph_arrays, only: reserve
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
                            strength_elastic, strength_hjc, eos_linear, eos_hjc
   use fsph_element, only: element_geometry, element_corner_forces, gather_corner_forces, &
@@ -405,13 +406,11 @@ contains
         pt%sig(:, i) = pt%s(:, i)
         pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
       end do
-      if (allocated(pt%pair_q)) then
-        if (size(pt%pair_q) < size(pt%nbr_list)) &
-          deallocate (pt%pair_q, pt%nbr_grad, pt%pair_force, pt%pair_work, pt%pair_in)
-      end if
-      if (.not. allocated(pt%pair_q)) allocate (pt%pair_q(size(pt%nbr_list)), pt%nbr_grad(2, size(pt%nbr_list)), &
-                                                pt%pair_force(2, size(pt%nbr_list)), pt%pair_work(size(pt%nbr_list)), &
-                                                pt%pair_in(size(pt%nbr_list)))
+      call reserve(pt%pair_q, size(pt%nbr_list))
+      call reserve(pt%nbr_grad, 2, size(pt%nbr_list))
+      call reserve(pt%pair_force, 2, size(pt%nbr_list))
+      call reserve(pt%pair_work, size(pt%nbr_list))
+      call reserve(pt%pair_in, size(pt%nbr_list))
     end associate
   end subroutine prepare_particle_sums
 

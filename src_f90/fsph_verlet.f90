@@ -13,8 +13,9 @@
 module fsph_verlet
   use fsph_kinds, only: wp
   use fsph_state, only: sim
+  use fsph_arrays, only: reserve
   use fsph_kernel, only: kernel_support
-  use fsph_coupling, only: coupled_body
+  use fsph_coupling, only: coupled_body, element_centroid, element_smoothing_length
   implicit none
   private
 
@@ -45,14 +46,11 @@ contains
     ne = sim%elements%n
     if (.not. allocated(sim%particles%x_listed)) allocate (sim%particles%x_listed(2, sim%particles%capacity))
     sim%particles%x_listed(:, 1:n) = sim%particles%x(:, 1:n)
-    if (allocated(sim%particles%elem_listed)) then
-      if (size(sim%particles%elem_listed, 2) < ne) deallocate (sim%particles%elem_listed)
-    end if
-    if (.not. allocated(sim%particles%elem_listed)) allocate (sim%particles%elem_listed(3, max(ne, 1)))
+    call reserve(sim%particles%elem_listed, 3, max(ne, 1))
     !$omp parallel do default(none) shared(sim, ne) private(ie)
     do ie = 1, ne
-      sim%particles%elem_listed(1:2, ie) = element_centroid(ie)
-      sim%particles%elem_listed(3, ie) = element_h(ie)
+      sim%particles%elem_listed(1:2, ie) = element_centroid(sim%nodes%x, ie)
+      sim%particles%elem_listed(3, ie) = element_smoothing_length(ie)
     end do
     !$omp end parallel do
     sim%particles%skin = skin
@@ -82,27 +80,13 @@ contains
       !$omp parallel do default(none) shared(sim, ne) private(ie, xe) reduction(max:d2_max, dh_max)
       do ie = 1, ne
         if (.not. coupled_body(sim%elements%body(ie))) cycle
-        xe = element_centroid(ie)
+        xe = element_centroid(sim%nodes%x, ie)
         d2_max = max(d2_max, sum((xe - sim%particles%elem_listed(1:2, ie))**2))
-        dh_max = max(dh_max, element_h(ie) - sim%particles%elem_listed(3, ie))
+        dh_max = max(dh_max, element_smoothing_length(ie) - sim%particles%elem_listed(3, ie))
       end do
       !$omp end parallel do
     end if
     lists_still_valid = 2.0_wp*sqrt(d2_max) + kernel_support*dh_max < sim%particles%skin
   end function lists_still_valid
-
-  !> Centroid (r, z) of element ie [m].
-  pure function element_centroid(ie) result(xe)
-    integer, intent(in) :: ie
-    real(wp) :: xe(2)
-    xe = (sim%nodes%x(:, sim%elements%conn(1, ie)) + sim%nodes%x(:, sim%elements%conn(2, ie)) &
-          + sim%nodes%x(:, sim%elements%conn(3, ie)))/3.0_wp
-  end function element_centroid
-
-  !> Smoothing length of element ie as an imaginary particle, alpha_h sqrt(A) [m].
-  pure real(wp) function element_h(ie)
-    integer, intent(in) :: ie
-    element_h = sim%conversion%alpha_h*sqrt(max(sim%elements%area(ie), 0.0_wp))
-  end function element_h
 
 end module fsph_verlet
