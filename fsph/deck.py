@@ -169,15 +169,6 @@ SCHEMA = {
                            "max(D1 (P* + T*)^D2, EF_min), D = sum (d eps_p + d mu_p) / that.",
                            "-", None),
             "hjc_d2": _pos("HJC damage exponent D2.", "-", None),
-            "hjc_damage_length": _pos(
-                "Crack-band reference length L_ref of the HJC damage (optional; Bazant & Oh "
-                "1983): the strain to fracture is multiplied by L_ref/L, L the cell size "
-                "(element sqrt(A), particle spacing h/alpha_h), so that a band of damage one "
-                "cell wide dissipates per unit area what a cell of size L_ref dissipates with "
-                "the published constants, on any mesh. Unset: the published model, whose "
-                "damage localises in bands one cell wide, so that its answers change as the "
-                "mesh is refined (docs/validation.md, concrete studies). L_ref is a material "
-                "length the HJC constants do not give.", "m", None),
             "hjc_pcrush": _pos("HJC crushing pressure P_crush (end of the elastic range; "
                                "elastic bulk modulus P_crush/mu_crush).", "Pa", None),
             "hjc_mucrush": _pos("HJC volumetric strain mu_crush at P_crush.", "-", None),
@@ -600,9 +591,6 @@ def _validate_material(path, label, m):
         raise DeckError(path, label, key, "'hjc' together with "
                         + ("strength" if key == "eos" else "eos") + " 'hjc' (the HJC strength "
                         "and pressure share the damage and compaction history)", m[key])
-    if m.get("hjc_damage_length") is not None and m["strength"] != "hjc":
-        raise DeckError(path, label, "hjc_damage_length", "no value: it regularises the damage "
-                        "of strength 'hjc' only", m["hjc_damage_length"])
     if m["eos"] == "mie_gruneisen":
         need += ("c0", "s", "gamma0")
     if m["eos"] == "hjc":

@@ -17,7 +17,7 @@ PROPERTY_NAMES = (
     "c0", "s", "gamma0", "pmin",
     "hjc_a", "hjc_b", "hjc_n", "hjc_c", "hjc_fc", "hjc_t", "hjc_smax", "hjc_efmin",
     "hjc_d1", "hjc_d2", "hjc_pcrush", "hjc_mucrush", "hjc_plock", "hjc_mulock",
-    "hjc_k1", "hjc_k2", "hjc_k3", "hjc_muplock", "hjc_damage_length",
+    "hjc_k1", "hjc_k2", "hjc_k3", "hjc_muplock",
 )
 STRENGTH_MODELS = {"elastic": 1, "epp": 2, "bilinear": 3, "johnson_cook": 4, "hjc": 5}
 EOS_MODELS = {"linear": 1, "mie_gruneisen": 2, "hjc": 3}
@@ -168,7 +168,6 @@ def property_row(m):
     for key in HJC_KEYS:
         row[key] = m.get(key) or 0.0
     row["hjc_muplock"] = hjc_lock_strain(m) if m["eos"] == "hjc" else 0.0
-    row["hjc_damage_length"] = m.get("hjc_damage_length") or 0.0
     if not math.isfinite(row["t_melt"]):
         row["t_melt"] = 1.0e300
     return np.array([row[name] for name in PROPERTY_NAMES], dtype=np.float64)

@@ -504,11 +504,10 @@ def drain_history():
     return _api.drain_history(n).T.copy()
 
 
-def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state, cell_area=1.0e-6):
-    """One constitutive step of a single point of a validated material dict
-    whose cell has area cell_area [m^2] (r-z plane). `state` holds s (4,),
-    p, eps_p, e, temp and optionally damage and mu_max (history, 0 if
-    absent); returns the new state and c."""
+def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
+    """One constitutive step of a single point of a validated material dict.
+    `state` holds s (4,), p, eps_p, e, temp and optionally damage and mu_max
+    (history, 0 if absent); returns the new state and c."""
     props, strength, eos = property_table([material])
     s = np.array(state["s"], dtype=float)
     p = np.array(state["p"], dtype=float)
@@ -520,7 +519,7 @@ def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state, cel
     hist[HIST_MU_MAX] = state.get("mu_max", 0.0)
     c, ierr = _api.material_point(props[:, 0], int(strength[0]), int(eos[0]), dt,
                                   np.asarray(d, float), spin, rho_old, rho_new, q,
-                                  cell_area, s, p, eps_p, e, temp, hist)
+                                  s, p, eps_p, e, temp, hist)
     return {"s": s, "p": float(p), "eps_p": float(eps_p), "e": float(e),
             "temp": float(temp), "damage": float(hist[HIST_DAMAGE]),
             "mu_max": float(hist[HIST_MU_MAX]), "c": float(c), "ierr": int(ierr)}

@@ -920,21 +920,20 @@ contains
   !> One constitutive step of a single material point (unit tests of the
   !> material models; see fsph_material material_update).
   subroutine material_point(nprop, nh, props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
-                            cell_area, s, p, eps_p, e, temp, hist, c, ierr)
+                            s, p, eps_p, e, temp, hist, c, ierr)
     use fsph_material, only: n_props, n_hist, material_update
     use fsph_status, only: status_bad_input
     integer, intent(in) :: nprop, nh
     real(wp), intent(in) :: props(nprop)
     integer, intent(in) :: istrength, ieos
     real(wp), intent(in) :: dt, d(4), spin, rho_old, rho_new, q
-    real(wp), intent(in) :: cell_area   !< cell area in the r-z plane [m^2]
     real(wp), intent(inout) :: s(4), p, eps_p, e, temp, hist(nh)
     real(wp), intent(out) :: c
     integer, intent(out) :: ierr
     c = 0.0_wp
     ierr = status_bad_input
     if (nprop /= n_props .or. nh /= n_hist) return
-    call material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, cell_area, &
+    call material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
                          s, p, eps_p, e, temp, hist, c, ierr)
   end subroutine material_point
 

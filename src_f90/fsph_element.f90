@@ -203,8 +203,8 @@ contains
       len = sqrt(area)
       q = rho_new*(c_q*len*trace)**2 + c_l*rho_new*c*len*abs(trace)
     end if
-    call material_update(props, istrength, ieos, dt, d, spin, rho, rho_new, q, area, s, p, eps_p, e, &
-                         temp, hist, c, ierr)
+    call material_update(props, istrength, ieos, dt, d, spin, rho, rho_new, q, s, p, eps_p, e, temp, &
+                         hist, c, ierr)
     rho = rho_new
   end subroutine element_point_update
 

@@ -54,8 +54,7 @@ module fsph_material
   integer, parameter, public :: prop_hjc_k2 = 35      !< fully dense EOS K2 [Pa]
   integer, parameter, public :: prop_hjc_k3 = 36      !< fully dense EOS K3 [Pa]
   integer, parameter, public :: prop_hjc_muplock = 37 !< strain where the fully dense curve reaches P_lock [-]
-  integer, parameter, public :: prop_hjc_lref = 38    !< crack-band reference length of the damage, 0: none [m]
-  integer, parameter, public :: n_props = 38
+  integer, parameter, public :: n_props = 37
 
   ! ---- history variables of a material point: hist(n_hist) ------------
   integer, parameter, public :: hist_damage = 1  !< damage D in [0, 1] (HJC) [-]
@@ -364,7 +363,7 @@ contains
   !> One constitutive step of one element material point: strength update,
   !> then EOS and internal energy solved together (p linear in e,
   !> trapezoidal p dv work, Wilkins), pressure cut-off, sound speed.
-  pure subroutine material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, cell_area, &
+  pure subroutine material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
                                   s, p, eps_p, e, temp, hist, c, ierr)
     real(wp), intent(in) :: props(n_props)
     integer, intent(in) :: istrength, ieos
@@ -373,8 +372,6 @@ contains
     real(wp), intent(in) :: spin            !< in-plane spin 1/2 (dvr/dz - dvz/dr) [1/s]
     real(wp), intent(in) :: rho_old, rho_new !< density at start and end of step [kg/m^3]
     real(wp), intent(in) :: q               !< artificial viscous pressure over the step [Pa]
-    real(wp), intent(in) :: cell_area       !< area of the point's cell in the r-z plane (element area,
-                                            !< particle spacing squared) [m^2]
     real(wp), intent(inout) :: s(4)         !< deviatoric stress [Pa]
     real(wp), intent(inout) :: p            !< pressure [Pa]
     real(wp), intent(inout) :: eps_p        !< equivalent plastic strain [-]
@@ -387,7 +384,7 @@ contains
 
     if (istrength == strength_hjc) then
       ! pressure first (it sets the strength), energy-independent: b = 0
-      call hjc_update(props, dt, d, spin, rho_new, cell_area, s, eps_p, hist, a, c, s_old, d_dev)
+      call hjc_update(props, dt, d, spin, rho_new, s, eps_p, hist, a, c, s_old, d_dev)
       b = 0.0_wp
       ierr = status_ok
     else
@@ -527,25 +524,17 @@ contains
   !> deviator, the pressure at the end-of-step density (with its history),
   !> radial return to the strength at that pressure and the start-of-step
   !> damage, then damage growth
-  !>   D <- min(1, D + (d eps_p + d mu_p) / eps_f),
-  !>   eps_f = max(D1 (P* + T*)^D2, EF_min) [L_ref/L],
-  !> and the sound speed. The factor L_ref/L (L the cell size sqrt(cell_area))
-  !> is the optional crack-band regularisation (Bazant & Oh 1983, Mater.
-  !> Struct. 16:155): the damage then dissipates, per unit area of a band
-  !> one cell wide, what a cell of size L_ref dissipates with the published
-  !> constants, whatever the cell size; without L_ref (0) the model is the
-  !> published one, whose damaged bands narrow, and whose answers drift, as
-  !> the mesh is refined. Below the reference density (opened, cracked or
+  !>   D <- min(1, D + (d eps_p + d mu_p) / max(D1 (P* + T*)^D2, EF_min)),
+  !> and the sound speed. Below the reference density (opened, cracked or
   !> fragmented concrete) the shear part of the sound speed is taken at
   !> the reference density: the (SPH) density of separating fragments falls
   !> towards zero, and 4G/(3 rho) would collapse the time step of material
   !> that carries no stress (a 606 m/s run stopped on a debris particle at
   !> 2 kg/m^3 whose sound speed had reached 107 km/s).
-  pure subroutine hjc_update(props, dt, d, spin, rho, cell_area, s, eps_p, hist, p, c, s_old, d_dev)
+  pure subroutine hjc_update(props, dt, d, spin, rho, s, eps_p, hist, p, c, s_old, d_dev)
     real(wp), intent(in) :: props(n_props)
     real(wp), intent(in) :: dt, d(4), spin     !< [s], [1/s], [1/s]
     real(wp), intent(in) :: rho                !< density at the end of the step [kg/m^3]
-    real(wp), intent(in) :: cell_area          !< cell area in the r-z plane [m^2]
     real(wp), intent(inout) :: s(4)            !< deviatoric stress [Pa]
     real(wp), intent(inout) :: eps_p           !< equivalent plastic strain [-]
     real(wp), intent(inout) :: hist(n_hist)    !< damage and largest volumetric strain
@@ -571,7 +560,6 @@ contains
       pt_sum = (p + props(prop_hjc_t))/props(prop_hjc_fc)
       eps_f = props(prop_hjc_efmin)
       if (pt_sum > 0.0_wp) eps_f = max(props(prop_hjc_d1)*pt_sum**props(prop_hjc_d2), eps_f)
-      if (props(prop_hjc_lref) > 0.0_wp) eps_f = eps_f*props(prop_hjc_lref)/sqrt(cell_area)
       hist(hist_damage) = min(hist(hist_damage) + (deps_p + dmu_p)/eps_f, 1.0_wp)
     end if
   end subroutine hjc_update

@@ -29,14 +29,13 @@ contains
   !> non-finite or non-positive density, a non-finite stress or a density
   !> beyond the range of its equation of state; n_debris the number of
   !> debris particles.
-  subroutine particle_state_update(n, nmat, props, istrength, ieos, mat, dt, debris_ratio, alpha_h, x, h, &
-                                   drho, d, spin, e, rho, s, p, eps_p, temp, hist, c, n_debris, ierr, ifault)
+  subroutine particle_state_update(n, nmat, props, istrength, ieos, mat, dt, debris_ratio, x, drho, &
+                                   d, spin, e, rho, s, p, eps_p, temp, hist, c, n_debris, ierr, ifault)
     integer, intent(in) :: n, nmat
     real(wp), intent(in) :: props(n_props, nmat)
     integer, intent(in) :: istrength(nmat), ieos(nmat), mat(n)
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
-    real(wp), intent(in) :: alpha_h       !< smoothing-length factor: particle spacing h/alpha_h [-]
-    real(wp), intent(in) :: dt, x(2, n), h(n), drho(n), d(4, n), spin(n)
+    real(wp), intent(in) :: dt, x(2, n), drho(n), d(4, n), spin(n)
     real(wp), intent(in) :: e(n)          !< specific internal energy at the start of the step [J/kg]
     real(wp), intent(inout) :: rho(n), s(4, n), p(n), eps_p(n), temp(n), c(n)
     real(wp), intent(inout) :: hist(n_hist, n)  !< material history (damage, ...)
@@ -46,7 +45,7 @@ contains
     f_axis = n + 1; f_nan = n + 1; f_eos = n + 1
     n_debris = 0
     !$omp parallel do default(none) &
-    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, alpha_h, x, h, drho, d, spin, e) &
+    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, x, drho, d, spin, e) &
     !$omp shared(rho, s, p, eps_p, temp, hist, c) &
     !$omp private(i, im, ierr_i, rho_debris, rho_old, e_local) reduction(min:f_axis, f_nan, f_eos) &
     !$omp reduction(+:n_debris)
@@ -77,8 +76,7 @@ contains
       ! the pairwise viscosity does its work through the SPH energy sum
       e_local = e(i)
       call material_update(props(:, im), istrength(im), ieos(im), dt, d(:, i), spin(i), rho_old, rho(i), &
-                           0.0_wp, (h(i)/alpha_h)**2, s(:, i), p(i), eps_p(i), e_local, temp(i), hist(:, i), &
-                           c(i), ierr_i)
+                           0.0_wp, s(:, i), p(i), eps_p(i), e_local, temp(i), hist(:, i), c(i), ierr_i)
       if (ierr_i /= status_ok) f_eos = min(f_eos, i)
       if (.not. (ieee_is_finite(p(i)) .and. all(ieee_is_finite(s(:, i))))) f_nan = min(f_nan, i)
     end do

@@ -534,8 +534,7 @@ contains
       pt%e_old(1:n) = pt%e(1:n)
       pt%rho_old(1:n) = pt%rho(1:n)
       call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, dt_step, &
-                                 sim%control%debris_ratio, sim%conversion%alpha_h, pt%x, pt%h, pt%drho, &
-                                 pt%d, pt%spin, pt%e, pt%rho, &
+                                 sim%control%debris_ratio, pt%x, pt%drho, pt%d, pt%spin, pt%e, pt%rho, &
                                  pt%s, pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, pt%n_debris, ierr, ifault)
       call timer_stop(phase_particle_update)
       if (ierr == status_ok) then

@@ -53,9 +53,6 @@ BAD_DECKS = {
         rod_deck(material="name='steel'\n strength='hjc'\n eos='hjc'\n density=2440.0\n"
                           " shear_modulus=1.486e10"),
         ["&material #1", "'hjc_a'", "missing key"]),
-    "hjc_damage_length_without_hjc": (
-        rod_deck(material="name='steel'\n library='steel_elastic_bar'\n hjc_damage_length=2.5e-3"),
-        ["&material #1", "'hjc_damage_length'", "strength 'hjc' only"]),
     "hjc_falling_dense_curve": (
         rod_deck(material="name='steel'\n library='concrete_48mpa_hjc'\n hjc_k2=-5.0e12"),
         ["&material #1", "'hjc_k2'", "rising to hjc_plock"]),

@@ -109,14 +109,14 @@ def test_permanent_compaction_grows_only_on_loading():
                                            - (0.05 - loading(0.05) / k_u), rel=1e-10)
 
 
-def shear_step(m, mu, rate, damage=0.0, dt=1e-6, cell=1e-3):
+def shear_step(m, mu, rate, damage=0.0, dt=1e-6):
     """One step at fixed density (on the loading curve at mu) with a pure
-    shear rate d_rz = rate, from zero deviator, in a cell of size `cell` [m]."""
+    shear rate d_rz = rate, from zero deviator."""
     rho = RHO0 * (1 + mu)
     d = np.array([0.0, 0.0, rate, 0.0])
     state = {"s": np.zeros(4), "p": 0.0, "eps_p": 0.0, "e": 0.0, "temp": 293.15,
              "damage": damage, "mu_max": max(rho / RHO0 - 1.0, 0.0)}   # as the solver computes mu
-    return material_point_update(m, dt, d, 0.0, rho, rho, 0.0, state, cell_area=cell**2)
+    return material_point_update(m, dt, d, 0.0, rho, rho, 0.0, state)
 
 
 def equivalent(s):
@@ -151,22 +151,6 @@ def test_strength_and_damage_growth(mu, damage):
     pts = (p + T) / FC
     eps_f = max(D1 * pts**D2, EFMIN) if pts > 0 else EFMIN
     assert out["damage"] == pytest.approx(min(damage + deps / eps_f, 1.0), rel=1e-10)
-
-
-@pytest.mark.parametrize("mu,dt", [(0.03, 2e-5), (-5e-5, 4e-7)])
-def test_crack_band_scales_the_strain_to_fracture_with_the_cell(mu, dt):
-    """With hjc_damage_length L_ref the strain to fracture (either branch,
-    D1 (P* + T*)^D2 at mu = 0.03, EF_min in tension) is multiplied by
-    L_ref/L: the damage a step adds times the cell size is the same on
-    every cell size, and a cell of size L_ref has the published damage."""
-    rate, lref = 2.0e3, 2.5e-3
-    published = shear_step(concrete(), mu, rate, dt=dt, cell=1e-3)["damage"]
-    assert 0.0 < published * 2.5 < 1.0      # no cell below saturates
-    assert published == shear_step(concrete(), mu, rate, dt=dt, cell=5e-3)["damage"]
-    for cell in (1.0e-3, 2.5e-3, 5.0e-3):
-        out = shear_step(concrete(hjc_damage_length=lref), mu, rate, dt=dt, cell=cell)
-        assert out["damage"] == pytest.approx(published * cell / lref, rel=1e-12)
-        assert out["eps_p"] == pytest.approx(shear_step(concrete(), mu, rate, dt=dt)["eps_p"], rel=1e-14)
 
 
 def test_strength_is_capped_at_s_max():
