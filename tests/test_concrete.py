@@ -96,8 +96,8 @@ def test_1058_sph_residual_velocity(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="measured 472.8 m/s, +5.3 % against 449 (seed 000's fixed "
                    "coupling: 466), as the elements on a mesh as wide (471.8 m/s); both drift "
-                   "upwards under refinement, the unregularised HJC softening "
-                   "(docs/validation.md)")
+                   "upwards under refinement as the SPH viscosity in the fully damaged crater "
+                   "falls with h; converged model near +7 % (docs/validation.md)")
 def test_606_fixed_residual_velocity(tmp_path_factory):
     check_perforation(run_case("concrete_606_fixed", tmp_path_factory), "concrete_606", 5.0)
 
@@ -105,7 +105,8 @@ def test_606_fixed_residual_velocity(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="measured 474.3 m/s, +5.6 % against 449 on the mesh refined "
                    "by 1.6 (26 432 elements, 9 755 converted; 468.7 m/s, +4.4 %, on the case's "
-                   "mesh): the unregularised HJC softening drifts upwards under refinement")
+                   "mesh): the SPH viscosity resisting the fully damaged concrete falls with h; "
+                   "with it halved both meshes give 480 +- 1.2 m/s (docs/validation.md)")
 def test_606_adaptive_refined_mesh_residual_velocity(tmp_path_factory):
     """The convergence check of the 606 m/s case: the deck with every cell
     count refined as benchmarks/concrete_study.py --mesh-study does."""
