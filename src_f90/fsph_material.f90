@@ -191,39 +191,48 @@ contains
     end select
   end subroutine eos_pressure
 
-  !> Current flow stress of the strength model [Pa] and, with with_slope,
-  !> its slope with respect to the equivalent plastic strain [Pa] (only
-  !> the plastic return needs it; a Johnson-Cook slope costs a power).
-  pure subroutine flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, with_slope, sy, dsy)
+  !> Current flow stress of the strength model [Pa].
+  pure real(wp) function flow_stress(props, istrength, eps_p, rate_factor, thermal_factor) result(sy)
     real(wp), intent(in) :: props(n_props)
     integer, intent(in) :: istrength
     real(wp), intent(in) :: eps_p, rate_factor, thermal_factor
-    logical, intent(in) :: with_slope
-    real(wp), intent(out) :: sy, dsy
+    select case (istrength)
+    case (strength_epp)
+      sy = props(prop_yield)
+    case (strength_bilinear)
+      sy = props(prop_yield) + props(prop_hard)*eps_p
+    case (strength_johnson_cook)
+      ! a point that has not yielded (most of a target) needs no power
+      if (eps_p > 0.0_wp) then
+        sy = (props(prop_jc_a) + props(prop_jc_b)*eps_p**props(prop_jc_n))*(rate_factor*thermal_factor)
+      else
+        sy = props(prop_jc_a)*(rate_factor*thermal_factor)
+      end if
+    case default
+      sy = huge(1.0_wp)
+    end select
+  end function flow_stress
+
+  !> Slope of the flow stress with respect to the equivalent plastic
+  !> strain [Pa]: only the plastic return needs it (a Johnson-Cook slope
+  !> costs a power of its own).
+  pure real(wp) function flow_slope(props, istrength, eps_p, rate_factor, thermal_factor) result(dsy)
+    real(wp), intent(in) :: props(n_props)
+    integer, intent(in) :: istrength
+    real(wp), intent(in) :: eps_p, rate_factor, thermal_factor
     !> Plastic strain below which the Johnson-Cook slope is evaluated at this
     !> value (the slope of eps^n is unbounded at zero for n < 1) [-].
     real(wp), parameter :: eps_slope_floor = 1.0e-9_wp
-    real(wp) :: f
     select case (istrength)
-    case (strength_epp)
-      sy = props(prop_yield); dsy = 0.0_wp
     case (strength_bilinear)
-      sy = props(prop_yield) + props(prop_hard)*eps_p; dsy = props(prop_hard)
+      dsy = props(prop_hard)
     case (strength_johnson_cook)
-      f = rate_factor*thermal_factor
-      ! a point that has not yielded (most of a target) needs no power
-      if (eps_p > 0.0_wp) then
-        sy = (props(prop_jc_a) + props(prop_jc_b)*eps_p**props(prop_jc_n))*f
-      else
-        sy = props(prop_jc_a)*f
-      end if
-      dsy = 0.0_wp
-      if (with_slope) dsy = props(prop_jc_b)*props(prop_jc_n)* &
-                            max(eps_p, eps_slope_floor)**(props(prop_jc_n) - 1.0_wp)*f
+      dsy = props(prop_jc_b)*props(prop_jc_n)*max(eps_p, eps_slope_floor)**(props(prop_jc_n) - 1.0_wp) &
+            *(rate_factor*thermal_factor)
     case default
-      sy = huge(1.0_wp); dsy = 0.0_wp
+      dsy = 0.0_wp
     end select
-  end subroutine flow_stress
+  end function flow_slope
 
   !> Radial return to the von Mises surface. On entry s is the elastic trial
   !> deviator; on exit it lies on (or inside) the yield surface. Returns the
@@ -237,12 +246,12 @@ contains
     real(wp) :: seq_trial, seq2, g3, dsy, lo, hi, f, df, x, dx
     integer :: it
     deps_p = 0.0_wp
-    call flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, .false., sy, dsy)
+    sy = flow_stress(props, istrength, eps_p, rate_factor, thermal_factor)
     ! an elastic point (the common case) needs no square root
     seq2 = 1.5_wp*deviator_double_contraction(s, s)
     if (seq2 <= sy*sy) return
     seq_trial = sqrt(seq2)
-    call flow_stress(props, istrength, eps_p, rate_factor, thermal_factor, .true., sy, dsy)
+    dsy = flow_slope(props, istrength, eps_p, rate_factor, thermal_factor)
     g3 = 3.0_wp*props(prop_shear)
     select case (istrength)
     case (strength_epp, strength_bilinear)
@@ -254,7 +263,8 @@ contains
       hi = seq_trial/g3
       x = min((seq_trial - sy)/(g3 + dsy), hi)
       do it = 1, return_max_iterations
-        call flow_stress(props, istrength, eps_p + x, rate_factor, thermal_factor, .true., sy, dsy)
+        sy = flow_stress(props, istrength, eps_p + x, rate_factor, thermal_factor)
+        dsy = flow_slope(props, istrength, eps_p + x, rate_factor, thermal_factor)
         f = seq_trial - g3*x - sy
         df = -(g3 + dsy)
         if (f > 0.0_wp) then
@@ -269,7 +279,7 @@ contains
       end do
       deps_p = x
     end select
-    call flow_stress(props, istrength, eps_p + deps_p, rate_factor, thermal_factor, .false., sy, dsy)
+    sy = flow_stress(props, istrength, eps_p + deps_p, rate_factor, thermal_factor)
     s = s*(sy/seq_trial)
   end subroutine radial_return
 
