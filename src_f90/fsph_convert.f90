@@ -11,7 +11,7 @@ module fsph_convert
   use fsph_arrays, only: compact, reserve
   use fsph_material, only: equivalent_stress
   use fsph_coupling, only: coupled_body, update_tie_masses, fill_imaginary, stage_select, &
-                           element_smoothing_length
+                           element_mean, element_smoothing_length
   use fsph_neighbors, only: build_neighbors
   use fsph_kernel, only: kernel_support
   use fsph_topology, only: rebuild_corner_map, nodal_masses, elements_with_edge, element_across
@@ -125,7 +125,7 @@ contains
         dz = (zmax - zmin)/nz
         do ie = 1, el%n
           if (.not. in_body(ie)) cycle
-          xg = (nd%x0(:, el%conn(1, ie)) + nd%x0(:, el%conn(2, ie)) + nd%x0(:, el%conn(3, ie)))/3.0_wp
+          xg = element_mean(nd%x0, ie)
           ir = min(int((xg(1) - rmin)/dr) + 1, nr)
           iz = min(int((xg(2) - zmin)/dz) + 1, nz)
           el%group(ie) = offset + (iz - 1)*nr + ir
@@ -365,14 +365,14 @@ contains
         knew = knew + 1
         pt%n = pt%n + 1
         i = pt%n
-        pt%x(:, i) = (nd%x(:, el%conn(1, ie)) + nd%x(:, el%conn(2, ie)) + nd%x(:, el%conn(3, ie)))/3.0_wp
+        pt%x(:, i) = element_mean(nd%x, ie)
         ! a particle keeps at least half its spacing from the axis, like the
         ! first column of a particle lattice: the centroid of a triangle
         ! touching the axis lies at a sixth of the spacing, where the
         ! particle with its mirror image goes unstable in tension
         pt%x(1, i) = max(pt%x(1, i), 0.5_wp*sqrt(el%area(ie)))
-        pt%x0(:, i) = (nd%x0(:, el%conn(1, ie)) + nd%x0(:, el%conn(2, ie)) + nd%x0(:, el%conn(3, ie)))/3.0_wp
-        vbar = (nd%v(:, el%conn(1, ie)) + nd%v(:, el%conn(2, ie)) + nd%v(:, el%conn(3, ie)))/3.0_wp
+        pt%x0(:, i) = element_mean(nd%x0, ie)
+        vbar = element_mean(nd%v, ie)
         dke = 0.0_wp
         do k = 1, 3
           dke = dke + 0.5_wp*(el%mass(ie)/3.0_wp)*sum((nd%v(:, el%conn(k, ie)) - vbar)**2)

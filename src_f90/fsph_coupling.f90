@@ -24,7 +24,7 @@ module fsph_coupling
   private
 
   public :: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, update_tie_masses
-  public :: coupled_body, element_centroid, element_smoothing_length
+  public :: coupled_body, element_mean, element_smoothing_length
 
   !> Stage of the cycle at which imaginary particles are filled.
   integer, parameter, public :: stage_select = 0 !< choose the elements, then fill at x^n
@@ -43,15 +43,16 @@ contains
     coupled_body = sim%body_coupled(ib)
   end function coupled_body
 
-  !> Centroid (r, z) [m] of element ie at the node positions x (2, nodes):
-  !> where its imaginary particle stands.
-  pure function element_centroid(x, ie) result(xe)
-    real(wp), intent(in) :: x(:, :)
+  !> Mean over element ie's three nodes of the nodal field f (2, nodes):
+  !> of positions, the centroid (r, z) [m], where its imaginary particle
+  !> stands; of velocities, the velocity it carries [m/s].
+  pure function element_mean(f, ie) result(fe)
+    real(wp), intent(in) :: f(:, :)
     integer, intent(in) :: ie
-    real(wp) :: xe(2)
-    xe = (x(:, sim%elements%conn(1, ie)) + x(:, sim%elements%conn(2, ie)) &
-          + x(:, sim%elements%conn(3, ie)))/3.0_wp
-  end function element_centroid
+    real(wp) :: fe(2)
+    fe = (f(:, sim%elements%conn(1, ie)) + f(:, sim%elements%conn(2, ie)) &
+          + f(:, sim%elements%conn(3, ie)))/3.0_wp
+  end function element_mean
 
   !> Smoothing length alpha_h sqrt(A) [m] of the particle that stands for
   !> element ie (imaginary, or made from it by conversion).
@@ -97,7 +98,7 @@ contains
           if (.not. coupled_body(el%body(ie))) cycle
           c = sim%continuum_of_body(el%body(ie))
           if (h_max(c) < 0.0_wp) cycle          ! no real particle in this continuum
-          xe = element_centroid(nd%x, ie)
+          xe = element_mean(nd%x, ie)
           reach = kernel_support*0.5_wp*(h_max(c) + element_smoothing_length(ie)) + extra
           if (any(xe < lo(:, c) - reach) .or. any(xe > hi(:, c) + reach)) cycle
           k = k + 1
@@ -120,11 +121,11 @@ contains
       ie = sim%particles%imag_elem(k)
       associate (pt => sim%particles, el => sim%elements, nd => sim%nodes)
         if (stage == stage_mid) then
-          xe = element_centroid(nd%x_mid, ie)
+          xe = element_mean(nd%x_mid, ie)
         else
-          xe = element_centroid(nd%x, ie)
+          xe = element_mean(nd%x, ie)
         end if
-        ve = (nd%v(:, el%conn(1, ie)) + nd%v(:, el%conn(2, ie)) + nd%v(:, el%conn(3, ie)))/3.0_wp
+        ve = element_mean(nd%v, ie)
         pt%x(:, k) = xe
         pt%x_mid(:, k) = xe
         pt%v(:, k) = ve

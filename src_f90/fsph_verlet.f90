@@ -15,7 +15,7 @@ module fsph_verlet
   use fsph_state, only: sim
   use fsph_arrays, only: reserve
   use fsph_kernel, only: kernel_support
-  use fsph_coupling, only: coupled_body, element_centroid, element_smoothing_length
+  use fsph_coupling, only: coupled_body, element_mean, element_smoothing_length
   implicit none
   private
 
@@ -49,7 +49,7 @@ contains
     call reserve(sim%particles%elem_listed, 3, max(ne, 1))
     !$omp parallel do default(none) shared(sim, ne) private(ie)
     do ie = 1, ne
-      sim%particles%elem_listed(1:2, ie) = element_centroid(sim%nodes%x, ie)
+      sim%particles%elem_listed(1:2, ie) = element_mean(sim%nodes%x, ie)
       sim%particles%elem_listed(3, ie) = element_smoothing_length(ie)
     end do
     !$omp end parallel do
@@ -80,7 +80,7 @@ contains
       !$omp parallel do default(none) shared(sim, ne) private(ie, xe) reduction(max:d2_max, dh_max)
       do ie = 1, ne
         if (.not. coupled_body(sim%elements%body(ie))) cycle
-        xe = element_centroid(sim%nodes%x, ie)
+        xe = element_mean(sim%nodes%x, ie)
         d2_max = max(d2_max, sum((xe - sim%particles%elem_listed(1:2, ie))**2))
         dh_max = max(dh_max, element_smoothing_length(ie) - sim%particles%elem_listed(3, ie))
       end do
