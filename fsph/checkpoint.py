@@ -13,7 +13,7 @@ import numpy as np
 from .errors import FsphError
 from .simulation import _api
 
-FORMAT = 1
+FORMAT = 2
 
 
 def save(sim, path):

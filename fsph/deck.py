@@ -102,8 +102,19 @@ SCHEMA = {
             "energy_error_limit": Key("float", None, "-",
                                       "The run stops with a diagnostic (exit 3) when |total energy "
                                       "- initial| / initial exceeds this, checked every "
-                                      "few hundred cycles. Unset: off.",
+                                      "few hundred cycles: the hard stop for a run that loses its "
+                                      "energy balance. Unset: off (energy_error_warning still "
+                                      "flags it).",
                                       lower=0.0, lower_open=True),
+            "energy_error_warning": Key("float", 0.02, "-",
+                                        "A run whose energy error (|total - initial| / initial, "
+                                        "the largest during the run) exceeds this completes with "
+                                        "a warning: printed, written to summary.json "
+                                        "(`warnings`) and flagged by `fsph report`. The total "
+                                        "counts the kinetic and internal energy and what contact, "
+                                        "rigid planes and erosion removed. Set "
+                                        "energy_error_limit to stop the run instead.",
+                                        lower=0.0, lower_open=True),
             "max_cycles": Key("int", 50_000_000, "-", "Hard limit on the number of cycles.",
                               lower=1),
         },
@@ -114,7 +125,12 @@ SCHEMA = {
         "entry with `library = '...'` and override any key; or give every key needed by "
         "the chosen models. Elasticity: either youngs_modulus + poisson_ratio, or "
         "shear_modulus (+ bulk_modulus for the linear EOS; the Mie-Grueneisen bulk "
-        "modulus is rho0 c0^2).",
+        "modulus is rho0 c0^2). bulk_modulus goes only with shear_modulus and the linear "
+        "EOS: beside youngs_modulus + poisson_ratio, or with eos 'mie_gruneisen' or 'hjc', "
+        "it is an error (nothing would tell which one wins). With 'mie_gruneisen', a bulk "
+        "modulus E/(3(1 - 2 nu)) more than 5 % from rho0 c0^2 gets a warning at the start "
+        "of the run and in summary.json: the pressure uses rho0 c0^2, E and nu set the "
+        "shear modulus only.",
         {
             "name": Key("str", REQUIRED, "-", "Name used by &body material."),
             "library": Key("str", None, "-", "Library entry to start from.",
@@ -141,7 +157,12 @@ SCHEMA = {
                                        "rate terms.", "1/s", 1.0),
             "melt_temperature": _pos("Melting temperature T_melt (Johnson-Cook).", "K", None),
             "room_temperature": _pos("Room and initial temperature.", "K", 293.15),
-            "specific_heat": _pos("Specific heat c_v for adiabatic heating (Johnson-Cook).",
+            "specific_heat": _pos("Specific heat c of the adiabatic heating of Johnson-Cook, "
+                                  "dT = taylor_quinney dW_p/(rho c). The solids' tables "
+                                  "(Johnson & Cook 1983 among them) give c_p, at constant "
+                                  "pressure; give that: for metals c_p - c_v is 2-3 % at room "
+                                  "temperature, well inside the scatter of the constants, and "
+                                  "the Mie-Grueneisen energy term does not use it.",
                                   "J/(kg K)", None),
             "taylor_quinney": Key("float", 0.9, "-",
                                   "Fraction of plastic work turned into heat (Taylor-Quinney).",
@@ -264,7 +285,23 @@ SCHEMA = {
                        "the customary quadratic and linear coefficients of commercial "
                        "hydrocodes for solids.", lower=0.0),
             "c_l": Key("float", 0.2, "-", "Linear coefficient of the pairwise viscosity "
-                       "(Monaghan alpha = C_L).", lower=0.0),
+                       "(Monaghan alpha = C_L). Both terms are scaled by the pair's compression "
+                       "switch |div v|/(|div v| + |D'| + 1e-4 c/h): the viscosity acts in "
+                       "compression and shocks, not in isochoric plastic flow (docs/method.md).",
+                       lower=0.0),
+            "hourglass": Key("float", 0.1, "-",
+                             "Coefficient C_hg of the hourglass viscosity: a pair force "
+                             "C_hg rho c h dW/dr (dv - G dx)/r on the part of the pair's velocity "
+                             "difference that the particles' velocity gradients G do not explain "
+                             "(zero for any linear velocity field). It damps the particle-scale "
+                             "modes that the collocated SPH gradient does not see (alternating "
+                             "columns sliding along each other), which otherwise grew in the "
+                             "shank of a Taylor rod into a band of spurious plastic strain. "
+                             "0 turns it off (the pure SPH Armco rod then shortens 1.7 % more "
+                             "than with 0.1); from 0.05 to 0.5 its L stays within 0.1 % and "
+                             "its D falls by 2.5 % (docs/validation.md). Values above 0.5 "
+                             "are not accepted: untested.",
+                             lower=0.0, upper=0.5),
             "debris_density": Key("float", 0.1, "-",
                                   "A particle whose density falls below this fraction of its "
                                   "material's reference density is debris: fragments that have "
@@ -611,6 +648,11 @@ def _validate_material(path, label, m):
             if m.get(k) is None:
                 raise DeckError(path, label, k, "a value (youngs_modulus and poisson_ratio "
                                 "go together)", "missing key")
+        if m.get("bulk_modulus") is not None:
+            raise DeckError(path, label, "bulk_modulus",
+                            "no value with youngs_modulus + poisson_ratio (they fix the bulk "
+                            "modulus; give shear_modulus + bulk_modulus instead)",
+                            m["bulk_modulus"])
     elif not has_g:
         raise DeckError(path, label, "shear_modulus",
                         "elastic constants: youngs_modulus + poisson_ratio, or shear_modulus",
@@ -619,6 +661,11 @@ def _validate_material(path, label, m):
         raise DeckError(path, label, "bulk_modulus",
                         "a value (the linear EOS with shear_modulus needs bulk_modulus)",
                         "missing key")
+    if m["eos"] in ("mie_gruneisen", "hjc") and m.get("bulk_modulus") is not None:
+        raise DeckError(path, label, "bulk_modulus",
+                        f"no value for eos '{m['eos']}' (its bulk modulus is "
+                        + ("rho0 c0^2" if m["eos"] == "mie_gruneisen" else "hjc_pcrush/hjc_mucrush")
+                        + ")", m["bulk_modulus"])
     if m["strength"] == "bilinear":
         _, _, e = elastic_moduli(m)
         if not m["tangent_modulus"] < e:
@@ -645,11 +692,36 @@ def _validate_material(path, label, m):
     if m["strength"] == "johnson_cook":
         if m["specific_heat"] is None:
             raise DeckError(path, label, "specific_heat",
-                            "a value (Johnson-Cook adiabatic heating needs c_v)", "missing key")
+                            "a value (Johnson-Cook adiabatic heating needs the specific heat c_p)", "missing key")
         if not m["melt_temperature"] > m["room_temperature"]:
             raise DeckError(path, label, "melt_temperature",
                             f"a value above room_temperature = {m['room_temperature']} K",
                             m["melt_temperature"])
+
+
+#: Largest relative difference between the bulk modulus of (E, nu) and the
+#: Mie-Grueneisen rho0 c0^2 that passes without a warning [-].
+BULK_MISMATCH_WARNING = 0.05
+
+
+def _material_warnings(label, m):
+    """Messages about a valid material that a user should read: with the
+    Mie-Grueneisen EOS, a bulk modulus implied by youngs_modulus and
+    poisson_ratio more than BULK_MISMATCH_WARNING from rho0 c0^2 (the EOS
+    uses rho0 c0^2; E and nu then set the shear modulus only)."""
+    out = []
+    if m["eos"] == "mie_gruneisen" and m.get("youngs_modulus") is not None:
+        e, nu = m["youngs_modulus"], m["poisson_ratio"]
+        k_e = e / (3.0 * (1.0 - 2.0 * nu))
+        k_eos = m["density"] * m["c0"] ** 2
+        diff = k_e / k_eos - 1.0
+        if abs(diff) > BULK_MISMATCH_WARNING:
+            out.append(f"{label} '{m['name']}': the bulk modulus of youngs_modulus and "
+                       f"poisson_ratio, K = E/(3(1 - 2 nu)) = {k_e / 1e9:.4g} GPa, differs from the "
+                       f"Mie-Grueneisen rho0 c0^2 = {k_eos / 1e9:.4g} GPa by {100 * diff:+.1f} %: "
+                       f"the pressure uses rho0 c0^2; E and nu set the shear modulus "
+                       f"G = E/(2(1 + nu)) = {e / (2 * (1 + nu)) / 1e9:.4g} GPa only")
+    return out
 
 
 def load(path):
@@ -661,7 +733,7 @@ def load(path):
         if gname not in SCHEMA:
             raise DeckError(path, gname, None, "one of the groups "
                             + ", ".join("&" + g for g in SCHEMA), "unknown group")
-    deck = {"path": str(path), "dir": str(path.resolve().parent)}
+    deck = {"path": str(path), "dir": str(path.resolve().parent), "warnings": []}
     for gname, group in SCHEMA.items():
         items = raw.get(gname, [])
         if group.required and not items:
@@ -793,6 +865,7 @@ def _cross_check(path, deck):
     _unique_names(path, "body", deck["body"])
     for i, m in enumerate(deck["material"]):
         _validate_material(path, f"material #{i + 1}", m)
+        deck["warnings"].extend(_material_warnings(f"&material #{i + 1}", m))
     names = [m["name"] for m in deck["material"]]
     for i, b in enumerate(deck["body"]):
         if b["material"] not in names:

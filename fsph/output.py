@@ -9,7 +9,7 @@ import h5py
 import meshio
 import numpy as np
 
-HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal", "contact", "eroded")
+HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal", "contact", "eroded", "plane")
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
                         "internal_energy", "temperature", "damage", "material", "body")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
@@ -31,8 +31,9 @@ class RunWriter:
     """Writes one run's outputs into a folder.
 
     fsph.h5: /history/<field> (time [s], cycle, dt [s], kinetic [J],
-    internal [J], contact work [J], energy removed by erosion [J], total
-    [J]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
+    internal [J], contact work [J], energy removed by erosion [J], kinetic
+    energy removed by the rigid planes and the particles' axis wall [J],
+    total [J]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
     fields; attributes time [s] and cycle; particles, if any, in
     /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
@@ -62,13 +63,13 @@ class RunWriter:
             (self.outdir / "vtu").mkdir(exist_ok=True)
 
     def append_history(self, records):
-        """records: (k, 7) rows of HISTORY_FIELDS. Also tracks the largest
+        """records: (k, 8) rows of HISTORY_FIELDS. Also tracks the largest
         departure of the total energy (kinetic + internal + the work of the
-        contact corrections + the energy erosion removed) from its first
-        recorded value."""
+        contact corrections + the energy erosion removed + the energy the
+        rigid planes removed) from its first recorded value."""
         if len(records) == 0:
             return
-        total = records[:, 3] + records[:, 4] + records[:, 5] + records[:, 6]
+        total = records[:, 3] + records[:, 4] + records[:, 5] + records[:, 6] + records[:, 7]
         if self.energy0 is None:
             self.energy0 = total[0]
         if self.energy0:

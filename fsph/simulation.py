@@ -73,8 +73,8 @@ class Simulation:
                          deck["output"]["history_every"])
         sph = deck["sph"]
         touch, slope = contact_filling(sph["alpha_h"])
-        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["contact_penalty"], touch, slope,
-                             sph["debris_density"], sph["neighbour_skin"])
+        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["hourglass"], sph["contact_penalty"], touch,
+                             slope, sph["debris_density"], sph["neighbour_skin"])
         props, strength, eos = property_table(materials)
         self._call(_api.set_materials(props, strength, eos), "material table")
 
@@ -348,18 +348,20 @@ class Simulation:
         return {"depth": float(depth), "relative": float(relative)}
 
     def energies(self):
-        """Kinetic, internal, contact-dissipated and total energy [J] and
-        the relative error of the total against the initial energy. Rigid
-        planes are fixed and do no work; contact corrections remove kinetic
-        energy as perfectly inelastic collisions of the surface masses,
-        which is booked, so the total is conserved by the method."""
+        """Kinetic, internal, contact-dissipated, plane-dissipated and total
+        energy [J] and the relative error of the total against the initial
+        energy. Contact corrections and the kinematic condition of rigid
+        planes (and of the particles' axis wall) remove kinetic energy as
+        perfectly inelastic collisions of what strikes them; both are
+        booked, so the total is conserved by the method."""
         ke, ie = _api.get_energies()
         dissipated = float(_api.get_contact_stats()[0])
+        plane = float(_api.get_plane_dissipation())
         er = self.erosion()
         eroded = er["internal_J"] + er["kinetic_J"]
-        total = ke + ie + dissipated + eroded
+        total = ke + ie + dissipated + plane + eroded
         return {"kinetic": float(ke), "internal": float(ie), "contact": dissipated,
-                "eroded": eroded, "total": float(total),
+                "plane": plane, "eroded": eroded, "total": float(total),
                 "relative_error": float((total - self.initial_energy) / self.initial_energy)
                 if self.initial_energy else 0.0}
 
@@ -495,12 +497,13 @@ def contact_filling(alpha_h):
 
 
 def drain_history():
-    """Time-history records (k, 7) recorded by the cycle since the last
+    """Time-history records (k, 8) recorded by the cycle since the last
     call: time [s], cycle, dt [s], kinetic [J], internal [J], work of the
-    contact corrections [J], energy removed by erosion [J]."""
+    contact corrections [J], energy removed by erosion [J], kinetic energy
+    removed by the rigid planes and the particles' axis wall [J]."""
     n = int(_api.history_count())
     if n == 0:
-        return np.zeros((0, 7))
+        return np.zeros((0, 8))
     return _api.drain_history(n).T.copy()
 
 

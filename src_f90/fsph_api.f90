@@ -19,7 +19,7 @@ module fsph_api
   public :: checkpoint_layout, checkpoint_sizes, get_real_state, get_int_state, set_real_state
   public :: set_int_state, get_scalar_state, restore_begin, restore_end
   public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
-  public :: set_erosion, get_erosion_stats, get_material_history
+  public :: set_erosion, get_erosion_stats, get_material_history, get_plane_dissipation
   public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain, get_debris_count
   public :: phase_count, get_phase_times, reset_phase_times, set_neighbour_width, get_list_rebuilds
 
@@ -94,16 +94,18 @@ contains
   !> filling at touching and its rate per spacing of approach [-]; the
   !> debris density fraction [-]; the neighbour lists' skin as a fraction
   !> of the smallest kernel support (0: lists rebuilt every cycle) [-].
-  subroutine set_sph_control(c_q, c_l, contact_penalty, contact_touch, contact_slope, debris_ratio, &
+  subroutine set_sph_control(c_q, c_l, c_hg, contact_penalty, contact_touch, contact_slope, debris_ratio, &
                              neighbour_skin)
     use fsph_state, only: sim
     real(wp), intent(in) :: c_q, c_l, contact_penalty, contact_touch, contact_slope
+    real(wp), intent(in) :: c_hg          !< hourglass viscosity coefficient [-]
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
     real(wp), intent(in) :: neighbour_skin
     sim%control%neighbour_skin = max(neighbour_skin, 0.0_wp)
     sim%particles%lists_valid = .false.
     sim%control%sph_c_q = c_q
     sim%control%sph_c_l = c_l
+    sim%control%sph_c_hg = c_hg
     sim%control%contact_penalty = contact_penalty
     sim%control%contact_touch = contact_touch
     sim%control%contact_slope = contact_slope
@@ -179,27 +181,40 @@ contains
   subroutine get_particle_rates(np, acc, drho, de, d, spin, ierr)
     use fsph_state, only: sim
     use fsph_status, only: status_ok, status_bad_input
-    use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights
+    use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch
     use fsph_solver, only: prepare_particle_sums
     integer, intent(in) :: np
     real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
     integer, intent(out) :: ierr
     integer :: ntot
+    real(wp), allocatable :: grad_v(:, :), switch(:)
     ierr = status_bad_input
     acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
     if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
     call prepare_particle_sums(ntot)
+    allocate (grad_v(4, np), switch(np))
     associate (pt => sim%particles)
       call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
-      call sph_accelerations(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%nbr_ptr, &
-                             pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, sim%control%sph_c_q, &
-                             sim%control%sph_c_l, acc, pt%pair_q, pt%pair_force, pt%pair_in, pt%acc_imag)
-      call sph_rates(np, ntot, pt%x, pt%v, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
-                     pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, drho, d, spin)
-      ! eq 3 with the stress, viscosity and velocities of this state
+      ! the pairs of this state (pair_in), then its velocity gradient and
+      ! compression switch, then the accelerations with them
+      grad_v = 0.0_wp
+      switch = 0.0_wp
+      call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
+                             grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
+                             pt%pair_hg, pt%pair_in, pt%acc_imag)
+      call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
+                     pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, drho, d, &
+                     spin, grad_v)
+      call compression_switch(np, d, pt%c, pt%h, switch)
+      call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
+                             grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
+                             pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
+      ! the energy equation with the stress, viscosity and velocities of this state
       call sph_energy_rate(np, ntot, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%nbr_ptr, &
-                           pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%nbr_grad, &
-                           pt%pair_work, de)
+                           pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%pair_hg, &
+                           pt%pair_force, pt%nbr_grad, pt%pair_work, de)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
@@ -382,6 +397,14 @@ contains
     ierr = status_ok
   end subroutine hjc_point_pressure
 
+  !> Kinetic energy removed by the rigid planes and the particles' axis wall
+  !> (perfectly inelastic on what strikes them) [J].
+  subroutine get_plane_dissipation(dissipated)
+    use fsph_state, only: sim
+    real(wp), intent(out) :: dissipated
+    dissipated = sim%plane_dissipated
+  end subroutine get_plane_dissipation
+
   !> Contact books: kinetic energy removed by the corrections so far [J],
   !> pairs corrected in the last cycle, surface segments and nodes.
   subroutine get_contact_stats(dissipated, n_active, n_seg, n_snode)
@@ -539,7 +562,7 @@ contains
   !> Clock and conversion books (see fsph_restart get_scalars).
   subroutine get_scalar_state(r, i)
     use fsph_restart, only: get_scalars
-    real(wp), intent(out) :: r(12)   ! fsph_restart n_real_scalars
+    real(wp), intent(out) :: r(13)   ! fsph_restart n_real_scalars
     integer, intent(out) :: i(9)     ! fsph_restart n_int_scalars
     call get_scalars(r, i)
   end subroutine get_scalar_state
@@ -548,7 +571,7 @@ contains
   subroutine restore_begin(nn, ne, np, capacity, n_edges, r, i)
     use fsph_restart, only: allocate_for_restart, set_scalars
     integer, intent(in) :: nn, ne, np, capacity, n_edges
-    real(wp), intent(in) :: r(12)
+    real(wp), intent(in) :: r(13)
     integer, intent(in) :: i(9)
     call allocate_for_restart(nn, ne, np, capacity, n_edges)
     call set_scalars(r, i)
@@ -842,13 +865,13 @@ contains
   end subroutine history_count
 
   !> Take the n waiting records (time [s], cycle, dt [s], kinetic [J],
-  !> internal [J], contact work [J], energy removed by erosion [J]) and empty
-  !> the buffer.
+  !> internal [J], contact work [J], energy removed by erosion [J], work of
+  !> the rigid planes and the particles' axis wall [J]) and empty the buffer.
   subroutine drain_history(n, records)
     use fsph_state, only: sim, history_columns
     integer, intent(in) :: n
-    ! literal 7 = history_columns: f2py cannot size arrays by module constants
-    real(wp), intent(out) :: records(7, n)
+    ! literal 8 = history_columns: f2py cannot size arrays by module constants
+    real(wp), intent(out) :: records(8, n)
     integer :: k
     k = min(n, sim%n_history)
     if (history_columns /= size(records, 1)) k = 0

@@ -28,6 +28,14 @@ module fsph_arrays
     module procedure reserve_r1, reserve_r2, reserve_i1, reserve_l1
   end interface reserve
 
+  !> Resize an allocated array to n items (its last dimension), keeping
+  !> the first min(old, n) items and zeroing the rest (the particle arrays
+  !> when mirror images need more room than was reserved).
+  public :: grow
+  interface grow
+    module procedure grow_r1, grow_r2, grow_i1, grow_i2, grow_l1
+  end interface grow
+
   !> Reallocate to n items (contents discarded, set to zero).
   public :: reset_size
   interface reset_size
@@ -159,6 +167,66 @@ contains
     c(:, n + 1:) = b
     call move_alloc(c, a)
   end subroutine append_i2
+
+  subroutine grow_r1(a, n)
+    real(wp), allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    real(wp), allocatable :: b(:)
+    integer :: k
+    allocate (b(n))
+    b = 0.0_wp
+    k = min(n, size(a))
+    b(1:k) = a(1:k)
+    call move_alloc(b, a)
+  end subroutine grow_r1
+
+  subroutine grow_r2(a, n)
+    real(wp), allocatable, intent(inout) :: a(:, :)
+    integer, intent(in) :: n
+    real(wp), allocatable :: b(:, :)
+    integer :: k
+    allocate (b(size(a, 1), n))
+    b = 0.0_wp
+    k = min(n, size(a, 2))
+    b(:, 1:k) = a(:, 1:k)
+    call move_alloc(b, a)
+  end subroutine grow_r2
+
+  subroutine grow_i1(a, n)
+    integer, allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    integer, allocatable :: b(:)
+    integer :: k
+    allocate (b(n))
+    b = 0
+    k = min(n, size(a))
+    b(1:k) = a(1:k)
+    call move_alloc(b, a)
+  end subroutine grow_i1
+
+  subroutine grow_i2(a, n)
+    integer, allocatable, intent(inout) :: a(:, :)
+    integer, intent(in) :: n
+    integer, allocatable :: b(:, :)
+    integer :: k
+    allocate (b(size(a, 1), n))
+    b = 0
+    k = min(n, size(a, 2))
+    b(:, 1:k) = a(:, 1:k)
+    call move_alloc(b, a)
+  end subroutine grow_i2
+
+  subroutine grow_l1(a, n)
+    logical, allocatable, intent(inout) :: a(:)
+    integer, intent(in) :: n
+    logical, allocatable :: b(:)
+    integer :: k
+    allocate (b(n))
+    b = .false.
+    k = min(n, size(a))
+    b(1:k) = a(1:k)
+    call move_alloc(b, a)
+  end subroutine grow_l1
 
   subroutine reset_r1(a, n)
     real(wp), allocatable, intent(inout) :: a(:)

@@ -26,21 +26,32 @@ contains
   !> A node whose predicted position x + dt v would fall behind the plane has
   !> its normal velocity replaced by the one that brings it exactly onto the
   !> plane; tangential velocity is untouched (frictionless). The plane is
-  !> rigid and fixed: it takes the normal momentum and does no work.
-  !> With `offset` (particles: their radius [m]) the point keeps that
+  !> rigid and fixed: it takes the normal momentum. With `offset`
+  !> (particles: a fraction of their radius [m]) the point keeps that
   !> distance from the plane. A point already closer than that (a particle
   !> just made from an element next to the plane) only stops approaching:
-  !> it is not pushed out, which would put energy in.
-  subroutine apply_rigid_plane(nn, point, normal, dt, x, v, offset)
+  !> it is not pushed out, which would put energy in. `work` [J] gets the
+  !> work of the plane's impulses m dv, charged at the mean of the velocity
+  !> before the kick (v_start) and the corrected one (the measure under
+  !> which the central difference balances kinetic energy, as for contact):
+  !> a point that rests on the plane costs nothing, one that strikes it
+  !> loses its normal kinetic energy (the plane acts as a perfectly
+  !> inelastic wall on it).
+  subroutine apply_rigid_plane(nn, point, normal, dt, x, mass, v_start, v, work, offset)
     integer, intent(in) :: nn
     real(wp), intent(in) :: point(2), normal(2) !< plane point [m], unit normal [-]
     real(wp), intent(in) :: dt                  !< step [s]
     real(wp), intent(in) :: x(2, nn)
-    real(wp), intent(in), optional :: offset(nn)
+    real(wp), intent(in) :: mass(nn)            !< [kg]
+    real(wp), intent(in) :: v_start(2, nn)      !< velocity before the kick [m/s]
     real(wp), intent(inout) :: v(2, nn)
-    real(wp) :: gap, vn, vn_new
+    real(wp), intent(inout) :: work             !< [J]
+    real(wp), intent(in), optional :: offset(nn)
+    real(wp) :: gap, vn, vn_new, w
     integer :: a
-    !$omp parallel do default(none) shared(nn, point, normal, dt, x, v, offset) private(a, gap, vn, vn_new)
+    ! serial: the work is summed in point order, so its bits do not depend
+    ! on the thread count (a dot product per point)
+    w = 0.0_wp
     do a = 1, nn
       gap = dot_product(x(:, a) - point, normal)
       if (present(offset)) gap = gap - offset(a)
@@ -49,9 +60,10 @@ contains
         vn_new = max(-gap/dt, 0.0_wp)
         if (gap < 0.0_wp) vn_new = max(vn, 0.0_wp)
         v(:, a) = v(:, a) + (vn_new - vn)*normal
+        w = w + mass(a)*(vn_new - vn)*0.5_wp*(dot_product(v_start(:, a), normal) + vn_new)
       end if
     end do
-    !$omp end parallel do
+    work = work + w
   end subroutine apply_rigid_plane
 
 end module fsph_boundary

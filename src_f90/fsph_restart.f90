@@ -10,12 +10,14 @@ module fsph_restart
   private
 
   !> Real arrays: 1-20 nodes and elements, 21-34 particles, 35-37 eroded
-  !> node mass and element and particle material history.
-  integer, parameter, public :: n_real_arrays = 37
+  !> node mass and element and particle material history, 38-39 the
+  !> particles' strain rates and velocity gradients of the last step (the
+  !> viscosity's compression switch and the hourglass term read them).
+  integer, parameter, public :: n_real_arrays = 39
   !> Integer arrays: 1-5 nodes and elements, 6-12 particles and coupling.
   integer, parameter, public :: n_int_arrays = 12
   !> Real and integer scalars of the clock and the conversion books.
-  integer, parameter, public :: n_real_scalars = 12, n_int_scalars = 9
+  integer, parameter, public :: n_real_scalars = 13, n_int_scalars = 9
 
   public :: real_view, int_view, get_scalars, set_scalars, allocate_for_restart
   public :: prepare_checkpoint, finish_restore
@@ -65,6 +67,8 @@ contains
       case (35); if (allocated(sim%nodes%mass_eroded)) p(1:1, 1:sim%nodes%n) => sim%nodes%mass_eroded
       case (36); if (allocated(sim%elements%hist)) p => sim%elements%hist
       case (37); if (allocated(sim%particles%hist)) p => sim%particles%hist(:, 1:sim%particles%n)
+      case (38); if (allocated(sim%particles%d)) p => sim%particles%d(:, 1:sim%particles%n)
+      case (39); if (allocated(sim%particles%grad_v)) p => sim%particles%grad_v(:, 1:sim%particles%n)
       end select
   end function real_view
 
@@ -91,14 +95,15 @@ contains
 
   !> Clock and books: reals (time, dt, dt_last, dt_initial, conversion heat,
   !> contact dissipation, erosion: element mass, internal energy, node mass,
-  !> kinetic energy, momentum r and z) and integers (cycle, dt_element,
+  !> kinetic energy, momentum r and z, work of the planes) and integers (cycle, dt_element,
   !> dt_particle, n_converted, n_events, n_groups, n_edges, n_imag, n_eroded).
   subroutine get_scalars(r, i)
     real(wp), intent(out) :: r(n_real_scalars)
     integer, intent(out) :: i(n_int_scalars)
     associate (er => sim%erosion)
       r = [sim%time, sim%dt, sim%dt_last, sim%dt_initial, sim%conversion%heat, sim%contact%dissipated, &
-           er%element_mass, er%internal, er%node_mass, er%kinetic, er%momentum(1), er%momentum(2)]
+           er%element_mass, er%internal, er%node_mass, er%kinetic, er%momentum(1), er%momentum(2), &
+           sim%plane_dissipated]
       i = [sim%cycle, sim%dt_element, sim%dt_particle, sim%conversion%n_converted, &
            sim%conversion%n_events, sim%conversion%n_groups, sim%coupling%n_edges, sim%particles%n_imag, &
            er%n_eroded]
@@ -113,10 +118,11 @@ contains
     sim%contact%dissipated = r(6)
     sim%erosion%element_mass = r(7); sim%erosion%internal = r(8); sim%erosion%node_mass = r(9)
     sim%erosion%kinetic = r(10); sim%erosion%momentum = r(11:12)
+    sim%plane_dissipated = r(13)
     sim%erosion%n_eroded = i(9)
     sim%cycle = i(1); sim%dt_element = i(2); sim%dt_particle = i(3)
     sim%conversion%n_converted = i(4); sim%conversion%n_events = i(5)
-    sim%conversion%n_groups = i(6); sim%coupling%n_edges = i(7); sim%particles%n_imag = 0
+    sim%conversion%n_groups = i(6); sim%coupling%n_edges = i(7); sim%particles%n_imag = 0; sim%particles%n_mirror = 0
     sim%history_cycle = sim%cycle
     sim%n_history = 0
   end subroutine set_scalars

@@ -5,7 +5,7 @@ module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
-  use fsph_state, only: sim, history_columns
+  use fsph_state, only: sim, history_columns, state_grow_particles
   use fsph_arrays, only: reserve
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
                            strength_elastic, strength_hjc, eos_linear, eos_hjc
@@ -15,7 +15,9 @@ module fsph_solver
   use fsph_integrate, only: integrate_velocities, integrate_positions
   use fsph_neighbors, only: build_neighbors
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
-                      pair_weights
+                      pair_weights, compression_switch
+  use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
+                         mirror_fill_stress
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
@@ -74,6 +76,7 @@ contains
     end if
     call contact_rebuild_surface()
     sim%contact%dissipated = 0.0_wp
+    sim%plane_dissipated = 0.0_wp
 
     sim%time = 0.0_wp
     sim%cycle = 0
@@ -358,10 +361,11 @@ contains
         call timer_stop(phase_neighbours)
         call timer_start(phase_sph_sums)
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
-        call sph_accelerations(n, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
-                               pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
-                               sim%control%sph_c_q, sim%control%sph_c_l, pt%acc, pt%pair_q, pt%pair_force, &
-                               pt%pair_in, pt%acc_imag)
+        call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
+        call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
+                               pt%grad_v, pt%switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
+                               pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
+                               pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
         call timer_stop(phase_sph_sums)
         call timer_start(phase_particle_contact)
         call update_particle_radius()
@@ -380,28 +384,33 @@ contains
     end associate
   end subroutine compute_forces
 
-  !> Imaginary particles at t^n, neighbour lists of the real particles
-  !> (rebuilt, with the imaginary elements chosen again, only when the kept
-  !> lists may miss a pair: fsph_verlet), their total stress s - p I and
-  !> room for the pair work arrays; ntot is the number of real and
-  !> imaginary entries.
+  !> Imaginary particles and mirror images at t^n, neighbour lists of the
+  !> real particles (rebuilt, with the imaginary elements and the mirrored
+  !> particles chosen again, only when the kept lists may miss a pair:
+  !> fsph_verlet), their total stress s - p I and room for the pair work
+  !> arrays; ntot is the number of real, imaginary and mirror entries.
   subroutine prepare_particle_sums(ntot)
     integer, intent(out) :: ntot
     integer :: i, n
     real(wp) :: skin
     associate (pt => sim%particles)
       n = pt%n
-      if (pt%lists_valid .and. sim%elements%n > 0 .and. pt%n_imag > 0) call fill_imaginary(stage_start)
+      if (pt%lists_valid) then
+        if (sim%elements%n > 0 .and. pt%n_imag > 0) call fill_imaginary(stage_start)
+        call fill_mirrors_start()
+      end if
       if (.not. lists_still_valid()) then
         skin = list_skin()
         pt%n_imag = 0
         if (sim%elements%n > 0) call fill_imaginary(stage_select, skin)
-        call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, skin, pt%search, pt%nbr_ptr, &
-                             pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, pt%cnt_ptr, &
-                             pt%cnt_list)
+        call select_mirrors(skin)
+        call fill_mirrors_start()
+        call build_neighbors(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, pt%continuum, skin, pt%search, &
+                             pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             pt%cnt_ptr, pt%cnt_list)
         call record_lists(skin)
       end if
-      ntot = n + pt%n_imag
+      ntot = n + pt%n_imag + pt%n_mirror
       do i = 1, n
         pt%sig(:, i) = pt%s(:, i)
         pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
@@ -409,10 +418,58 @@ contains
       call reserve(pt%pair_q, size(pt%nbr_list))
       call reserve(pt%nbr_grad, 2, size(pt%nbr_list))
       call reserve(pt%pair_force, 2, size(pt%nbr_list))
+      call reserve(pt%pair_hg, 2, size(pt%nbr_list))
       call reserve(pt%pair_work, size(pt%nbr_list))
       call reserve(pt%pair_in, size(pt%nbr_list))
     end associate
   end subroutine prepare_particle_sums
+
+  !> Choose the particles mirrored across rigid planes normal to the axis
+  !> (fsph_mirror), making room for their images after the imaginary
+  !> particles.
+  subroutine select_mirrors(skin)
+    real(wp), intent(in) :: skin
+    integer :: first, ip
+    real(wp) :: point(2, max(sim%n_planes, 1)), normal(2, max(sim%n_planes, 1))
+    associate (pt => sim%particles)
+      pt%n_mirror = 0
+      if (sim%n_planes == 0 .or. pt%n == 0) return
+      do ip = 1, sim%n_planes
+        point(:, ip) = sim%planes(ip)%point
+        normal(:, ip) = sim%planes(ip)%normal
+      end do
+      first = pt%n + pt%n_imag
+      call mirror_select(pt%n, pt%x, pt%h, skin, sim%n_planes, point, normal, pt%capacity - first, pt%n_mirror, &
+                         pt%mirror_of, pt%mirror_plane)
+      if (first + pt%n_mirror > pt%capacity) then
+        call state_grow_particles(first + pt%n_mirror + (first + pt%n_mirror)/4)
+        call mirror_select(pt%n, pt%x, pt%h, skin, sim%n_planes, point, normal, pt%capacity - first, &
+                           pt%n_mirror, pt%mirror_of, pt%mirror_plane)
+      end if
+    end associate
+  end subroutine select_mirrors
+
+  !> Plane points and normals as arrays (2, n_planes).
+  subroutine plane_arrays(point, normal)
+    real(wp), intent(out) :: point(:, :), normal(:, :)
+    integer :: ip
+    do ip = 1, sim%n_planes
+      point(:, ip) = sim%planes(ip)%point
+      normal(:, ip) = sim%planes(ip)%normal
+    end do
+  end subroutine plane_arrays
+
+  !> Mirror images at the start of the cycle.
+  subroutine fill_mirrors_start()
+    real(wp) :: point(2, max(sim%n_planes, 1)), normal(2, max(sim%n_planes, 1))
+    associate (pt => sim%particles)
+      if (pt%n_mirror == 0) return
+      call plane_arrays(point, normal)
+      call mirror_fill_start(pt%n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%mirror_plane, sim%n_planes, point, &
+                             normal, pt%x, pt%v, pt%v_bar, pt%mass, pt%rho, pt%rho_mid, pt%h, pt%radius, pt%c, &
+                             pt%s, pt%p, pt%sig, pt%grad_v, pt%continuum, pt%mat, pt%body)
+    end associate
+  end subroutine fill_mirrors_start
 
   !> Forces of the current state (step 1 of the cycle), for verification.
   subroutine solver_forces(dt_step)
@@ -424,7 +481,10 @@ contains
     real(wp), intent(in) :: dt_v  !< velocity step: mean of the two position steps [s]
     integer :: n
     associate (nd => sim%nodes, pt => sim%particles)
-      if (nd%n > 0) call integrate_velocities(nd%n, nd%mass_total, nd%f, dt_v, nd%v)
+      if (nd%n > 0) then
+        nd%v_start = nd%v                 ! velocity before the kick (work of the planes)
+        call integrate_velocities(nd%n, nd%mass_total, nd%f, dt_v, nd%v)
+      end if
       n = pt%n
       if (n > 0) then
         pt%v_bar(:, 1:n) = pt%v(:, 1:n)   ! velocity before the kick
@@ -435,21 +495,34 @@ contains
 
   subroutine apply_boundaries(dt_step)
     real(wp), intent(in) :: dt_step
-    integer :: ip
+    integer :: ip, n
+    real(wp) :: work
+    work = 0.0_wp
+    n = sim%particles%n
     associate (nd => sim%nodes, pt => sim%particles)
       if (nd%n > 0) call apply_axis(nd%n, nd%on_axis, nd%v)
       ! particles keep at least half their radius from the axis: the axis
       ! acts on them as a frictionless wall (the odd-extension ghosts alone
-      ! let a particle driven hard inwards cross r = 0)
-      if (pt%n > 0) call apply_rigid_plane(pt%n, [0.0_wp, 0.0_wp], [1.0_wp, 0.0_wp], dt_step, pt%x, &
-                                           pt%v, axis_wall_fraction*pt%radius(1:pt%n))
+      ! let a particle driven hard inwards cross r = 0); v_bar still holds
+      ! the velocity before the kick
+      if (n > 0) call apply_rigid_plane(n, [0.0_wp, 0.0_wp], [1.0_wp, 0.0_wp], dt_step, pt%x, pt%mass, &
+                                        pt%v_bar, pt%v, work, axis_wall_fraction*pt%radius(1:n))
       do ip = 1, sim%n_planes
-        if (nd%n > 0) call apply_rigid_plane(nd%n, sim%planes(ip)%point, sim%planes(ip)%normal, &
-                                             dt_step, nd%x, nd%v)
-        if (pt%n > 0) call apply_rigid_plane(pt%n, sim%planes(ip)%point, sim%planes(ip)%normal, &
-                                             dt_step, pt%x, pt%v, pt%radius)
+        if (nd%n > 0) call apply_rigid_plane(nd%n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, &
+                                             nd%x, nd%mass_total, nd%v_start, nd%v, work)
+        if (n == 0) cycle
+        if (mirror_plane_normal_to_axis(sim%planes(ip)%normal)) then
+          ! the mirror images hold the particles off the plane; the
+          ! kinematic condition is a backstop at half their radius
+          call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
+                                 pt%v_bar, pt%v, work, axis_wall_fraction*pt%radius(1:n))
+        else
+          call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
+                                 pt%v_bar, pt%v, work, pt%radius(1:n))
+        end if
       end do
     end associate
+    sim%plane_dissipated = sim%plane_dissipated - work
   end subroutine apply_boundaries
 
   !> Tied particles take their edge velocity; v_bar becomes the velocity at
@@ -510,6 +583,7 @@ contains
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
     integer :: i, n, ntot
+    real(wp) :: point(2, max(sim%n_planes, 1)), normal(2, max(sim%n_planes, 1))
     ierr = status_ok
     ifault = 0
     n = sim%particles%n
@@ -522,13 +596,18 @@ contains
       end if
       call timer_start(phase_coupling)
       if (pt%n_imag > 0) call fill_imaginary(stage_mid)
+      if (pt%n_mirror > 0) then
+        call plane_arrays(point, normal)
+        call mirror_fill_mid(n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%mirror_plane, sim%n_planes, point, &
+                             pt%x_mid, pt%v, pt%v_bar, pt%rho, pt%rho_mid)
+      end if
       call timer_stop(phase_coupling)
-      ntot = n + pt%n_imag
+      ntot = n + pt%n_imag + pt%n_mirror
       call timer_start(phase_sph_sums)
       call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho, pt%wgt, pt%planar_area)
-      call sph_rates(n, ntot, pt%x_mid, pt%v, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
+      call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
                      pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
-                     pt%d, pt%spin)
+                     pt%d, pt%spin, pt%grad_v)
       call timer_stop(phase_sph_sums)
       call timer_start(phase_particle_update)
       pt%e_old(1:n) = pt%e(1:n)
@@ -544,10 +623,12 @@ contains
           pt%sig_mid([1, 2, 4], i) = pt%sig_mid([1, 2, 4], i) - 0.5_wp*pt%p(i)
           pt%rho_mid(i) = 0.5_wp*(pt%rho_old(i) + pt%rho(i))
         end do
+        if (pt%n_mirror > 0) call mirror_fill_stress(n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%rho_mid, &
+                                                     pt%sig_mid)
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
         call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, pt%wgt, &
                              pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
-                             pt%nbr_grad, pt%pair_work, pt%de)
+                             pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
         call timer_stop(phase_sph_sums)
         call timer_start(phase_particle_update)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
@@ -560,7 +641,8 @@ contains
   end subroutine update_particles
 
   !> Append (time, cycle, dt, kinetic, internal, contact work, energy removed
-  !> by erosion) to the history buffer,
+  !> by erosion, work of the rigid planes and the axis wall) to the history
+  !> buffer,
   !> doubling its capacity when full (rare: the API drains it).
   subroutine record_history()
     real(wp), allocatable :: grown(:, :)
@@ -576,7 +658,8 @@ contains
     sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
     sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal, &
-                                     sim%contact%dissipated, sim%erosion%internal + sim%erosion%kinetic]
+                                     sim%contact%dissipated, sim%erosion%internal + sim%erosion%kinetic, &
+                                     sim%plane_dissipated]
   end subroutine record_history
 
   !> Kinetic energy (half-step velocities) and internal energy [J] of

@@ -1,4 +1,4 @@
-!> Axisymmetric SPH sums (seed 000 eqs 1-4; ALGORITHMS.md section 2) over
+!> Axisymmetric SPH sums (seed 000 eqs 2-4; ALGORITHMS.md section 2) over
 !> the neighbour lists of fsph_neighbors. A pair of real particles is
 !> evaluated once, in the row of the lower index, which keeps what the
 !> partner needs per entry (force, kernel gradient, work); a second loop
@@ -14,16 +14,60 @@
 !> planar fields: position (-r_j, z_j), velocity (-v_r, v_z), sigma_rz
 !> reversed, density rho_j, and a ring mass 2 pi r rho A that changes sign
 !> with r (-m_j). The planar density eta is then odd in r and its gradient
-!> is right at the axis; m/r and the planar area m/(2 pi r rho) of a ghost
-!> are those of its particle.
+!> is right at the axis (Petschek & Libersky 1993, J. Comput. Phys.
+!> 109:76).
+!>
+!> Density: the planar density is carried, d eta_i/dt = sum_j m_j
+!> (v_i - v_j) . grad_i W (ghosts with their signed mass), and rho_i =
+!> eta_i/(2 pi r_i) (Petschek & Libersky 1993). Seed 000's eq 1 weights
+!> the neighbours by m_j/r_j instead: a particle next to the axis that
+!> moves out by delta from a lattice at rest then loses density delta/r_i
+!> (the hoop term alone), while eta-continuity lets it carry its ring mass
+!> into a region of larger eta = 2 pi r rho, as a summed density would,
+!> and so keeps its density. With eq 1 the particles converted next to
+!> the axis of the Taylor rod drifted out, rarefied to 0.4 rho0 in deep
+!> tension and heated to 4 MJ/kg; an elastic rod in pure SPH gained 44 %
+!> energy in 80 us (docs/method.md).
+!>
+!> Energy: the stress power of each particle is its own stress times the
+!> rate conjugate to the momentum equation, de_i/dt = sigma_tt v_r/(rho r)
+!> + 2 pi sum_j m_j (r_i/eta_i^2) sigma_i : (v_j - v_i) grad_i W, so the
+!> pair work of eqs 2-3 is exactly the change of kinetic energy, and the
+!> pressure work of a particle is the p dv of its own density (the
+!> eta-continuity above); the half-and-half split of seed 000's eq 3 gave
+!> a particle next to the axis half its own pressure work against the
+!> whole hoop work, which drained its energy in tension until it flew
+!> apart. A ghost is not a particle of its own: the heat of a ghost entry
+!> is minus the work of its force on the particle, so ghosts neither make
+!> nor lose energy.
 !>
 !> Artificial viscosity: the continuum (FEM) form q = rho (C_Q h eps)^2 +
 !> C_L rho c h |eps| evaluated pairwise with the normal strain rate
 !> eps_ij = (v_i - v_j).(x_i - x_j)/(|x_ij|^2 + 0.01 h^2) < 0 and the pair
 !> means of rho, c and h, acting as an extra pressure on both particles of
-!> the pair: Johnson's "combined" viscosity as fsph implements it
-!> (Johnson 1996, IJIE 18:477), equivalent to Monaghan's Pi_ij with
-!> alpha = C_L, beta = C_Q^2.
+!> the pair (Johnson's "combined" viscosity, Johnson 1996, IJIE 18:477,
+!> i.e. Monaghan's Pi_ij with alpha = C_L, beta = C_Q^2), scaled by the
+!> pair mean of a compression switch f = |div v|/(|div v| + |D'| +
+!> 1e-4 c/h) (in the spirit of Balsara 1995, J. Comput. Phys. 121:357,
+!> with the deviatoric rate D' for his vorticity): the pairwise form
+!> resists every approaching pair, so in the isochoric plastic flow of a
+!> Taylor foot it acted as a shear viscosity (the SPH foot 10 % narrower
+!> than the element one); the switch keeps it in compression and shocks.
+!> A ghost pair resists like a real one (its viscous pressure acts with
+!> the ring mass m_j, not -m_j).
+!>
+!> Hourglass control: the collocated SPH gradient does not see a particle
+!> field that alternates from one lattice column to the next (columns
+!> sliding past each other cost no strain), and such modes grew in the
+!> shank of a pure SPH Taylor rod until the plastic strain there reached
+!> 0.3 (FEM 0.01). Each pair of a particle and its neighbour or ghost gets
+!> a viscous force on the part of their velocity difference that the
+!> particles' own velocity gradients G do not explain,
+!> dv_hg = v_i - v_j - (G_i + G_j)/2 (x_i - x_j), zero for any linear
+!> velocity field: P_ij = C_hg rho c h F(r_ij) dv_hg (F = dW/dr / r < 0),
+!> added as 2 pi m_j (w_i + w_j) P_ij to the acceleration (the idea of
+!> hourglass viscosity for under-integrated elements, Flanagan &
+!> Belytschko 1981, IJNME 17:679, applied to the pair sums).
 module fsph_sph
   use fsph_kinds, only: wp, pi, two_pi
   use fsph_kernel, only: kernel_gradient_factor, in_support
@@ -31,6 +75,7 @@ module fsph_sph
   private
 
   public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
+  public :: compression_switch
 
   !> Softening of the pairwise strain rate, times h^2 [-].
   real(wp), parameter :: visc_softening = 0.01_wp
@@ -38,6 +83,9 @@ module fsph_sph
   !> corrected velocity gradient is used; outside it (a particle with too
   !> few neighbours) the plain SPH gradient is kept [-].
   real(wp), parameter :: correction_det_min = 0.05_wp, correction_det_max = 5.0_wp
+  !> Floor of the compression switch's denominator, times c/h (Balsara
+  !> 1995 uses 1e-4 c/h) [-].
+  real(wp), parameter :: switch_floor = 1.0e-4_wp
 
 contains
 
@@ -87,14 +135,15 @@ contains
     q = rho_ij*(c_q*hij*eps)**2 - c_l*rho_ij*c_ij*hij*eps
   end function pair_viscosity
 
-  !> Pair stress S = w_i sig_i + w_j sig_j - q_ij (w_i + w_j) I of the
-  !> momentum and energy equations, w = r/eta^2 = 1/(4 pi^2 r rho^2), for a
-  !> neighbour j seen with sign sg (sigma_rz and w of a ghost change sign).
-  pure function pair_stress(wi, sig_i, wj, sig_j, sg, q) result(stot)
-    real(wp), intent(in) :: wi, sig_i(4), wj, sig_j(4), sg, q
+  !> Pair stress S = w_i sig_i + w_j sig_j of the momentum and energy
+  !> equations, w = r/eta^2 = 1/(4 pi^2 r rho^2), for a neighbour j seen
+  !> with sign sg (sigma_rz and w of a ghost change sign; wj is passed with
+  !> its sign).
+  pure function pair_stress(wi, sig_i, wj, sig_j, sg) result(stot)
+    real(wp), intent(in) :: wi, sig_i(4), wj, sig_j(4), sg
     real(wp) :: stot(4)
-    stot(1) = wi*sig_i(1) + wj*sig_j(1) - q*(wi + wj)
-    stot(2) = wi*sig_i(2) + wj*sig_j(2) - q*(wi + wj)
+    stot(1) = wi*sig_i(1) + wj*sig_j(1)
+    stot(2) = wi*sig_i(2) + wj*sig_j(2)
     stot(3) = wi*sig_i(3) + wj*sg*sig_j(3)
     stot(4) = wi*sig_i(4) + wj*sig_j(4)
   end function pair_stress
@@ -107,40 +156,84 @@ contains
         stot(3)*dvji(2)*grad(1) + stot(2)*dvji(2)*grad(2)
   end function pair_work
 
+  !> Velocity gradient G(a, b) = d v_a / d x_b of entry j, (1, 2) = (r, z),
+  !> from the stored (dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz); a ghost (sg =
+  !> -1) has the mirrored gradient (the off-diagonal terms change sign).
+  pure function entry_gradient(gv, sg) result(g)
+    real(wp), intent(in) :: gv(4), sg
+    real(wp) :: g(2, 2)
+    g(1, 1) = gv(1); g(2, 1) = sg*gv(2); g(1, 2) = sg*gv(3); g(2, 2) = gv(4)
+  end function entry_gradient
+
+  !> Compression switch of the pairwise viscosity, per particle:
+  !> f = |div v|/(|div v| + |D'| + 1e-4 c/h), from the strain rates d
+  !> (rr, zz, rz, tt) of the particle's last update [1/s]: 1 in a uniform
+  !> compression, about 0.55 in a uniaxial-strain shock, 0 in an
+  !> isochoric (plastic) flow.
+  subroutine compression_switch(n, d, c, h, f)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: d(4, n), c(n), h(n)
+    real(wp), intent(out) :: f(n)
+    integer :: i
+    real(wp) :: div, dev
+    !$omp parallel do default(none) shared(n, d, c, h, f) private(i, div, dev)
+    do i = 1, n
+      div = d(1, i) + d(2, i) + d(4, i)
+      dev = sqrt((d(1, i) - div/3.0_wp)**2 + (d(2, i) - div/3.0_wp)**2 + (d(4, i) - div/3.0_wp)**2 &
+                 + 2.0_wp*d(3, i)**2)
+      f(i) = abs(div)/(abs(div) + dev + switch_floor*c(i)/h(i))
+    end do
+    !$omp end parallel do
+  end subroutine compression_switch
+
   !> Accelerations (eqs 2a, 2b) [m/s^2] of every particle from the total
   !> stress sig = s - p I (rr, zz, rz, tt):
   !>  a_r = -sig_tt/(rho r) + 2 pi sum m_j [S^rr dW/dr + S^rz dW/dz]
   !>  a_z =                   2 pi sum m_j [S^rz dW/dr + S^zz dW/dz]
-  !> with S = r_i sig_i/eta_i^2 + r_j sig_j/eta_j^2 - q_ij (...) I; wgt are
-  !> the stress weights of pair_weights at these positions and densities.
-  !> Every entry k of i's row is evaluated once, in i's row: its force per
-  !> unit neighbour mass f = 2 pi S grad_i W goes to pair_force(:, k), its
-  !> viscous pressure to pair_q(k) (so the energy equation charges exactly
-  !> the viscous work these forces do); the partner j of a half entry then
-  !> takes -m_i f (S is symmetric and grad_j W = -grad_i W), in a second
-  !> loop over j's low list, in a fixed order.
-  subroutine sph_accelerations(n, ntot, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, low_ptr, &
-                               low_pair, low_other, c_q, c_l, acc, pair_q, pair_force, pair_in, acc_imag)
+  !> with S = r_i sig_i/eta_i^2 + r_j sig_j/eta_j^2 (ghosts with their
+  !> signed mass and weight), plus the pairwise viscosity -q_ij (w_i + w_j)
+  !> and the hourglass viscosity (w_i + w_j) P_ij of the module header
+  !> (both with the ring mass m_j, also for ghosts); wgt are the stress
+  !> weights of pair_weights at these positions and densities. Every entry
+  !> k of i's row is evaluated once, in i's row: its force per unit
+  !> neighbour mass (a_i gets m_j times it) goes to pair_force(:, k), its
+  !> viscous pressure to pair_q(k) and its hourglass term P to
+  !> pair_hg(:, k) (so that the energy equation charges exactly the work
+  !> these forces do); the partner j of a half entry then takes -m_i times
+  !> the force, in a second loop over j's low list, in a fixed order.
+  !> grad_v holds the velocity gradients of the real particles (entries
+  !> 1..n) for the hourglass term and switch their compression switches;
+  !> imaginary particles and mirror images (entries > n) carry neither.
+  subroutine sph_accelerations(n, ntot, n_imag, x, v, mass, rho, h, c, sig, wgt, grad_v, switch, nbr_ptr, &
+                               nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, &
+                               pair_force, pair_hg, pair_in, acc_imag)
     integer, intent(in) :: n             !< real particles (rows computed)
-    integer, intent(in) :: ntot          !< real and imaginary particles (neighbours)
+    integer, intent(in) :: ntot          !< real, imaginary and mirror entries (neighbours)
+    integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), c(ntot), sig(4, ntot)
     real(wp), intent(in) :: wgt(ntot)    !< stress weights 1/(4 pi^2 r rho^2)
+    real(wp), intent(in) :: grad_v(4, n) !< dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz of the last update [1/s]
+    real(wp), intent(in) :: switch(n)    !< compression switch of the viscosity [-]
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
+    real(wp), intent(in) :: c_hg         !< hourglass coefficient [-]
     real(wp), intent(out) :: acc(2, n)
     real(wp), intent(out) :: pair_q(*)   !< viscous pressure of each entry [Pa]
-    real(wp), intent(out) :: pair_force(2, *) !< 2 pi S grad_i W of each entry [m^4/(kg s^2)]
+    real(wp), intent(out) :: pair_force(2, *) !< acceleration of i per unit mass of entry k [m/(kg s^2)]
+    real(wp), intent(out) :: pair_hg(2, *) !< hourglass term P of each entry [kg/(m^4 s^2)]
     logical, intent(out) :: pair_in(*)   !< the entry lies within the kernel support at these positions
     real(wp), intent(out) :: acc_imag(2, n) !< the part of acc from imaginary neighbours [m/s^2]
     integer :: i, k, j, m
     real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2)
+    real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2)
     !$omp parallel default(none) &
-    !$omp shared(n, x, v, mass, rho, h, c, sig, wgt, nbr_ptr, nbr_list, low_ptr, low_pair, low_other) &
-    !$omp shared(c_q, c_l, acc, pair_q, pair_force, pair_in, acc_imag) &
-    !$omp private(i, k, j, m, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da)
+    !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, grad_v, switch, nbr_ptr, nbr_list, low_ptr) &
+    !$omp shared(low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in, acc_imag) &
+    !$omp private(i, k, j, m, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       wi = wgt(i)
+      gi = entry_gradient(grad_v(:, i), 1.0_wp)
       a(1) = -sig(4, i)/(rho(i)*x(1, i))
       a(2) = 0.0_wp
       a_imag = 0.0_wp
@@ -154,24 +247,36 @@ contains
         ! search's own test (a listed pair beyond it, from the lists' skin,
         ! adds exact zeros here and in the mid-step sums)
         pair_in(k) = in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp
-        if (dist2 <= 0.0_wp) then
-          pair_q(k) = 0.0_wp
-          pair_force(:, k) = 0.0_wp
-          cycle
-        end if
+        pair_q(k) = 0.0_wp
+        pair_force(:, k) = 0.0_wp
+        pair_hg(:, k) = 0.0_wp
+        if (.not. pair_in(k)) cycle
         hij = 0.5_wp*(h(i) + h(j))
-        grad = merge(kernel_gradient_factor(dist2, 1.0_wp/hij), 0.0_wp, pair_in(k))*dx
+        factor = kernel_gradient_factor(dist2, 1.0_wp/hij)
+        grad = factor*dx
         dv(1) = v(1, i) - sg*v(1, j)
         dv(2) = v(2, i) - v(2, j)
         q = pair_viscosity(dx, dv, dist2, hij, 0.5_wp*(rho(i) + rho(j)), 0.5_wp*(c(i) + c(j)), c_q, c_l)
+        if (j <= n) then
+          ! particles and their ghosts: the compression switch, and the
+          ! hourglass term on the velocity difference their gradients
+          ! do not explain
+          q = q*0.5_wp*(switch(i) + switch(j))
+          dv_hg = dv - 0.5_wp*matmul(gi + entry_gradient(grad_v(:, j), sg), dx)
+          p_hg = c_hg*0.5_wp*(rho(i) + rho(j))*0.5_wp*(c(i) + c(j))*hij*factor*dv_hg
+        else
+          p_hg = 0.0_wp
+        end if
         pair_q(k) = q
-        stot = pair_stress(wi, sig(:, i), sg*wgt(j), sig(:, j), sg, q)
-        f(1) = two_pi*(stot(1)*grad(1) + stot(3)*grad(2))
-        f(2) = two_pi*(stot(3)*grad(1) + stot(2)*grad(2))
+        pair_hg(:, k) = p_hg
+        stot = pair_stress(wi, sig(:, i), sg*wgt(j), sig(:, j), sg)
+        ! stress with the signed ring mass, viscosity and hourglass with m_j
+        f(1) = two_pi*(sg*(stot(1)*grad(1) + stot(3)*grad(2)) + (wi + wgt(j))*(p_hg(1) - q*grad(1)))
+        f(2) = two_pi*(sg*(stot(3)*grad(1) + stot(2)*grad(2)) + (wi + wgt(j))*(p_hg(2) - q*grad(2)))
         pair_force(:, k) = f
-        da = sg*mass(j)*f
+        da = mass(j)*f
         a = a + da
-        a_imag = a_imag + merge(da, [0.0_wp, 0.0_wp], nbr_list(k) > n)
+        if (j > n .and. j <= n + n_imag) a_imag = a_imag + da
       end do
       acc(:, i) = a
       acc_imag(:, i) = a_imag
@@ -190,16 +295,16 @@ contains
     !$omp end parallel
   end subroutine sph_accelerations
 
-  !> The terms of one neighbour in the rate sums of a particle: density
-  !> (eq 1; m_j/r_j = 2 pi rho_j A_j), velocity gradient and its correction
-  !> matrix, for separation dx = x_i - x_j, velocity difference
-  !> dvji = v_j - v_i, kernel gradient g = grad_i W, planar area A_j and
-  !> density rho_j. sums = (density sum, gv(1,1), gv(2,1), gv(1,2),
+  !> The terms of one neighbour in the rate sums of a particle: planar
+  !> density (eta-continuity, signed ring mass m_j), velocity gradient and
+  !> its correction matrix, for separation dx = x_i - x_j, velocity
+  !> difference dvji = v_j - v_i, kernel gradient g = grad_i W and planar
+  !> area A_j. sums = (sum m_j dvji . g, gv(1,1), gv(2,1), gv(1,2),
   !> gv(2,2), L(1,1), L(2,1), L(1,2), L(2,2)).
-  pure subroutine add_rate_terms(dx, dvji, g, vol_j, rho_j, sums)
-    real(wp), intent(in) :: dx(2), dvji(2), g(2), vol_j, rho_j
+  pure subroutine add_rate_terms(dx, dvji, g, vol_j, m_j, sums)
+    real(wp), intent(in) :: dx(2), dvji(2), g(2), vol_j, m_j
     real(wp), intent(inout) :: sums(9)
-    sums(1) = sums(1) - rho_j*vol_j*(dvji(1)*g(1) + dvji(2)*g(2))
+    sums(1) = sums(1) + m_j*(dvji(1)*g(1) + dvji(2)*g(2))
     sums(2) = sums(2) + vol_j*dvji(1)*g(1)
     sums(3) = sums(3) + vol_j*dvji(2)*g(1)
     sums(4) = sums(4) + vol_j*dvji(1)*g(2)
@@ -210,32 +315,35 @@ contains
     sums(9) = sums(9) - vol_j*dx(2)*g(2)
   end subroutine add_rate_terms
 
-  !> Rates for the update of density (eq 1) and the velocity gradient,
-  !> corrected (Randles-Libersky) so that a linear velocity field is
-  !> differentiated exactly: strain rates d (rr, zz, rz, tt) with
-  !> d_tt = v_r/r, and spin. area is the planar area of pair_weights at
+  !> Rates for the update of density (eta-continuity, module header:
+  !> drho_i = -rho_i v_r/r_i - sum_j m_j (v_j - v_i) . grad_i W/(2 pi r_i))
+  !> and the velocity gradient, corrected (Randles-Libersky) so that a
+  !> linear velocity field is differentiated exactly: strain rates d (rr,
+  !> zz, rz, tt) with d_tt = v_r/r, spin, and the whole gradient grad_v
+  !> (dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz; the hourglass term of the next
+  !> accelerations uses it). area is the planar area of pair_weights at
   !> these positions and densities; the sums run over the entries pair_in
   !> marks (the pairs within the support at the start of the cycle, as the
-  !> accelerations). The kernel gradient grad_i W of every
-  !> entry of i's row is computed once and kept in grad, for the partner's
-  !> terms (grad_j W = -grad_i W, in a second loop over the low lists) and
-  !> for the energy sum at the same positions (sph_energy_rate, eq 3).
-  !> sums is work space (9, n).
-  subroutine sph_rates(n, ntot, x, v, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, &
-                       pair_in, grad, sums, drho, d, spin)
+  !> accelerations). The kernel gradient grad_i W of every entry of i's row
+  !> is computed once and kept in grad, for the partner's terms (grad_j W
+  !> = -grad_i W, in a second loop over the low lists) and for the energy
+  !> sum at the same positions (sph_energy_rate). sums is work space (9, n).
+  subroutine sph_rates(n, ntot, x, v, mass, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, &
+                       pair_in, grad, sums, drho, d, spin, grad_v)
     integer, intent(in) :: n, ntot
-    real(wp), intent(in) :: x(2, ntot), v(2, ntot), rho(ntot), h(ntot), area(ntot)
+    real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), area(ntot)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     logical, intent(in) :: pair_in(*)    !< the entries of this cycle (sph_accelerations)
     real(wp), intent(out) :: grad(2, *)  !< kernel gradient grad_i W of each entry [1/m^3]
     real(wp), intent(out) :: sums(9, n)
     real(wp), intent(out) :: drho(n)     !< [kg/(m^3 s)]
     real(wp), intent(out) :: d(4, n), spin(n) !< [1/s]
+    real(wp), intent(out) :: grad_v(4, n) !< [1/s]
     integer :: i, k, j, m
     real(wp) :: sg, dx(2), dvji(2), dist2, g_ij(2), acc9(9), gv(2, 2), lm(2, 2), inv(2, 2), det, g(2, 2)
     !$omp parallel default(none) &
-    !$omp shared(n, x, v, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_in, grad, sums) &
-    !$omp shared(drho, d, spin) &
+    !$omp shared(n, x, v, mass, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_in, grad) &
+    !$omp shared(sums, drho, d, spin, grad_v) &
     !$omp private(i, k, j, m, sg, dx, dvji, dist2, g_ij, acc9, gv, lm, inv, det, g)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
@@ -255,7 +363,7 @@ contains
         grad(:, k) = g_ij
         dvji(1) = sg*v(1, j) - v(1, i)
         dvji(2) = v(2, j) - v(2, i)
-        call add_rate_terms(dx, dvji, g_ij, area(j), rho(j), acc9)
+        call add_rate_terms(dx, dvji, g_ij, area(j), sg*mass(j), acc9)
       end do
       sums(:, i) = acc9
     end do
@@ -266,9 +374,9 @@ contains
       acc9 = sums(:, i)
       do m = low_ptr(i), low_ptr(i + 1) - 1
         j = low_other(m)
-        call add_rate_terms(x(:, i) - x(:, j), v(:, j) - v(:, i), -grad(:, low_pair(m)), area(j), rho(j), acc9)
+        call add_rate_terms(x(:, i) - x(:, j), v(:, j) - v(:, i), -grad(:, low_pair(m)), area(j), mass(j), acc9)
       end do
-      drho(i) = -rho(i)*v(1, i)/x(1, i) + acc9(1)
+      drho(i) = -rho(i)*v(1, i)/x(1, i) - acc9(1)/(two_pi*x(1, i))
       gv(1, 1) = acc9(2); gv(2, 1) = acc9(3); gv(1, 2) = acc9(4); gv(2, 2) = acc9(5)
       lm(1, 1) = acc9(6); lm(2, 1) = acc9(7); lm(1, 2) = acc9(8); lm(2, 2) = acc9(9)
       ! g = gv L^-1 where the correction applies
@@ -286,59 +394,69 @@ contains
       d(3, i) = 0.5_wp*(g(1, 2) + g(2, 1))
       d(4, i) = v(1, i)/x(1, i)
       spin(i) = 0.5_wp*(g(1, 2) - g(2, 1))
+      grad_v(:, i) = [g(1, 1), g(2, 1), g(1, 2), g(2, 2)]
     end do
     !$omp end do
     !$omp end parallel
   end subroutine sph_rates
 
-  !> Energy rate of eq 3 alone [J/(kg s)] for the stress and velocities
-  !> given, with the kernel gradients grad of each entry (sph_rates at the
-  !> same positions) and the stress weights wgt of the densities given
-  !> (the cycle passes mid-step values, so the stress work matches the
-  !> time-centred force), with the viscous work of the pair pressures
-  !> pair_q charged at the velocities v_visc (the cycle passes the mean of
-  !> the velocities before and after the kick, which is exactly the
-  !> kinetic energy those forces removed). The work per unit neighbour mass
-  !> of each entry, w = S : (v_j - v_i) grad_i W, is kept in pair_work_k: the
-  !> partner of a half entry takes m_i w (the same for both particles), in a
-  !> second loop over its low list.
+  !> Energy rate [J/(kg s)] of every particle (module header), with the
+  !> stress sig and stress weights wgt of the densities given (the cycle
+  !> passes mid-step values, so the stress work matches the time-centred
+  !> force), the velocities v at which the rates were taken and the kernel
+  !> gradients grad of each entry (sph_rates at the same positions):
+  !>  - a pair with a real particle, an imaginary particle or a mirror
+  !>    image: the particle's own stress work 2 pi m_j w_i sig_i :
+  !>    (v_j - v_i) grad_i W, and its share w_i/(w_i + w_j) of the work of
+  !>    the viscous pressure pair_q and the hourglass term pair_hg, charged
+  !>    at the velocities v_visc (the cycle passes the mean of the
+  !>    velocities before and after the kick, which is exactly the kinetic
+  !>    energy those forces removed); the partner of a half entry takes
+  !>    the same with its own stress and weight (kept per unit mass of the
+  !>    particle in pair_work_k and added in a second loop over the low
+  !>    lists). An element's share of its imaginary particle's pair work
+  !>    is the element's own (its stress work on the nodes the reaction
+  !>    moves);
+  !>  - a ghost: minus the work m_j pair_force . v_visc,i its force does on
+  !>    the particle;
+  !>  - the hoop work sig_tt v_r/(rho r).
   subroutine sph_energy_rate(n, ntot, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, low_ptr, &
-                             low_pair, low_other, pair_q, grad, pair_work_k, de)
+                             low_pair, low_other, pair_q, pair_hg, pair_force, grad, pair_work_k, de)
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
     real(wp), intent(in) :: sig(4, ntot), wgt(ntot)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
-    real(wp), intent(in) :: pair_q(*), grad(2, *)
-    real(wp), intent(out) :: pair_work_k(*) !< work rate of each entry per unit neighbour mass [m^2/(kg s^3)]
+    real(wp), intent(in) :: pair_q(*), pair_hg(2, *), pair_force(2, *), grad(2, *)
+    real(wp), intent(out) :: pair_work_k(*) !< the partner's work rate per unit mass of i [m^2/(kg s^3)]
     real(wp), intent(out) :: de(n)
     integer :: i, k, j, m
-    real(wp) :: sg, dvji(2), wi, wj, sum_e, vq(2), qwork(4), q, w
+    real(wp) :: dvji(2), vq(2), wi, wj, sum_e, w_own, w_partner, q_work
+    real(wp), parameter :: zero4(4) = 0.0_wp
     !$omp parallel default(none) &
     !$omp shared(n, x, v, v_visc, mass, rho, sig, wgt, nbr_ptr, nbr_list, low_ptr, low_pair, low_other) &
-    !$omp shared(pair_q, grad, pair_work_k, de) &
-    !$omp private(i, k, j, m, sg, dvji, wi, wj, sum_e, vq, qwork, q, w)
+    !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de) &
+    !$omp private(i, k, j, m, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       wi = wgt(i)
       sum_e = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         j = abs(nbr_list(k))
-        sg = entry_sign(nbr_list(k))
-        dvji(1) = sg*v(1, j) - v(1, i)
-        dvji(2) = v(2, j) - v(2, i)
-        wj = sg*wgt(j)
-        w = pair_work(pair_stress(wi, sig(:, i), wj, sig(:, j), sg, 0.0_wp), dvji, grad(:, k))
-        q = pair_q(k)
-        if (q > 0.0_wp) then
-          vq(1) = sg*v_visc(1, j) - v_visc(1, i)
-          vq(2) = v_visc(2, j) - v_visc(2, i)
-          qwork = 0.0_wp
-          qwork(1) = -q*(wi + wj)
-          qwork(2) = qwork(1)
-          w = w + pair_work(qwork, vq, grad(:, k))
+        if (nbr_list(k) < 0) then
+          ! a ghost: the work of its force on the particle becomes heat
+          pair_work_k(k) = 0.0_wp
+          sum_e = sum_e - mass(j)*(pair_force(1, k)*v_visc(1, i) + pair_force(2, k)*v_visc(2, i))
+          cycle
         end if
-        pair_work_k(k) = w
-        sum_e = sum_e + sg*mass(j)*w
+        wj = wgt(j)
+        dvji = v(:, j) - v(:, i)
+        vq = v_visc(:, j) - v_visc(:, i)
+        ! viscous and hourglass work per unit (w_i + w_j)
+        q_work = -pair_q(k)*(vq(1)*grad(1, k) + vq(2)*grad(2, k)) + pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
+        w_own = pair_work(pair_stress(wi, sig(:, i), 0.0_wp, zero4, 1.0_wp), dvji, grad(:, k)) + wi*q_work
+        w_partner = pair_work(pair_stress(wj, sig(:, j), 0.0_wp, zero4, 1.0_wp), dvji, grad(:, k)) + wj*q_work
+        pair_work_k(k) = two_pi*w_partner
+        sum_e = sum_e + two_pi*mass(j)*w_own
       end do
       de(i) = sum_e
     end do
@@ -350,7 +468,7 @@ contains
       do m = low_ptr(i), low_ptr(i + 1) - 1
         sum_e = sum_e + mass(low_other(m))*pair_work_k(low_pair(m))
       end do
-      de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + pi*sum_e
+      de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + sum_e
     end do
     !$omp end do
     !$omp end parallel

@@ -5,6 +5,7 @@ module fsph_state
   use fsph_kinds, only: wp
   use fsph_material, only: n_hist
   use fsph_neighbors, only: neighbour_work_t
+  use fsph_arrays, only: grow
   implicit none
   private
 
@@ -14,6 +15,7 @@ module fsph_state
     real(wp), allocatable :: x(:, :)      !< position (r, z) [m]
     real(wp), allocatable :: x0(:, :)     !< initial position [m]
     real(wp), allocatable :: v(:, :)      !< velocity at the last half step [m/s]
+    real(wp), allocatable :: v_start(:, :) !< velocity before this cycle's kick [m/s]
     real(wp), allocatable :: x_old(:, :)  !< position at the start of the cycle [m]
     real(wp), allocatable :: x_mid(:, :)  !< mid-step position [m]
     real(wp), allocatable :: f(:, :)      !< internal force [N]
@@ -53,12 +55,15 @@ module fsph_state
 
   !> SPH particles (full-ring masses) and their material-point state.
   !> Entries 1..n are real particles; entries n+1..n+n_imag are the
-  !> imaginary particles of the elements (seed 000 eq 5), refilled every
-  !> step: they enter the SPH sums of real particles as neighbours only.
-  !> Arrays are sized for `capacity` entries.
+  !> imaginary particles of the elements (seed 000 eq 5) and entries
+  !> n+n_imag+1..n+n_imag+n_mirror the mirror images of particles across
+  !> rigid planes (fsph_mirror), refilled every step: they enter the SPH
+  !> sums of real particles as neighbours only. Arrays are sized for
+  !> `capacity` entries.
   type, public :: particle_set_t
     integer :: n = 0
     integer :: n_imag = 0
+    integer :: n_mirror = 0
     integer :: capacity = 0
     integer :: n_debris = 0               !< debris particles (density held, no stress) after the last cycle
     integer, allocatable :: imag_elem(:)  !< element of each imaginary entry (index - n)
@@ -84,6 +89,10 @@ module fsph_state
     real(wp), allocatable :: eps_p(:), e(:), temp(:), c(:) !< [-], [J/kg], [K], [m/s]
     real(wp), allocatable :: hist(:, :)   !< material history (n_hist, capacity): damage, ...
     real(wp), allocatable :: drho(:), de(:), d(:, :), spin(:) !< rates of the last step
+    real(wp), allocatable :: grad_v(:, :) !< velocity gradient of the last step (dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz) [1/s]
+    real(wp), allocatable :: switch(:)    !< compression switch of the pairwise viscosity [-]
+    integer, allocatable :: mirror_of(:)  !< particle of each mirror image (index - n - n_imag)
+    integer, allocatable :: mirror_plane(:) !< plane of each mirror image
     real(wp), allocatable :: e_old(:), rho_old(:), rho_mid(:), sig_mid(:, :) !< cycle work arrays
     ! neighbour search (fsph_neighbors): its work arrays, same-body and contact lists
     type(neighbour_work_t) :: search
@@ -98,8 +107,9 @@ module fsph_state
     integer, allocatable :: half_end(:)   !< end (exclusive) of the half entries of each row
     integer, allocatable :: low_ptr(:), low_pair(:), low_other(:) !< low lists: partner and pair entry
     real(wp), allocatable :: pair_q(:)    !< viscous pressure per neighbour entry [Pa]
-    real(wp), allocatable :: pair_force(:, :) !< 2 pi S grad W per neighbour entry [m^4/(kg s^2)]
-    real(wp), allocatable :: pair_work(:) !< energy work rate per entry and unit neighbour mass [m^2/(kg s^3)]
+    real(wp), allocatable :: pair_force(:, :) !< acceleration per unit neighbour mass per entry [m/(kg s^2)]
+    real(wp), allocatable :: pair_hg(:, :) !< hourglass term per entry [kg/(m^4 s^2)]
+    real(wp), allocatable :: pair_work(:) !< partner's work rate per entry and unit mass [m^2/(kg s^3)]
     logical, allocatable :: pair_in(:)    !< entry within the kernel support at the start of the cycle
     real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
     real(wp), allocatable :: contact_excess(:) !< work: particle contact stiffness times excess filling
@@ -189,6 +199,7 @@ module fsph_state
     integer :: history_every = 10     !< cycles between time-history records
     real(wp) :: sph_c_q = 1.0_wp      !< SPH quadratic viscosity coefficient [-]
     real(wp) :: sph_c_l = 0.2_wp      !< SPH linear viscosity coefficient [-]
+    real(wp) :: sph_c_hg = 0.1_wp     !< SPH hourglass viscosity coefficient [-]
     real(wp) :: contact_penalty = 0.03_wp !< particle contact: approach fraction pushed back per step [-]
     real(wp) :: contact_touch = 0.2367_wp !< particle contact: other-body filling C at touching [-]
     real(wp) :: contact_slope = 0.45_wp  !< particle contact: dC per spacing of approach at touching [-]
@@ -198,8 +209,8 @@ module fsph_state
 
   !> Columns of a time-history record.
   !> time [s], cycle, dt [s], kinetic [J], internal [J], work of the contact corrections [J],
-  !> energy removed by erosion [J]
-  integer, parameter, public :: history_columns = 7
+  !> energy removed by erosion [J], work of the rigid planes and the particles' axis wall [J]
+  integer, parameter, public :: history_columns = 8
 
   type, public :: simulation_t
     type(node_set_t) :: nodes
@@ -216,6 +227,7 @@ module fsph_state
     integer, allocatable :: istrength(:), ieos(:)
     integer :: n_planes = 0
     type(rigid_plane_t), allocatable :: planes(:)
+    real(wp) :: plane_dissipated = 0.0_wp !< kinetic energy removed by the rigid planes and the axis wall [J]
     type(control_t) :: control
     logical :: ready = .false.
     real(wp) :: time = 0.0_wp             !< [s]
@@ -234,7 +246,7 @@ module fsph_state
   !> The simulation state of this process.
   type(simulation_t), public, save, target :: sim
 
-  public :: state_reset, state_allocate, state_allocate_particles
+  public :: state_reset, state_allocate, state_allocate_particles, state_grow_particles
 
 contains
 
@@ -246,7 +258,7 @@ contains
     sim%ready = .false.
     sim%nodes%n = nn
     allocate (sim%nodes%x(2, nn), sim%nodes%x0(2, nn), sim%nodes%v(2, nn), sim%nodes%f(2, nn), &
-              sim%nodes%x_old(2, nn), sim%nodes%x_mid(2, nn), sim%nodes%mass(nn), &
+              sim%nodes%x_old(2, nn), sim%nodes%x_mid(2, nn), sim%nodes%mass(nn), sim%nodes%v_start(2, nn), &
               sim%nodes%on_axis(nn), sim%nodes%corner_ptr(nn + 1), sim%nodes%mass_tie(nn), &
               sim%nodes%mass_total(nn), sim%nodes%mass_eroded(nn))
     sim%nodes%f = 0.0_wp
@@ -286,7 +298,9 @@ contains
                 pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
                 pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap), &
                 pt%hist(n_hist, cap), pt%wgt(cap), pt%planar_area(cap), pt%half_end(cap), &
-                pt%low_ptr(cap + 1), pt%rate_sums(9, cap), pt%contact_excess(cap))
+                pt%low_ptr(cap + 1), pt%rate_sums(9, cap), pt%contact_excess(cap), pt%grad_v(4, cap), &
+                pt%switch(cap), pt%mirror_of(cap), pt%mirror_plane(cap))
+      pt%grad_v = 0.0_wp; pt%switch = 0.0_wp; pt%mirror_of = 0; pt%mirror_plane = 0
       pt%hist = 0.0_wp
       pt%wgt = 0.0_wp; pt%planar_area = 0.0_wp
       pt%x = 0.0_wp; pt%x0 = 0.0_wp; pt%x_old = 0.0_wp; pt%x_mid = 0.0_wp; pt%v = 0.0_wp
@@ -298,5 +312,32 @@ contains
       pt%tie_a = 0; pt%tie_b = 0; pt%tie_xi = 0.0_wp; pt%assoc = 0
     end associate
   end subroutine state_allocate_particles
+
+  !> Make room for `capacity` particle entries (real, imaginary and
+  !> mirror), keeping every array's contents.
+  subroutine state_grow_particles(capacity)
+    integer, intent(in) :: capacity
+    integer :: cap
+    associate (pt => sim%particles)
+      if (capacity <= pt%capacity) return
+      cap = capacity
+      pt%capacity = cap
+      call grow(pt%x, cap); call grow(pt%x0, cap); call grow(pt%x_old, cap); call grow(pt%x_mid, cap)
+      call grow(pt%v, cap); call grow(pt%v_bar, cap); call grow(pt%acc, cap); call grow(pt%acc_imag, cap)
+      call grow(pt%mass, cap); call grow(pt%h, cap); call grow(pt%radius, cap); call grow(pt%mat, cap)
+      call grow(pt%body, cap); call grow(pt%rho, cap); call grow(pt%s, cap); call grow(pt%sig, cap)
+      call grow(pt%p, cap); call grow(pt%eps_p, cap); call grow(pt%e, cap); call grow(pt%temp, cap)
+      call grow(pt%c, cap); call grow(pt%drho, cap); call grow(pt%de, cap); call grow(pt%d, cap)
+      call grow(pt%spin, cap); call grow(pt%e_old, cap); call grow(pt%rho_old, cap); call grow(pt%rho_mid, cap)
+      call grow(pt%sig_mid, cap); call grow(pt%nbr_ptr, cap + 1); call grow(pt%cnt_ptr, cap + 1)
+      call grow(pt%imag_elem, cap); call grow(pt%continuum, cap); call grow(pt%tie_a, cap)
+      call grow(pt%tie_b, cap); call grow(pt%tie_xi, cap); call grow(pt%assoc, cap); call grow(pt%hist, cap)
+      call grow(pt%wgt, cap); call grow(pt%planar_area, cap); call grow(pt%half_end, cap)
+      call grow(pt%low_ptr, cap + 1); call grow(pt%rate_sums, cap); call grow(pt%contact_excess, cap)
+      call grow(pt%grad_v, cap); call grow(pt%switch, cap); call grow(pt%mirror_of, cap)
+      call grow(pt%mirror_plane, cap)
+      if (allocated(pt%x_listed)) call grow(pt%x_listed, cap)
+    end associate
+  end subroutine state_grow_particles
 
 end module fsph_state

@@ -56,6 +56,12 @@ BAD_DECKS = {
     "hjc_falling_dense_curve": (
         rod_deck(material="name='steel'\n library='concrete_48mpa_hjc'\n hjc_k2=-5.0e12"),
         ["&material #1", "'hjc_k2'", "rising to hjc_plock"]),
+    "bulk_beside_e_and_nu": (rod_deck(material="name='steel'\n library='steel_elastic_bar'\n"
+                                         " bulk_modulus=1.7e11"),
+                             ["&material #1", "'bulk_modulus'", "youngs_modulus + poisson_ratio"]),
+    "bulk_with_mie_gruneisen": (rod_deck(material="name='steel'\n library='ofhc_copper'\n"
+                                             " bulk_modulus=1.3e11"),
+                                ["&material #1", "'bulk_modulus'", "eos 'mie_gruneisen'", "c0^2"]),
     "erosion_outside_fem": (rod_deck(control="mode = 'adaptive'") + "&erosion\n enabled = .true.\n/\n",
                             ["&erosion", "'enabled'", "outside mode 'fem'"]),
     "erosion_zero_strain": (rod_deck() + "&erosion\n enabled = .true.\n principal_strain = 0.0\n/\n",

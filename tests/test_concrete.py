@@ -42,23 +42,36 @@ def residual_error_percent(summary, name):
     return 100.0 * (v_r - ref) / ref
 
 
-def check_perforation(summary, name, bar_percent):
+def check_run(summary):
     """Completed; the projectile has gone through (its tip more than the
-    slab thickness below the top face); residual velocity within the bar;
-    axial momentum of the system (with what erosion removed) within 0.5 %;
-    energy balance within 2 %."""
+    slab thickness below the top face); axial momentum of the system (with
+    what erosion removed) within 0.5 %; energy balance within 2 %."""
     assert summary["status"] == "completed", summary.get("failure")
     perf = summary["metrics"]["perforation"]
     assert perf["penetration_mm"] > 178.0 + 40.0
-    assert abs(residual_error_percent(summary, name)) <= bar_percent
     p = np.array(summary["metrics"]["series"]["momentum_z"])
     assert np.abs(p / p[0] - 1.0).max() < 0.005
     assert abs(summary["energy"]["max_relative_error"]) < 0.02
 
 
-def test_606_adaptive_residual_velocity(adaptive_606):
-    check_perforation(adaptive_606, "concrete_606", 5.0)
+def check_perforation(summary, name, bar_percent):
+    """check_run, and the residual velocity within the bar."""
+    check_run(summary)
+    assert abs(residual_error_percent(summary, name)) <= bar_percent
+
+
+def test_606_adaptive_run(adaptive_606):
+    check_run(adaptive_606)
     assert adaptive_606["n_converted"] > 0
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "measured 474.6 m/s (+5.7 %) once the SPH viscosity acts only in compression (the "
+    "compression switch): the pairwise viscosity resisted the flow of the fully damaged "
+    "concrete around the nose as a shear viscosity; the converged frictionless model lies "
+    "near +7 % (docs/validation.md)"))
+def test_606_adaptive_residual_velocity(adaptive_606):
+    assert abs(residual_error_percent(adaptive_606, "concrete_606")) <= 5.0
 
 
 def test_606_adaptive_damages_the_slab(adaptive_606):
@@ -94,19 +107,18 @@ def test_1058_sph_residual_velocity(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured 472.8 m/s, +5.3 % against 449 (seed 000's fixed "
-                   "coupling: 466), as the elements on a mesh as wide (471.8 m/s); both drift "
-                   "upwards under refinement as the SPH viscosity in the fully damaged crater "
-                   "falls with h; converged model near +7 % (docs/validation.md)")
+@pytest.mark.xfail(strict=True, reason="measured 482.0 m/s, +7.3 % against 449 (seed 000's fixed "
+                   "coupling: 466; 472.8 m/s before the SPH viscosity's compression switch, which "
+                   "removed the viscous drag of the fully damaged crater); the converged "
+                   "frictionless model lies near +7 % (docs/validation.md)")
 def test_606_fixed_residual_velocity(tmp_path_factory):
     check_perforation(run_case("concrete_606_fixed", tmp_path_factory), "concrete_606", 5.0)
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured 474.3 m/s, +5.6 % against 449 on the mesh refined "
-                   "by 1.6 (26 432 elements, 9 755 converted; 468.7 m/s, +4.4 %, on the case's "
-                   "mesh): the SPH viscosity resisting the fully damaged concrete falls with h; "
-                   "with it halved both meshes give 480 +- 1.2 m/s (docs/validation.md)")
+@pytest.mark.xfail(strict=True, reason="measured 477.5 m/s, +6.3 % against 449 on the mesh refined "
+                   "by 1.6 (26 432 elements, 9 697 converted; 474.6 m/s, +5.7 %, on the case's "
+                   "mesh): the converged frictionless model lies near +7 % (docs/validation.md)")
 def test_606_adaptive_refined_mesh_residual_velocity(tmp_path_factory):
     """The convergence check of the 606 m/s case: the deck with every cell
     count refined as benchmarks/concrete_study.py --mesh-study does."""
