@@ -48,6 +48,31 @@ def _format_metrics(comparison, metrics):
     return lines
 
 
+def _format_peaks(peaks):
+    """Printed lines of the peak fields (metrics.field_peaks)."""
+    units = {"plastic_strain": "", "temperature": " K"}
+    return [f"  peak {name:<17s} {p['value']:10.4g}{units[name]}   at r {p['r_mm']:.3f} mm, "
+            f"z {p['z_mm']:.3f} mm ({p['in']} {p['index']})" for name, p in peaks.items()]
+
+
+def _warnings(ctrl, energies, writer):
+    """What a user must not miss about a run that completed: an energy
+    error beyond &control energy_error_warning (the largest during the run
+    or the final one). A list of {kind, message, value, limit}."""
+    out = []
+    limit = ctrl["energy_error_warning"]
+    worst = writer.max_energy_error
+    if abs(energies["relative_error"]) > abs(worst):
+        worst = energies["relative_error"]
+    if abs(worst) > limit:
+        out.append({"kind": "energy_error", "value": worst, "limit": limit,
+                    "message": f"energy error {100 * worst:+.2f} % exceeds energy_error_warning = "
+                               f"{100 * limit:g} %: the run lost its energy balance and its "
+                               f"results should not be trusted (energy_error_limit makes this "
+                               f"a hard stop)"})
+    return out
+
+
 #: Cycles per call into the solver between checks for an interrupt [-].
 CYCLES_PER_CALL = 500
 
@@ -183,6 +208,8 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
         f"end time {ctrl['end_time'] * 1e6:g} us")
     if restart is not None:
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
+    for text in deck.get("warnings", []):
+        say(f"fsph: warning: {text}")
     if kind == "lines":
         say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s} "
             f"{'elements':>9s} {'particles':>9s}")
@@ -263,6 +290,15 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
             case_metrics["perforation"].update(metrics_module.perforation_settling(
                 case_metrics["series"]["time_us"], case_metrics["series"]["velocity_z_m_s"]))
     comparison = metrics_module.compare(case_metrics, reference) if reference else {}
+    # temperature only changes where Johnson-Cook heats adiabatically; a run
+    # without it reports no temperature peak rather than room temperature
+    heated = {m["name"] for m in deck["material"] if m["strength"] == "johnson_cook"}
+    peak_fields = ["plastic_strain"]
+    if any(b["material"] in heated for b in deck["body"]):
+        peak_fields.append("temperature")
+    peaks = metrics_module.field_peaks(last_good, peak_fields)
+    warnings = [{"kind": "deck", "message": text} for text in deck.get("warnings", [])]
+    warnings += _warnings(ctrl, energies, writer)
     summary = {
         "case": deck_path.stem,
         "title": ctrl["title"],
@@ -289,11 +325,14 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
                    "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
                    "conversion_heat_J": sim.conversion()["heat_J"],
                    "contact_dissipation_J": energies["contact"],
+                   "plane_dissipation_J": energies["plane"],
                    "eroded_J": energies["eroded"],
                    "relative_error": energies["relative_error"],
                    "max_relative_error": writer.max_energy_error,
                    "max_relative_error_time_s": writer.max_energy_error_time},
         "metrics": case_metrics,
+        "peaks": peaks,
+        "warnings": warnings,
     }
     if reference:
         summary["reference"] = {"source": reference.get("source", ""), "comparison": comparison}
@@ -303,10 +342,17 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
                               "cycle": failure.cycle}
     write_summary(outdir, summary)
 
-    say(f"fsph: {summary['status']} at t = {sim.time * 1e6:.4g} us after {sim.cycle} cycles, "
+    status = summary["status"]
+    if warnings:
+        status += f" with {len(warnings)} warning{'s' if len(warnings) > 1 else ''}"
+    say(f"fsph: {status} at t = {sim.time * 1e6:.4g} us after {sim.cycle} cycles, "
         f"{summary['wall_time_s']:.2f} s wall; energy error {energies['relative_error']:+.3e} "
         f"(largest {writer.max_energy_error:+.3e} at {writer.max_energy_error_time * 1e6:.4g} us)")
+    for warning in warnings:
+        say(f"fsph: warning: {warning['message']}")
     for line in _format_metrics(comparison, case_metrics):
+        say(line)
+    for line in _format_peaks(peaks):
         say(line)
     say(f"fsph: outputs in {outdir}/ (fsph.h5, ParaView .pvd series, summary.json)")
     return summary

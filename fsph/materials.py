@@ -87,6 +87,17 @@ LIBRARY = {
         "hjc_pcrush": 16.0e6, "hjc_mucrush": 0.001, "hjc_plock": 0.80e9, "hjc_mulock": 0.10,
         "hjc_k1": 85.0e9, "hjc_k2": -171.0e9, "hjc_k3": 208.0e9,
     },
+    "steel_4340_jc": {
+        "source": ("Johnson & Cook 1983 4340 steel (A 792 MPa, B 510 MPa, n 0.26, C 0.014, "
+                   "m 1.03, T_melt 1793 K, c_p 477 J/(kg K)), rho 7830 kg/m^3, E 200 GPa, "
+                   "nu 0.29; Mie-Grueneisen c0 4578 m/s, s 1.33, Gamma0 1.67 (Steinberg 1996 "
+                   "tables)"),
+        "strength": "johnson_cook", "eos": "mie_gruneisen",
+        "density": 7830.0, "youngs_modulus": 200.0e9, "poisson_ratio": 0.29,
+        "jc_a": 792.0e6, "jc_b": 510.0e6, "jc_n": 0.26, "jc_c": 0.014, "jc_m": 1.03,
+        "melt_temperature": 1793.0, "specific_heat": 477.0,
+        "c0": 4578.0, "s": 1.33, "gamma0": 1.67,
+    },
     "ofhc_copper": {
         "source": ("Johnson & Cook 1983 OFHC copper (A 90 MPa, B 292 MPa, n 0.31, "
                    "C 0.025, m 1.09, T_melt 1356 K); Mie-Grueneisen c0 3940 m/s, "

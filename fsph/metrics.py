@@ -35,19 +35,99 @@ def _particle_extent(snap, body_index):
     return part["x"][keep], part["radius"][keep]
 
 
+#: Height of the impact face's band, as a fraction of the initial length:
+#: D is the largest diameter of the body within it (the mushroom's foot,
+#: its rolled-over lip included) [-].
+FACE_BAND = 0.02
+
+
+def _node_radii(x, edges):
+    """Half the shortest edge at each node [m] (inf for a node without
+    edges)."""
+    length = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+    radius = np.full(len(x), np.inf)
+    np.minimum.at(radius, edges[:, 0], 0.5 * length)
+    np.minimum.at(radius, edges[:, 1], 0.5 * length)
+    return radius
+
+
+def attached_points(x, reach, mass, links=None):
+    """Which points belong to the body: the connected group of the largest
+    mass, two points being connected when their distance is at most the sum
+    of their reaches (a particle: its smoothing length, so that two
+    particles are connected when they are SPH neighbours; a node: half its
+    shortest edge), or when `links` (pairs of point indices, e.g. element
+    edges) joins them. The other points are detached: fragments, or stray
+    particles left on an anvil."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+    n = len(x)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    finite = np.where(np.isfinite(reach), reach, 0.0)
+    pairs = cKDTree(x).query_pairs(2.0 * finite.max(), output_type="ndarray")
+    if len(pairs):
+        dist = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
+        pairs = pairs[dist <= finite[pairs[:, 0]] + finite[pairs[:, 1]]]
+    if links is not None and len(links):
+        pairs = np.vstack([pairs.reshape(-1, 2), links])
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    main = np.bincount(label, weights=mass).argmax()
+    return label == main
+
+
 def taylor(snap, body, body_index, w_height=None):
-    """Final length L, maximum diameter D and width W at w_height (default
-    0.2 L0) above the impact face, in mm, of a body made of elements,
-    particles or both. Elements count by their nodes and boundary edges;
-    each particle counts as a square of half-side its radius. The impact
-    face is the lowest point of the body; W is twice the largest radius at
-    which the deformed body (boundary edges crossing the level, or particles
-    whose extent covers it) meets the level z_face + w_height."""
-    nodes, ea, eb = _element_extent(snap, body_index)
+    """Taylor-test lengths of a body made of elements, particles or both,
+    in mm, as the literature defines them (e.g. Johnson & Holmquist 1988):
+    the final length L, the impact-face diameter D (the largest diameter
+    within FACE_BAND L0 of the impact face: the foot, its lip included),
+    the largest diameter D_max anywhere on the body, and the width W at
+    w_height (default 0.2 L0) above the impact face. Only the body proper
+    counts: particles that have left it (attached_points: no longer an SPH
+    neighbour of the body, e.g. a fragment or a stray particle left on the
+    anvil) are excluded from L, D, D_max and W, and
+    their number and mass reported. Elements count by their nodes and
+    boundary edges; each particle counts as a square of half-side its
+    radius. The impact face is the lowest point of the body; W is twice
+    the largest radius at which the deformed body (boundary edges crossing
+    the level, or particles whose extent covers it) meets the level
+    z_face + w_height."""
+    nodes, ea, eb = EMPTY, EMPTY, EMPTY
     xp, rad = _particle_extent(snap, body_index)
+    node_r, node_m, links = np.zeros(0), np.zeros(0), None
+    if "conn" in snap and (snap["body"] == body_index).any():
+        conn, _ = _body_elements(snap, body_index)
+        ids = np.unique(conn)
+        index = np.full(len(snap["x"]), -1)
+        index[ids] = np.arange(len(ids))
+        nodes = snap["x"][ids]
+        links = index[np.vstack([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]])]
+        node_r = _node_radii(nodes, links)
+        node_m = snap["node_mass"][ids] if "node_mass" in snap else np.ones(len(ids))
+    p_mass, p_h = np.zeros(0), np.zeros(0)
+    if len(xp):
+        part = snap["particles"]
+        p_mass = part["mass"][part["body"] == body_index]
+        p_h = part["h"][part["body"] == body_index]
+    keep = attached_points(np.vstack([nodes.reshape(-1, 2), xp.reshape(-1, 2)]),
+                           np.concatenate([node_r, p_h]), np.concatenate([node_m, p_mass]), links)
+    keep_n, keep_p = keep[:len(nodes)], keep[len(nodes):]
+    if len(nodes):
+        bnd = boundary_edges(conn)
+        bnd = bnd[keep_n[index[bnd[:, 0]]] & keep_n[index[bnd[:, 1]]]]
+        ea, eb = snap["x"][bnd[:, 0]], snap["x"][bnd[:, 1]]
+        nodes = nodes[keep_n]
+    detached = ~keep_p
+    xp, rad = xp[keep_p], rad[keep_p]
     z_lo = min(nodes[:, 1].min(initial=np.inf), (xp[:, 1] - rad).min(initial=np.inf))
     z_hi = max(nodes[:, 1].max(initial=-np.inf), (xp[:, 1] + rad).max(initial=-np.inf))
     r_hi = max(nodes[:, 0].max(initial=-np.inf), (xp[:, 0] + rad).max(initial=-np.inf))
+    face_top = z_lo + FACE_BAND * body["length"]
+    in_face = nodes[:, 1] <= face_top
+    p_face = xp[:, 1] - rad <= face_top
+    r_face = max(nodes[in_face, 0].max(initial=-np.inf), (xp[p_face, 0] + rad[p_face]).max(initial=-np.inf))
     if w_height is None:
         w_height = 0.2 * body["length"]
     level = z_lo + w_height
@@ -59,8 +139,38 @@ def taylor(snap, body, body_index, w_height=None):
     r_level = max(r_cross.max(initial=-np.inf),
                   (xp[at_level, 0] + rad[at_level]).max(initial=-np.inf))
     width = 2.0 * r_level if np.isfinite(r_level) else float("nan")
-    return {"L_mm": (z_hi - z_lo) * 1e3, "D_mm": 2.0 * r_hi * 1e3, "W_mm": width * 1e3,
-            "w_height_mm": w_height * 1e3}
+    return {"L_mm": (z_hi - z_lo) * 1e3, "D_mm": 2.0 * r_face * 1e3, "D_max_mm": 2.0 * r_hi * 1e3,
+            "W_mm": width * 1e3, "w_height_mm": w_height * 1e3,
+            "face_band_mm": FACE_BAND * body["length"] * 1e3,
+            "n_detached_particles": int(detached.sum()),
+            "detached_mass_kg": float(p_mass[detached].sum()) if len(p_mass) else 0.0}
+
+
+def field_peaks(snap, fields=("plastic_strain", "temperature")):
+    """Largest value of each of fields (plastic strain [-], temperature [K])
+    over elements and particles, with where: the point (r, z) [mm] (element
+    centroid or particle centre), whether an element or a particle, its
+    index and body (0-based)."""
+    peaks = {}
+    for field in fields:
+        best = None
+        if "conn" in snap and len(snap["conn"]):
+            values = snap[field]
+            k = int(np.argmax(values))
+            where = snap["x"][snap["conn"][k]].mean(axis=0)
+            best = (float(values[k]), where, "element", k, int(snap["body"][k]))
+        if "particles" in snap:
+            part = snap["particles"]
+            values = part[field]
+            if len(values):
+                k = int(np.argmax(values))
+                if best is None or values[k] > best[0]:
+                    best = (float(values[k]), part["x"][k], "particle", k, int(part["body"][k]))
+        if best is not None:
+            value, where, kind, index, body = best
+            peaks[field] = {"value": value, "r_mm": float(where[0] * 1e3), "z_mm": float(where[1] * 1e3),
+                            "in": kind, "index": index, "body": body}
+    return peaks
 
 
 def _locate(points, x, conn):

@@ -78,7 +78,7 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
                 if "W_mm" in experiment and w_height:
                     ax.plot([-experiment["W_mm"] / 2, experiment["W_mm"] / 2], [w_height, w_height],
                             "k|", ms=8, mew=1.5)
-            ax.set_title(f"{time * 1e6:.0f} us")
+            ax.set_title(f"{time * 1e6:.0f} µs")
             ax.set_xlabel("r [mm]")
             top = max(top, extent[1])
             width = max(width, extent[0])
@@ -97,7 +97,8 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
         fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.95), ncol=3,
                    frameon=False)
         fig.tight_layout(rect=(0, 0.02, 1, 0.9))
-        fig.savefig(output, dpi=dpi)
+        # equal aspect shrinks the axes after the layout: save what is drawn
+        fig.savefig(output, dpi=dpi, bbox_inches="tight")
         plt.close(fig)
     return output
 
@@ -121,6 +122,8 @@ def histories(run_dir, output=None, dpi=150):
         ax_e.plot(t, hist["contact"], label="contact work")
     if "eroded" in hist and hist["eroded"].any():
         ax_e.plot(t, hist["eroded"], label="removed by erosion")
+    if "plane" in hist and hist["plane"].any():
+        ax_e.plot(t, hist["plane"], label="removed by rigid planes")
     ax_e.plot(t, hist["total"], "k", lw=1.2, label="total")
     ax_e.set_ylabel("energy [J]")
     ax_e.legend(frameon=False)
@@ -212,7 +215,7 @@ def damage_map(run_dir, times_us=None, output=None, dpi=150):
                     ax.scatter(side * xp[:, 0], xp[:, 1], c=g["particles/damage"][...], s=1.5,
                                cmap=cmap, vmin=0.0, vmax=1.0, linewidths=0)
                     lo, hi = np.minimum(lo, xp.min(axis=0)), np.maximum(hi, xp.max(axis=0))
-            ax.set_title(f"{time * 1e6:.0f} us")
+            ax.set_title(f"{time * 1e6:.0f} µs")
             ax.set_xlabel("r [mm]")
             ax.set_aspect("equal")
         for ax in axes:

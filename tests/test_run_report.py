@@ -1,0 +1,190 @@
+"""What a run reports beyond its lengths: warnings that a run must not
+complete silently with (a lost energy balance, an inconsistent material),
+the peak fields with where they are, and the Taylor metrics as the
+literature defines them (impact-face and largest diameter, detached
+particles left out and counted)."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from fsph import deck as deck_module
+from fsph import metrics
+from fsph.report import write_report
+from conftest import CASES, rod_deck
+
+
+def fsph_cli(args, cwd):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    return subprocess.run([sys.executable, "-m", "fsph", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+# ---- energy warning -------------------------------------------------------------
+def test_energy_error_beyond_the_warning_level_is_reported(write_deck, tmp_path):
+    """A run whose energy error exceeds &control energy_error_warning
+    completes, but says so: on the console ('completed with 1 warning' and
+    a warning line), in summary.json (warnings) and in `fsph report`."""
+    deck = write_deck(rod_deck(control="energy_error_warning = 1.0e-9\n end_time = 2.0e-6"))
+    out = tmp_path / "run"
+    proc = fsph_cli(["run", str(deck), "-o", str(out), "--progress", "lines"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "completed with 1 warning" in proc.stdout
+    assert "warning: energy error" in proc.stdout and "energy_error_limit" in proc.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed"
+    assert [w["kind"] for w in summary["warnings"]] == ["energy_error"]
+    assert summary["warnings"][0]["limit"] == 1.0e-9
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "rod.nml").write_text(deck.read_text())
+    (tmp_path / "report" / "runs").mkdir(parents=True)
+    (tmp_path / "report" / "runs" / "rod").symlink_to(out)
+    report = write_report(tmp_path / "cases", tmp_path / "report", decks=("rod",))
+    assert "**energy_error**" in report.read_text()
+
+
+def test_balanced_run_has_no_warning_and_no_untracked_temperature(tmp_path):
+    """The elastic bar keeps its energy balance: no warning. Its material
+    does not heat (no Johnson-Cook), so no temperature peak is reported
+    that would read as a measured room temperature."""
+    proc = fsph_cli(["run", str(CASES / "elastic_bar.nml"), "-o", str(tmp_path / "bar"),
+                     "--progress", "lines"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "bar" / "summary.json").read_text())
+    assert summary["warnings"] == []
+    assert list(summary["peaks"]) == ["plastic_strain"]
+    assert "peak temperature" not in proc.stdout
+
+
+# ---- material consistency --------------------------------------------------------
+COPPER_E_NU = """name = 'copper'
+ strength = 'elastic'
+ eos = 'mie_gruneisen'
+ density = 8960.0
+ youngs_modulus = 124.0e9
+ poisson_ratio = 0.34
+ c0 = 3940.0
+ s = 1.489
+ gamma0 = 2.02"""
+
+
+def test_mie_gruneisen_bulk_mismatch_is_a_warning(write_deck, tmp_path):
+    """With the Mie-Grueneisen EOS, E and nu whose bulk modulus differs
+    from rho0 c0^2 by more than 5 % (copper's tabulated 124 GPa and 0.34:
+    129 GPa against 139 GPa, -7.4 %) load with a warning naming both and
+    saying which is used; the run carries it into summary.json."""
+    text = rod_deck(material=COPPER_E_NU).replace("material = 'steel'", "material = 'copper'")
+    deck = deck_module.load(write_deck(text))
+    assert len(deck["warnings"]) == 1
+    message = deck["warnings"][0]
+    assert "&material #1 'copper'" in message and "129.2 GPa" in message and "139.1 GPa" in message
+    assert "-7.1 %" in message or "-7.2 %" in message or "-7.3 %" in message or "-7.4 %" in message
+    assert "the pressure uses rho0 c0^2" in message
+    proc = fsph_cli(["run", str(write_deck(text, "copper.nml")), "-o", str(tmp_path / "cu"),
+                     "--quiet"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "cu" / "summary.json").read_text())
+    assert [w["kind"] for w in summary["warnings"]] == ["deck"]
+
+
+def test_consistent_mie_gruneisen_moduli_give_no_warning(write_deck):
+    """4340 steel of the library: E/(3(1 - 2 nu)) = 158.7 GPa within 3.3 %
+    of rho0 c0^2 = 164.1 GPa."""
+    text = rod_deck(material="name = 'steel'\n library = 'steel_4340_jc'")
+    assert deck_module.load(write_deck(text))["warnings"] == []
+
+
+# ---- peaks -------------------------------------------------------------------------
+def test_peak_fields_in_summary_and_console(tmp_path):
+    """summary.json and the printed summary give the peak plastic strain
+    and temperature with where they are; the peak is the largest value of
+    the last snapshot's elements and particles."""
+    import h5py
+    out = tmp_path / "cu"
+    deck = CASES / "taylor_copper_fem.nml"
+    text = deck.read_text().replace("n_radial = 10", "n_radial = 4").replace(
+        "n_axial = 67", "n_axial = 27").replace("end_time = 100.0e-6", "end_time = 20.0e-6")
+    (tmp_path / "deck.nml").write_text(text)
+    proc = fsph_cli(["run", "deck.nml", "-o", str(out), "--progress", "lines"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "peak plastic_strain" in proc.stdout and "peak temperature" in proc.stdout
+    peaks = json.loads((out / "summary.json").read_text())["peaks"]
+    with h5py.File(out / "fsph.h5") as h5:
+        last = h5["snapshots"][sorted(h5["snapshots"])[-1]]
+        eps = last["plastic_strain"][...]
+        temp = last["temperature"][...]
+        k = int(np.argmax(eps))
+        centre = last["nodes"][...][last["connectivity"][...][k]].mean(axis=0)
+    assert peaks["plastic_strain"]["value"] == pytest.approx(eps.max(), rel=1e-12)
+    assert peaks["plastic_strain"]["in"] == "element" and peaks["plastic_strain"]["index"] == k
+    assert peaks["plastic_strain"]["r_mm"] == pytest.approx(centre[0] * 1e3, rel=1e-12)
+    assert peaks["temperature"]["value"] == pytest.approx(temp.max(), rel=1e-12)
+    # adiabatic heating of Johnson-Cook copper: hotter than the room
+    assert peaks["temperature"]["value"] > 293.15 + 10.0
+
+
+# ---- Taylor metrics ------------------------------------------------------------------
+def particle_rod(n_r=4, n_z=20, spacing=1e-3):
+    """A lattice of particles (r, z) standing for a rod of radius n_r
+    spacing on z = 0, with ring masses and h = 1.3 spacing."""
+    r, z = np.meshgrid((np.arange(n_r) + 0.5) * spacing, (np.arange(n_z) + 0.5) * spacing)
+    x = np.column_stack([r.ravel(), z.ravel()])
+    n = len(x)
+    return {"particles": {"x": x, "radius": np.full(n, 0.5 * spacing),
+                          "h": np.full(n, 1.3 * spacing), "mass": 2 * np.pi * x[:, 0] * spacing ** 2,
+                          "body": np.zeros(n, dtype=int)}}
+
+
+def with_particles(snap, x, radius, h, mass):
+    part = dict(snap["particles"])
+    part["x"] = np.vstack([part["x"], x])
+    part["radius"] = np.concatenate([part["radius"], radius])
+    part["h"] = np.concatenate([part["h"], h])
+    part["mass"] = np.concatenate([part["mass"], mass])
+    part["body"] = np.concatenate([part["body"], np.zeros(len(radius), dtype=int)])
+    return {"particles": part}
+
+
+def test_stray_particle_is_left_out_of_the_lengths_and_counted():
+    """A particle left 3 mm below the face (on the anvil of a rod that
+    rebounded) and one 5 mm to the side are not SPH neighbours of the rod:
+    L, D and W are the rod's own, and their count and mass are reported."""
+    rod = particle_rod()
+    body = {"length": 20e-3}
+    base = metrics.taylor(rod, body, 0)
+    m = rod["particles"]["mass"].mean()
+    snap = with_particles(rod, np.array([[0.5e-3, -3e-3], [9e-3, 1e-3]]), np.full(2, 0.5e-3),
+                          np.full(2, 1.3e-3), np.array([m, 2 * m]))
+    got = metrics.taylor(snap, body, 0)
+    for key in ("L_mm", "D_mm", "D_max_mm", "W_mm"):
+        assert got[key] == pytest.approx(base[key], rel=1e-12), key
+    assert base["L_mm"] == pytest.approx(20.0) and base["D_mm"] == pytest.approx(8.0)
+    assert got["n_detached_particles"] == 2
+    assert got["detached_mass_kg"] == pytest.approx(3 * m)
+
+
+def test_particle_touching_the_rod_stays_in_it():
+    """A particle within the kernel reach of the rod is part of it."""
+    rod = particle_rod()
+    snap = with_particles(rod, np.array([[5.6e-3, 0.5e-3]]), np.full(1, 0.5e-3), np.full(1, 1.3e-3),
+                          rod["particles"]["mass"][:1])
+    got = metrics.taylor(snap, {"length": 20e-3}, 0)
+    assert got["n_detached_particles"] == 0
+    assert got["D_mm"] == pytest.approx(2 * 6.1)
+
+
+def test_face_diameter_and_largest_diameter():
+    """D is the largest diameter within FACE_BAND L0 of the impact face;
+    D_max the largest anywhere: a collar higher up the rod widens D_max
+    only."""
+    rod = particle_rod()
+    snap = with_particles(rod, np.array([[4.5e-3, 10.5e-3]]), np.full(1, 0.5e-3), np.full(1, 1.3e-3),
+                          rod["particles"]["mass"][:1])
+    got = metrics.taylor(snap, {"length": 20e-3}, 0)
+    assert got["D_mm"] == pytest.approx(8.0)
+    assert got["D_max_mm"] == pytest.approx(10.0)
+    assert got["face_band_mm"] == pytest.approx(metrics.FACE_BAND * 20.0)
