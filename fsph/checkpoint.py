@@ -4,6 +4,7 @@ restarted run continues bit for bit (same thread count). Files are written
 to a temporary name and renamed: a crash mid-write never leaves a torn
 checkpoint."""
 
+import hashlib
 import os
 from pathlib import Path
 
@@ -20,8 +21,8 @@ def save(sim, path):
     """Write the state of `sim` to `path` (HDF5)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    n_real, n_int, _, _ = _api.checkpoint_layout()
-    r, i = _api.get_scalar_state()
+    n_real, n_int, _, _ = _api.checkpoint_layout(sim._run)
+    r, i = _api.get_scalar_state(sim._run)
     with h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = FORMAT
         h5.attrs["initial_energy"] = sim.initial_energy
@@ -29,14 +30,14 @@ def save(sim, path):
         h5["particle_radius0"] = sim.particle_radius0
         h5["scalars_real"] = r
         h5["scalars_int"] = i
-        sizes = _api.checkpoint_sizes(1, 1)[2:]
+        sizes = _api.checkpoint_sizes(sim._run, 1, 1)[2:]
         h5.attrs["sizes"] = np.array(sizes)          # nodes, elements, particles, capacity, edges
         for kind, count, getter in ((1, n_real, _api.get_real_state), (2, n_int, _api.get_int_state)):
             group = h5.create_group("real" if kind == 1 else "int")
             for k in range(1, count + 1):
-                rows, cols = _api.checkpoint_sizes(kind, k)[:2]
+                rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
                 if rows * cols > 0:
-                    group[str(k)] = getter(k, rows, cols)
+                    group[str(k)] = getter(sim._run, k, rows, cols)
     os.replace(tmp, path)
     return path
 
@@ -53,16 +54,33 @@ def restore(sim, path):
         if h5.attrs.get("format") != FORMAT:
             raise FsphError(f"{path}: expected an fsph checkpoint of format {FORMAT}")
         nn, ne, np_, cap, n_edges = (int(v) for v in h5.attrs["sizes"])
-        _api.restore_begin(nn, ne, np_, cap, n_edges, h5["scalars_real"][...],
+        _api.restore_begin(sim._run, nn, ne, np_, cap, n_edges, h5["scalars_real"][...],
                            h5["scalars_int"][...])
         for kind, setter in ((1, _api.set_real_state), (2, _api.set_int_state)):
             group = h5["real" if kind == 1 else "int"]
             for key in group:
                 values = np.asfortranarray(group[key][...])
-                if setter(int(key), values) != 0:
+                if setter(sim._run, int(key), values) != 0:
                     raise FsphError(f"{path}: state array {kind}/{key} does not fit this deck "
                                     "(was the checkpoint written from another deck?)")
-        _api.restore_end()
+        _api.restore_end(sim._run)
         sim.initial_energy = float(h5.attrs["initial_energy"])
         sim.n_elements0 = int(h5.attrs["n_elements0"])
         sim.particle_radius0 = h5["particle_radius0"][...]
+
+
+def state_digest(sim):
+    """SHA-256 (hex) of the whole state a checkpoint holds: the clock and
+    books, then every state array in checkpoint order. Two runs with the
+    same digest continue identically; the reference runs' digests guard
+    refactoring (tests/test_runs.py)."""
+    digest = hashlib.sha256()
+    n_real, n_int, _, _ = _api.checkpoint_layout(sim._run)
+    for scalars in _api.get_scalar_state(sim._run):
+        digest.update(np.ascontiguousarray(scalars).tobytes())
+    for kind, count, getter in ((1, n_real, _api.get_real_state), (2, n_int, _api.get_int_state)):
+        for k in range(1, count + 1):
+            rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
+            if rows * cols > 0:
+                digest.update(np.ascontiguousarray(getter(sim._run, k, rows, cols)).tobytes())
+    return digest.hexdigest()

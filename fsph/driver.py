@@ -16,7 +16,7 @@ from . import deck as deck_module
 from . import metrics as metrics_module
 from .errors import FsphError, SimulationError
 from .output import RunWriter, write_summary
-from .simulation import Simulation, drain_history, threads
+from .simulation import Simulation, threads
 
 
 def _targets(t_end, n_snapshots, n_progress):
@@ -217,7 +217,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
     writer.write_snapshot(last_good)
     series = [r for r in [metrics_module.snapshot_series(last_good, deck)] if r]
     writer.energy0 = sim.initial_energy
-    writer.append_history(drain_history())
+    writer.append_history(sim.drain_history())
     failure = interrupted = None
     last_checkpoint = wallclock.perf_counter()
     every = out["checkpoint_cycles"] if out["checkpoint"] else 0
@@ -245,7 +245,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
                         last_checkpoint = wallclock.perf_counter()
                     if bar:
                         bar.update(sim)
-                writer.append_history(drain_history())
+                writer.append_history(sim.drain_history())
                 if flag["signal"]:
                     interrupted = signal.Signals(flag["signal"]).name
                     if bar:
@@ -273,7 +273,7 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
         if bar:
             bar.close()
         failure = err
-        writer.append_history(drain_history())
+        writer.append_history(sim.drain_history())
         writer.mark_failure(str(err))
         say(f"fsph: run failed: {err}")
         say(f"fsph: last good snapshot t = {last_good['time'] * 1e6:.4g} us kept in {writer.h5_path}")

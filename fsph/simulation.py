@@ -66,17 +66,17 @@ class Simulation:
         self.body_names = [b["name"] for b in deck["body"]]
         rho0 = {m["name"]: m["density"] for m in materials}
 
-        _api.reset()
-        _api.reset_phase_times()
+        # this run's own state in the solver: runs in one process are independent
+        self._run = int(_api.open_run())
         c = self.control
-        _api.set_control(c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"], c["dt_drop_ratio"],
+        _api.set_control(self._run, c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"], c["dt_drop_ratio"],
                          deck["output"]["history_every"])
         sph = deck["sph"]
         touch, slope = contact_filling(sph["alpha_h"])
-        _api.set_sph_control(sph["c_q"], sph["c_l"], sph["hourglass"], sph["contact_penalty"], touch,
+        _api.set_sph_control(self._run, sph["c_q"], sph["c_l"], sph["hourglass"], sph["contact_penalty"], touch,
                              slope, sph["debris_density"], sph["neighbour_skin"])
         props, strength, eos = property_table(materials)
-        self._call(_api.set_materials(props, strength, eos), "material table")
+        self._call(_api.set_materials(self._run, props, strength, eos), "material table")
 
         elem_bodies, part_bodies = [], []
         for ib, b in enumerate(deck["body"]):
@@ -95,21 +95,28 @@ class Simulation:
             self._set_particles(part_bodies, rho0, sph["alpha_h"])
         self._set_coupling(deck, bool(elem_bodies), bool(part_bodies))
         ct = deck["contact"]
-        self._call(_api.set_contact(int(ct["enabled"]), ct["passes"], ct["friction"],
+        self._call(_api.set_contact(self._run, int(ct["enabled"]), ct["passes"], ct["friction"],
                                     int(ct["own_particles"])), "contact")
         er = deck["erosion"]
-        self._call(_api.set_erosion(int(er["enabled"]), er["principal_strain"]), "erosion")
+        self._call(_api.set_erosion(self._run, int(er["enabled"]), er["principal_strain"]), "erosion")
         for bc in deck["boundary"]:
-            self._call(_api.add_rigid_plane(np.array(bc["point"]), np.array(bc["normal"])),
+            self._call(_api.add_rigid_plane(self._run, np.array(bc["point"]), np.array(bc["normal"])),
                        "rigid plane")
-        ierr, ifault = _api.initialise()
+        ierr, ifault = _api.initialise(self._run)
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault, during="set-up")
-        ke, ie = _api.get_energies()
+        ke, ie = _api.get_energies(self._run)
         self.initial_energy = ke + ie
         self.particle_radius0 = (self._particles()["radius"].copy() if self.n_particles
                                  else np.zeros(0))
         self.n_elements0 = self.n_elements
+
+    def __del__(self):
+        # free this run's state in the solver (other runs are untouched)
+        run = getattr(self, "_run", None)
+        if run is not None and _api is not None:
+            _api.close_run(run)
+            self._run = None
 
     def _set_elements(self, bodies):
         xs, conns, mats, body_ids, vels = [], [], [], [], []
@@ -124,7 +131,7 @@ class Simulation:
             body_ids.append(np.full(m.n_elements, ib + 1))
             offset += m.n_nodes
         x, conn = np.vstack(xs), np.vstack(conns)
-        self._call(_api.set_mesh(np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
+        self._call(_api.set_mesh(self._run, np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
                                  np.asfortranarray(conn.T + 1, dtype=np.int32),
                                  np.concatenate(mats).astype(np.int32),
                                  np.concatenate(body_ids).astype(np.int32)), "mesh")
@@ -141,7 +148,7 @@ class Simulation:
             mats.append(np.full(lat.n_particles, mat))
             body_ids.append(np.full(lat.n_particles, ib + 1))
         x = np.vstack(xs)
-        self._call(_api.set_particles(np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
+        self._call(_api.set_particles(self._run, np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
                                       np.concatenate(masses), np.concatenate(hs),
                                       np.concatenate(mats).astype(np.int32),
                                       np.concatenate(body_ids).astype(np.int32)), "particles")
@@ -170,15 +177,15 @@ class Simulation:
             has_part = any(bodies[j]["discretisation"] == "particles" for j in same)
             coupled.append(int(b["discretisation"] == "elements"
                                and (mode == "adaptive" or (mode == "fixed" and has_part))))
-        self._call(_api.set_continua(np.array(continuum, dtype=np.int32),
+        self._call(_api.set_continua(self._run, np.array(continuum, dtype=np.int32),
                                      np.array(coupled, dtype=np.int32)), "continua")
         conv = deck["convert"]
         criteria = {"min_angle": 1, "plastic_strain": 2, "equivalent_stress": 3}
-        _api.set_conversion(int(mode == "adaptive"), criteria[conv["criterion"]],
+        _api.set_conversion(self._run, int(mode == "adaptive"), criteria[conv["criterion"]],
                             np.radians(conv["theta_c"]), conv["relative_angle"], conv["eps_c"], conv["sigma_c"] or 0.0,
                             conv["kappa"], deck["sph"]["alpha_h"])
         if has_elements and not has_particles and mode == "adaptive":
-            self._call(_api.reserve_particles(), "particle capacity")
+            self._call(_api.reserve_particles(self._run), "particle capacity")
 
     @classmethod
     def from_deck(cls, path):
@@ -202,15 +209,15 @@ class Simulation:
             where = (f"; particle {-ifault} of body '{self.body_names[part['body'][k]]}' "
                      f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
         elif ifault > 0 and ierr in NODE_FAULTS:
-            nn, _ = _api.get_sizes()
-            x, x0, _, _ = _api.get_nodes(nn)
+            nn, _ = _api.get_sizes(self._run)
+            x, x0, _, _ = _api.get_nodes(self._run, nn)
             location = x0[:, ifault - 1]
             where = (f"; node {ifault} (initially at r = {location[0] * 1e3:.4g} mm, "
                      f"z = {location[1] * 1e3:.4g} mm)")
         elif ifault > 0 and ierr != 6:
-            nn, ne = _api.get_sizes()
-            x, _, _, _ = _api.get_nodes(nn)
-            conn, _, body = _api.get_elements(ne)
+            nn, ne = _api.get_sizes(self._run)
+            x, _, _, _ = _api.get_nodes(self._run, nn)
+            conn, _, body = _api.get_elements(self._run, ne)
             location = x[:, conn[:, ifault - 1] - 1].mean(axis=1)
             where = (f"; element {ifault} of body '{self.body_names[body[ifault - 1] - 1]}' "
                      f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
@@ -231,7 +238,7 @@ class Simulation:
         limit = self.control["max_cycles"] - self.cycle
         if max_cycles is None or not partial:
             max_cycles = limit if max_cycles is None else max_cycles
-        ierr, ifault = _api.advance(float(t), int(max(min(max_cycles, limit), 0)), int(bool(land)))
+        ierr, ifault = _api.advance(self._run, float(t), int(max(min(max_cycles, limit), 0)), int(bool(land)))
         if ierr == STATUS_MAX_CYCLES and partial and self.cycle < self.control["max_cycles"]:
             return
         if ierr != STATUS_OK:
@@ -240,82 +247,91 @@ class Simulation:
     def phase_times(self):
         """Wall time [s] spent in each phase of the cycle since set-up (or
         the last reset_phase_times), by name (PHASES)."""
-        times = _api.get_phase_times(int(_api.phase_count()))
+        times = _api.get_phase_times(self._run, int(_api.phase_count()))
         return dict(zip(PHASES, (float(t) for t in times)))
 
-    @staticmethod
-    def reset_phase_times():
-        _api.reset_phase_times()
+    def reset_phase_times(self):
+        _api.reset_phase_times(self._run)
+
+    def drain_history(self):
+        """Time-history records (k, 8) recorded by the cycle since the last
+        call: time [s], cycle, dt [s], kinetic [J], internal [J], work of the
+        contact corrections [J], energy removed by erosion [J], kinetic energy
+        removed by the rigid planes and the particles' axis wall [J]."""
+        n = int(_api.history_count(self._run))
+        if n == 0:
+            return np.zeros((0, 8))
+        return _api.drain_history(self._run, n).T.copy()
 
     @property
     def list_rebuilds(self):
         """Neighbour-list builds so far (the lists are kept while their
         skin allows: &sph neighbour_skin)."""
-        return int(_api.get_list_rebuilds())
+        return int(_api.get_list_rebuilds(self._run))
 
     @property
     def n_nodes(self):
-        return int(_api.get_sizes()[0])
+        return int(_api.get_sizes(self._run)[0])
 
     @property
     def n_elements(self):
-        return int(_api.get_sizes()[1])
+        return int(_api.get_sizes(self._run)[1])
 
     @property
     def n_particles(self):
-        return int(_api.get_particle_count())
+        return int(_api.get_particle_count(self._run))
 
     def conversion(self):
         """Elements converted so far, conversion events, kinetic energy of
         the nodes' relative motion turned into heat at conversion [J], and
         coupling-interface edges in use."""
-        n_conv, n_events, heat, n_edges = _api.get_conversion_stats()
+        n_conv, n_events, heat, n_edges = _api.get_conversion_stats(self._run)
         return {"n_converted": int(n_conv), "n_events": int(n_events), "heat_J": float(heat),
                 "n_coupling_edges": int(n_edges)}
 
     def ties(self):
         """Particle ties: tied edge nodes (0-based, -1 free), position along
         the edge, associated edges (n, 2, 2) node pairs (-1 none)."""
-        a, b, xi, assoc = _api.get_particle_ties(self.n_particles)
+        a, b, xi, assoc = _api.get_particle_ties(self._run, self.n_particles)
         return {"tie_a": a - 1, "tie_b": b - 1, "tie_xi": xi.copy(),
                 "assoc": assoc.transpose(2, 1, 0) - 1}
 
     def convert_now(self):
         """Run the conversion check immediately; returns elements converted."""
-        return int(_api.convert_now())
+        return int(_api.convert_now(self._run))
 
     def set_stress_state(self, deviator, pressure):
         """Uniform stress in every element and particle: deviator (rr, zz,
         rz, tt) and pressure [Pa] (verification)."""
-        _api.set_stress_state(np.asarray(deviator, dtype=float), float(pressure))
+        _api.set_stress_state(self._run, np.asarray(deviator, dtype=float), float(pressure))
 
     def forces(self, dt=None):
         """Nodal forces (n, 2) [N] (with coupling tractions and ties) and
         particle accelerations (m, 2) [m/s^2] of the current state."""
-        f, acc = _api.get_forces(self.n_nodes, self.n_particles, float(dt or self.dt))
+        f, acc = _api.get_forces(self._run, self.n_nodes, self.n_particles, float(dt or self.dt))
         return f.T.copy(), acc.T.copy()
 
     def element_groups(self):
         """Conversion group of every element (0-based, -1 none)."""
-        return _api.get_element_groups(self.n_elements) - 1
+        return _api.get_element_groups(self._run, self.n_elements) - 1
 
     @property
     def time(self):
-        return float(_api.get_clock()[0])
+        return float(_api.get_clock(self._run)[0])
 
     @property
     def cycle(self):
-        return int(_api.get_clock()[4])
+        return int(_api.get_clock(self._run)[4])
 
     @property
     def dt(self):
         """Stable step of the next cycle [s]."""
-        return float(_api.get_clock()[1])
+        return float(_api.get_clock(self._run)[1])
 
     def contact(self):
         """Contact books: kinetic energy removed by the corrections so far
         [J], pairs corrected in the last cycle, surface segments and nodes."""
-        dissipated, n_active, n_seg, n_snode = _api.get_contact_stats()
+        dissipated, n_active, n_seg, n_snode = _api.get_contact_stats(self._run)
         return {"dissipated_J": float(dissipated), "n_active": int(n_active),
                 "n_segments": int(n_seg), "n_surface_nodes": int(n_snode)}
 
@@ -323,7 +339,7 @@ class Simulation:
         """Erosion books: elements deleted, their mass [kg] and internal
         energy [J]; mass [kg], kinetic energy [J] and momentum (r, z)
         [kg m/s] of the nodes removed with their last element."""
-        n, emass, internal, nmass, kinetic, momentum = _api.get_erosion_stats()
+        n, emass, internal, nmass, kinetic, momentum = _api.get_erosion_stats(self._run)
         return {"n_eroded": int(n), "element_mass_kg": float(emass),
                 "internal_J": float(internal), "node_mass_kg": float(nmass),
                 "kinetic_J": float(kinetic), "momentum_kg_m_s": [float(v) for v in momentum]}
@@ -331,12 +347,12 @@ class Simulation:
     def debris_count(self):
         """Particles that are debris after the last cycle: density held at
         &sph debris_density times the reference, no stress."""
-        return int(_api.get_debris_count())
+        return int(_api.get_debris_count(self._run))
 
     def principal_strains(self):
         """Largest principal logarithmic strain of every element (the
         erosion measure) [-]."""
-        strain, ierr = _api.get_principal_strains(self.n_elements)
+        strain, ierr = _api.get_principal_strains(self._run, self.n_elements)
         if ierr != STATUS_OK:
             raise FsphError("principal_strains: no elements")
         return strain.copy()
@@ -344,7 +360,7 @@ class Simulation:
     def penetration(self):
         """Deepest interpenetration of bodies at the current positions [m]
         and relative to the penetrated segment's length [-]."""
-        depth, relative = _api.get_contact_penetration()
+        depth, relative = _api.get_contact_penetration(self._run)
         return {"depth": float(depth), "relative": float(relative)}
 
     def energies(self):
@@ -354,9 +370,9 @@ class Simulation:
         planes (and of the particles' axis wall) remove kinetic energy as
         perfectly inelastic collisions of what strikes them; both are
         booked, so the total is conserved by the method."""
-        ke, ie = _api.get_energies()
-        dissipated = float(_api.get_contact_stats()[0])
-        plane = float(_api.get_plane_dissipation())
+        ke, ie = _api.get_energies(self._run)
+        dissipated = float(_api.get_contact_stats(self._run)[0])
+        plane = float(_api.get_plane_dissipation(self._run))
         er = self.erosion()
         eroded = er["internal_J"] + er["kinetic_J"]
         total = ke + ie + dissipated + plane + eroded
@@ -367,8 +383,8 @@ class Simulation:
 
     def _particles(self):
         """Particle arrays (positions etc.), 0-based material and body."""
-        np_ = int(_api.get_particle_count())
-        x, x0, v, mass, h, radius, mat, body = _api.get_particles(np_)
+        np_ = int(_api.get_particle_count(self._run))
+        x, x0, v, mass, h, radius, mat, body = _api.get_particles(self._run, np_)
         return {"x": x.T.copy(), "x0": x0.T.copy(), "velocity": v.T.copy(), "mass": mass,
                 "h": h, "radius": radius, "material": mat - 1, "body": body - 1}
 
@@ -381,10 +397,10 @@ class Simulation:
                 "contact_penetration_relative": pen["relative"],
                 "eroded_momentum_z": self.erosion()["momentum_kg_m_s"][1]}
         if self.n_elements:
-            nn, ne = _api.get_sizes()
-            x, x0, v, mass = _api.get_nodes(nn)
-            conn, mat, body = _api.get_elements(ne)
-            s, p, q, eps_p, rho, e, temp, c, area, emass = _api.get_element_fields(ne)
+            nn, ne = _api.get_sizes(self._run)
+            x, x0, v, mass = _api.get_nodes(self._run, nn)
+            conn, mat, body = _api.get_elements(self._run, ne)
+            s, p, q, eps_p, rho, e, temp, c, area, emass = _api.get_element_fields(self._run, ne)
             stress = s.T.copy()
             stress[:, [0, 1, 3]] -= (p + q)[:, None]
             snap.update({
@@ -398,7 +414,7 @@ class Simulation:
             })
         if self.n_particles:
             part = self._particles()
-            s, p, eps_p, rho, e, temp, c = _api.get_particle_fields(self.n_particles)
+            s, p, eps_p, rho, e, temp, c = _api.get_particle_fields(self._run, self.n_particles)
             stress = s.T.copy()
             stress[:, [0, 1, 3]] -= p[:, None]
             radius0 = part["radius"].copy()
@@ -413,7 +429,7 @@ class Simulation:
 
     def _history(self, kind, n):
         """Material history rows (N_HIST, n) of elements or particles."""
-        hist, ierr = _api.get_material_history(1 if kind == "element" else 2, N_HIST, n)
+        hist, ierr = _api.get_material_history(self._run, 1 if kind == "element" else 2, N_HIST, n)
         if ierr != STATUS_OK:
             raise FsphError(f"{kind} history: layout mismatch, rebuild the package")
         return hist.copy()
@@ -421,7 +437,7 @@ class Simulation:
     def particle_rates(self):
         """SPH rates for the current state (verification): accelerations
         (n, 2), density rate, energy rate, strain rates (n, 4), spin."""
-        acc, drho, de, d, spin, ierr = _api.get_particle_rates(self.n_particles)
+        acc, drho, de, d, spin, ierr = _api.get_particle_rates(self._run, self.n_particles)
         if ierr != STATUS_OK:
             raise FsphError("particle_rates: no particles set up")
         return {"acc": acc.T.copy(), "drho": drho.copy(), "de": de.copy(), "d": d.T.copy(),
@@ -432,8 +448,8 @@ class Simulation:
         (+j neighbour, -j mirror of j across the axis), 1-based as in Fortran;
         a pair of real particles is in both lists. Raises if the search's
         pair bookkeeping is inconsistent."""
-        n_entries = int(_api.get_neighbor_count())
-        ptr, lst, consistent = _api.get_neighbors(self.n_particles, n_entries)
+        n_entries = int(_api.get_neighbor_count(self._run))
+        ptr, lst, consistent = _api.get_neighbors(self._run, self.n_particles, n_entries)
         if not consistent:
             raise FsphError("neighbour lists: a low entry does not point at its pair")
         return ptr.copy(), lst.copy()
@@ -441,19 +457,19 @@ class Simulation:
     # ---- verification hooks (used by tests) ----------------------------
     def set_velocities(self, v):
         """Overwrite nodal velocities (n, 2) [m/s] (elements)."""
-        ierr = _api.set_node_velocities(np.asfortranarray(np.asarray(v, float).T))
+        ierr = _api.set_node_velocities(self._run, np.asfortranarray(np.asarray(v, float).T))
         if ierr != STATUS_OK:
             raise FsphError("set_velocities: wrong number of nodes")
 
     def set_element_energy(self, e):
         """Overwrite the specific internal energy (m,) [J/kg] of every element."""
-        ierr = _api.set_element_energy(np.asarray(e, float))
+        ierr = _api.set_element_energy(self._run, np.asarray(e, float))
         if ierr != STATUS_OK:
             raise FsphError("set_element_energy: wrong number of elements")
 
     def set_particle_motion(self, x, v):
         """Overwrite particle positions (n, 2) [m] and velocities (n, 2) [m/s]."""
-        ierr = _api.set_particle_motion(np.asfortranarray(np.asarray(x, float).T),
+        ierr = _api.set_particle_motion(self._run, np.asfortranarray(np.asarray(x, float).T),
                                         np.asfortranarray(np.asarray(v, float).T))
         if ierr != STATUS_OK:
             raise FsphError("set_particle_motion: wrong number of particles")
@@ -461,7 +477,7 @@ class Simulation:
     def strain_rates(self):
         """Element strain rates (m, 4) (rr, zz, rz, tt) and spin (m,) for the
         current positions and velocities [1/s]."""
-        d, spin, ierr = _api.get_strain_rates(self.n_elements)
+        d, spin, ierr = _api.get_strain_rates(self._run, self.n_elements)
         if ierr != STATUS_OK:
             raise FsphError("strain_rates: state not set up")
         return d.T.copy(), spin.copy()
@@ -496,15 +512,6 @@ def contact_filling(alpha_h):
     return filling(1.0), (filling(1.0 - step) - filling(1.0 + step)) / (2.0 * step)
 
 
-def drain_history():
-    """Time-history records (k, 8) recorded by the cycle since the last
-    call: time [s], cycle, dt [s], kinetic [J], internal [J], work of the
-    contact corrections [J], energy removed by erosion [J], kinetic energy
-    removed by the rigid planes and the particles' axis wall [J]."""
-    n = int(_api.history_count())
-    if n == 0:
-        return np.zeros((0, 8))
-    return _api.drain_history(n).T.copy()
 
 
 def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):

@@ -2,12 +2,15 @@
 !> scalars in and out; the state stays inside Fortran. Every routine that can
 !> fail returns ierr (a fsph_status code) and, where useful, ifault (the
 !> 1-based index of the element or node at fault). Nothing here stops the
-!> process.
+!> process. A routine that reads or changes a run's state takes the run's
+!> handle (open_run) first and works on that run alone (fsph_runs).
 module fsph_api
   use fsph_kinds, only: wp
+  use fsph_state, only: simulation_t
+  use fsph_runs, only: run_state
   implicit none
   private
-  public :: reset, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
+  public :: open_run, close_run, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
   public :: initialise, advance, get_sizes, get_clock, get_nodes, get_elements
   public :: get_element_fields, get_energies, set_node_velocities, set_particle_motion, set_element_energy
   public :: get_strain_rates
@@ -25,11 +28,20 @@ module fsph_api
 
 contains
 
-  !> Forget the whole state.
-  subroutine reset()
-    use fsph_state, only: state_reset
-    call state_reset()
-  end subroutine reset
+  !> A new, empty run: its handle, which every routine below that reads or
+  !> changes a run's state takes first.
+  subroutine open_run(run)
+    use fsph_runs, only: run_open
+    integer, intent(out) :: run
+    call run_open(run)
+  end subroutine open_run
+
+  !> Free run `run` (a closed or unknown handle is ignored).
+  subroutine close_run(run)
+    use fsph_runs, only: run_close
+    integer, intent(in) :: run
+    call run_close(run)
+  end subroutine close_run
 
   !> Sizes of the tables Python must match: number of material properties
   !> and of strength and EOS models.
@@ -52,20 +64,24 @@ contains
   !> in the order of fsph_timers (element forces, element update,
   !> neighbours, SPH sums, particle update, particle contact, coupling,
   !> contact, integration, conversion, time step).
-  subroutine get_phase_times(n, times)
-    use fsph_timers, only: n_phases, timer_elapsed
+  subroutine get_phase_times(run, n, times)
+    use fsph_timers, only: n_phases
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: n
     real(wp), intent(out) :: times(n)
-    real(wp) :: all_times(n_phases)
-    call timer_elapsed(all_times)
+    sim => run_state(run)
     times = 0.0_wp
-    times(1:min(n, n_phases)) = all_times(1:min(n, n_phases))
+    times(1:min(n, n_phases)) = sim%timers%elapsed(1:min(n, n_phases))
   end subroutine get_phase_times
 
-  !> Zero the phase timers.
-  subroutine reset_phase_times()
-    use fsph_timers, only: timer_reset
-    call timer_reset()
+  !> Zero the phase timers of run `run`.
+  subroutine reset_phase_times(run)
+    use fsph_timers, only: phase_timers_t
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    sim%timers = phase_timers_t()
   end subroutine reset_phase_times
 
   !> Number of OpenMP threads a parallel region will use (1 without OpenMP).
@@ -77,10 +93,12 @@ contains
   end subroutine threads
 
   !> Numerical parameters of the cycle (see fsph_state control_t).
-  subroutine set_control(dt_safety, c_q, c_l, dt_floor_ratio, dt_drop_ratio, history_every)
-    use fsph_state, only: sim
+  subroutine set_control(run, dt_safety, c_q, c_l, dt_floor_ratio, dt_drop_ratio, history_every)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(in) :: dt_safety, c_q, c_l, dt_floor_ratio, dt_drop_ratio
     integer, intent(in) :: history_every
+    sim => run_state(run)
     sim%control%history_every = max(history_every, 1)
     sim%control%dt_safety = dt_safety
     sim%control%c_q = c_q
@@ -94,13 +112,15 @@ contains
   !> filling at touching and its rate per spacing of approach [-]; the
   !> debris density fraction [-]; the neighbour lists' skin as a fraction
   !> of the smallest kernel support (0: lists rebuilt every cycle) [-].
-  subroutine set_sph_control(c_q, c_l, c_hg, contact_penalty, contact_touch, contact_slope, debris_ratio, &
+  subroutine set_sph_control(run, c_q, c_l, c_hg, contact_penalty, contact_touch, contact_slope, debris_ratio, &
                              neighbour_skin)
-    use fsph_state, only: sim
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(in) :: c_q, c_l, contact_penalty, contact_touch, contact_slope
     real(wp), intent(in) :: c_hg          !< hourglass viscosity coefficient [-]
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
     real(wp), intent(in) :: neighbour_skin
+    sim => run_state(run)
     sim%control%neighbour_skin = max(neighbour_skin, 0.0_wp)
     sim%particles%lists_valid = .false.
     sim%control%sph_c_q = c_q
@@ -114,18 +134,21 @@ contains
 
   !> Particles: positions (r, z) [m], velocities [m/s], ring masses [kg],
   !> smoothing lengths [m], material and body index.
-  subroutine set_particles(np, x, v, mass, h, mat, body, ierr)
-    use fsph_state, only: sim, state_allocate_particles
+  subroutine set_particles(run, np, x, v, mass, h, mat, body, ierr)
+    use fsph_state, only: state_allocate_particles
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: np
     real(wp), intent(in) :: x(2, np), v(2, np), mass(np), h(np)
     integer, intent(in) :: mat(np), body(np)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (np < 1) return
     ! room for the imaginary particles of every element, and for the
     ! particles the elements may become
-    call state_allocate_particles(np, np + sim%elements%n)
+    call state_allocate_particles(sim, np, np + sim%elements%n)
     ! slices: whole-array assignment would reallocate to np and lose the room
     sim%particles%x(:, 1:np) = x
     sim%particles%v(:, 1:np) = v
@@ -136,25 +159,29 @@ contains
     ierr = status_ok
   end subroutine set_particles
 
-  subroutine get_particle_count(np)
-    use fsph_state, only: sim
+  subroutine get_particle_count(run, np)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: np
+    sim => run_state(run)
     np = sim%particles%n
   end subroutine get_particle_count
 
   !> Particle positions, initial positions [m], velocities [m/s], masses
   !> [kg], smoothing lengths [m], radii [m], material and body index.
-  subroutine get_particles(np, x, x0, v, mass, h, radius, mat, body)
-    use fsph_state, only: sim
+  subroutine get_particles(run, np, x, x0, v, mass, h, radius, mat, body)
     use fsph_solver, only: update_particle_radius
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: np
     real(wp), intent(out) :: x(2, np), x0(2, np), v(2, np), mass(np), h(np), radius(np)
     integer, intent(out) :: mat(np), body(np)
+    sim => run_state(run)
     if (np /= sim%particles%n .or. np == 0) return
     associate (pt => sim%particles)
       x = pt%x(:, 1:np); x0 = pt%x0(:, 1:np); v = pt%v(:, 1:np); mass = pt%mass(1:np)
       h = pt%h(1:np)
-      call update_particle_radius()
+      call update_particle_radius(sim)
       radius = pt%radius(1:np)
       mat = pt%mat(1:np); body = pt%body(1:np)
     end associate
@@ -163,10 +190,12 @@ contains
   !> Particle fields: deviator s (rr, zz, rz, tt) [Pa], pressure [Pa],
   !> plastic strain [-], density [kg/m^3], specific internal energy [J/kg],
   !> temperature [K], sound speed [m/s].
-  subroutine get_particle_fields(np, s, p, eps_p, rho, e, temp, c)
-    use fsph_state, only: sim
+  subroutine get_particle_fields(run, np, s, p, eps_p, rho, e, temp, c)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: np
     real(wp), intent(out) :: s(4, np), p(np), eps_p(np), rho(np), e(np), temp(np), c(np)
+    sim => run_state(run)
     if (np /= sim%particles%n .or. np == 0) return
     associate (pt => sim%particles)
       s = pt%s(:, 1:np); p = pt%p(1:np); eps_p = pt%eps_p(1:np); rho = pt%rho(1:np)
@@ -178,20 +207,22 @@ contains
   !> accelerations [m/s^2], density rate [kg/(m^3 s)], energy rate
   !> [J/(kg s)], strain rates (rr, zz, rz, tt) and spin [1/s]. Builds the
   !> neighbour lists; does not change the state.
-  subroutine get_particle_rates(np, acc, drho, de, d, spin, ierr)
-    use fsph_state, only: sim
+  subroutine get_particle_rates(run, np, acc, drho, de, d, spin, ierr)
     use fsph_status, only: status_ok, status_bad_input
     use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch
     use fsph_solver, only: prepare_particle_sums
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: np
     real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
     integer, intent(out) :: ierr
     integer :: ntot
     real(wp), allocatable :: grad_v(:, :), switch(:)
+    sim => run_state(run)
     ierr = status_bad_input
     acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
     if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
-    call prepare_particle_sums(ntot)
+    call prepare_particle_sums(sim, ntot)
     allocate (grad_v(4, np), switch(np))
     associate (pt => sim%particles)
       call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
@@ -222,12 +253,14 @@ contains
   !> Continuum index of every body (bodies joined into one continuum share
   !> it: SPH sums and coupling join them, contact does not) and whether the
   !> body's elements act as imaginary particles (coupled modes).
-  subroutine set_continua(nbody, continuum, coupled, ierr)
-    use fsph_state, only: sim
+  subroutine set_continua(run, nbody, continuum, coupled, ierr)
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: nbody
     integer, intent(in) :: continuum(nbody), coupled(nbody)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (nbody < 1) return
     sim%continuum_of_body = continuum
@@ -237,13 +270,16 @@ contains
 
   !> Room for particles when a run starts with none (adaptive mode): one per
   !> element, plus the imaginary entries.
-  subroutine reserve_particles(ierr)
-    use fsph_state, only: sim, state_allocate_particles
+  subroutine reserve_particles(run, ierr)
+    use fsph_state, only: state_allocate_particles
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (sim%particles%n > 0 .or. sim%elements%n == 0) return
-    call state_allocate_particles(0, 2*sim%elements%n)
+    call state_allocate_particles(sim, 0, 2*sim%elements%n)
     ierr = status_ok
   end subroutine reserve_particles
 
@@ -252,10 +288,12 @@ contains
   !> angle [rad], plastic strain [-], equivalent stress [Pa], group factor
   !> kappa [-] and smoothing-length factor alpha_h [-] (also used for the
   !> imaginary particles of fixed coupling).
-  subroutine set_conversion(enabled, criterion, theta_c, theta_relative, eps_c, sigma_c, kappa, alpha_h)
-    use fsph_state, only: sim
+  subroutine set_conversion(run, enabled, criterion, theta_c, theta_relative, eps_c, sigma_c, kappa, alpha_h)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: enabled, criterion
     real(wp), intent(in) :: theta_c, theta_relative, eps_c, sigma_c, kappa, alpha_h
+    sim => run_state(run)
     sim%conversion%enabled = enabled /= 0
     sim%conversion%criterion = criterion
     sim%conversion%theta_c = theta_c
@@ -267,10 +305,12 @@ contains
   end subroutine set_conversion
 
   !> Conversion group of every element (0: not in a coupled body).
-  subroutine get_element_groups(ne, group)
-    use fsph_state, only: sim
+  subroutine get_element_groups(run, ne, group)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: ne
     integer, intent(out) :: group(ne)
+    sim => run_state(run)
     group = 0
     if (ne /= sim%elements%n .or. ne == 0) return
     group = sim%elements%group(1:ne)
@@ -279,12 +319,14 @@ contains
   !> Contact between bodies: on/off, correction passes per cycle, Coulomb
   !> friction coefficient [-], untied particles also against their own
   !> body's element surface (1/0).
-  subroutine set_contact(enabled, n_passes, friction, own_particles, ierr)
-    use fsph_state, only: sim
+  subroutine set_contact(run, enabled, n_passes, friction, own_particles, ierr)
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: enabled, n_passes, own_particles
     real(wp), intent(in) :: friction
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (n_passes < 1 .or. .not. (friction >= 0.0_wp)) return
     sim%contact%enabled = enabled /= 0
@@ -296,12 +338,14 @@ contains
 
   !> Element erosion (fsph_erosion): on/off and the largest principal
   !> (logarithmic) strain at which an element is deleted [-].
-  subroutine set_erosion(enabled, strain_limit, ierr)
-    use fsph_state, only: sim
+  subroutine set_erosion(run, enabled, strain_limit, ierr)
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: enabled
     real(wp), intent(in) :: strain_limit
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (.not. (strain_limit > 0.0_wp)) return
     sim%erosion%enabled = enabled /= 0
@@ -312,10 +356,12 @@ contains
   !> Erosion books: elements deleted, their mass [kg] and internal energy
   !> [J]; mass [kg], kinetic energy [J] and momentum (r, z) [kg m/s] of the
   !> nodes removed with their last element.
-  subroutine get_erosion_stats(n_eroded, element_mass, internal, node_mass, kinetic, momentum)
-    use fsph_state, only: sim
+  subroutine get_erosion_stats(run, n_eroded, element_mass, internal, node_mass, kinetic, momentum)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: n_eroded
     real(wp), intent(out) :: element_mass, internal, node_mass, kinetic, momentum(2)
+    sim => run_state(run)
     n_eroded = sim%erosion%n_eroded
     element_mass = sim%erosion%element_mass
     internal = sim%erosion%internal
@@ -326,13 +372,15 @@ contains
 
   !> Largest principal logarithmic strain of every element [-] (the erosion
   !> measure).
-  subroutine get_principal_strains(ne, strain, ierr)
-    use fsph_state, only: sim
+  subroutine get_principal_strains(run, ne, strain, ierr)
     use fsph_status, only: status_ok, status_bad_input
     use fsph_erosion, only: principal_strains
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: ne
     real(wp), intent(out) :: strain(ne)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     strain = 0.0_wp
     ierr = status_bad_input
     if (ne /= sim%elements%n .or. ne == 0) return
@@ -342,9 +390,11 @@ contains
 
   !> Debris particles (density held at the debris bound, no stress) after
   !> the last cycle.
-  subroutine get_debris_count(n_debris)
-    use fsph_state, only: sim
+  subroutine get_debris_count(run, n_debris)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: n_debris
+    sim => run_state(run)
     n_debris = sim%particles%n_debris
   end subroutine get_debris_count
 
@@ -359,13 +409,15 @@ contains
 
   !> Material history (n_hist rows: damage, largest volumetric strain;
   !> fsph_material) of every element (kind 1) or particle (kind 2).
-  subroutine get_material_history(kind, nh, n, hist, ierr)
-    use fsph_state, only: sim
+  subroutine get_material_history(run, kind, nh, n, hist, ierr)
     use fsph_status, only: status_ok, status_bad_input
     use fsph_material, only: n_hist
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: kind, nh, n
     real(wp), intent(out) :: hist(nh, n)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     hist = 0.0_wp
     ierr = status_bad_input
     if (nh /= n_hist .or. n == 0) return
@@ -399,18 +451,22 @@ contains
 
   !> Kinetic energy removed by the rigid planes and the particles' axis wall
   !> (perfectly inelastic on what strikes them) [J].
-  subroutine get_plane_dissipation(dissipated)
-    use fsph_state, only: sim
+  subroutine get_plane_dissipation(run, dissipated)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(out) :: dissipated
+    sim => run_state(run)
     dissipated = sim%plane_dissipated
   end subroutine get_plane_dissipation
 
   !> Contact books: kinetic energy removed by the corrections so far [J],
   !> pairs corrected in the last cycle, surface segments and nodes.
-  subroutine get_contact_stats(dissipated, n_active, n_seg, n_snode)
-    use fsph_state, only: sim
+  subroutine get_contact_stats(run, dissipated, n_active, n_seg, n_snode)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(out) :: dissipated
     integer, intent(out) :: n_active, n_seg, n_snode
+    sim => run_state(run)
     dissipated = sim%contact%dissipated
     n_active = sim%contact%n_active
     n_seg = sim%contact%n_seg
@@ -419,10 +475,13 @@ contains
 
   !> Deepest interpenetration at the current positions [m] and relative to
   !> the penetrated segment's length [-].
-  subroutine get_contact_penetration(depth, relative)
+  subroutine get_contact_penetration(run, depth, relative)
     use fsph_contact, only: contact_penetration
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(out) :: depth, relative
-    call contact_penetration(depth, relative)
+    sim => run_state(run)
+    call contact_penetration(sim%contact, sim%nodes, sim%particles, depth, relative)
   end subroutine get_contact_penetration
 
   !> The correction of one contact pair (seed 002 eqs 1-3), for
@@ -436,10 +495,12 @@ contains
 
   !> Elements converted, conversion events, kinetic energy turned into
   !> heat at conversion [J], coupling edges in use.
-  subroutine get_conversion_stats(n_converted, n_events, heat, n_edges)
-    use fsph_state, only: sim
+  subroutine get_conversion_stats(run, n_converted, n_events, heat, n_edges)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: n_converted, n_events, n_edges
     real(wp), intent(out) :: heat
+    sim => run_state(run)
     n_converted = sim%conversion%n_converted
     n_events = sim%conversion%n_events
     heat = sim%conversion%heat
@@ -449,12 +510,14 @@ contains
   !> Ties and associations of the particles: tied edge nodes (0: free),
   !> position along the edge, and the node pairs of up to two associated
   !> coupling edges (0: none).
-  subroutine get_particle_ties(np, tie_a, tie_b, tie_xi, assoc_nodes)
-    use fsph_state, only: sim
+  subroutine get_particle_ties(run, np, tie_a, tie_b, tie_xi, assoc_nodes)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: np
     integer, intent(out) :: tie_a(np), tie_b(np), assoc_nodes(2, 2, np)
     real(wp), intent(out) :: tie_xi(np)
     integer :: i, slot
+    sim => run_state(run)
     tie_a = 0; tie_b = 0; tie_xi = 0.0_wp; assoc_nodes = 0
     if (np /= sim%particles%n .or. np == 0) return
     associate (pt => sim%particles)
@@ -468,35 +531,40 @@ contains
   end subroutine get_particle_ties
 
   !> Numbers of real and integer state arrays and scalars of a checkpoint.
-  subroutine checkpoint_layout(n_real, n_int, n_rs, n_is)
+  subroutine checkpoint_layout(run, n_real, n_int, n_rs, n_is)
     use fsph_restart, only: n_real_arrays, n_int_arrays, n_real_scalars, n_int_scalars, &
                             prepare_checkpoint
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: n_real, n_int, n_rs, n_is
+    sim => run_state(run)
     n_real = n_real_arrays
     n_int = n_int_arrays
     n_rs = n_real_scalars
     n_is = n_int_scalars
-    call prepare_checkpoint()
+    call prepare_checkpoint(sim)
   end subroutine checkpoint_layout
 
   !> Shape (rows, cols) of state array id, real (kind 1) or integer (2);
   !> (0, 0) when absent. Also the sizes to allocate at restart.
-  subroutine checkpoint_sizes(kind, id, rows, cols, nn, ne, np, capacity, n_edges)
-    use fsph_state, only: sim
+  subroutine checkpoint_sizes(run, kind, id, rows, cols, nn, ne, np, capacity, n_edges)
     use fsph_restart, only: real_view, int_view
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: kind, id
     integer, intent(out) :: rows, cols, nn, ne, np, capacity, n_edges
     real(wp), pointer :: r(:, :)
     integer, pointer :: i(:, :)
+    sim => run_state(run)
     rows = 0
     cols = 0
     if (kind == 1) then
-      r => real_view(id)
+      r => real_view(sim, id)
       if (associated(r)) then
         rows = size(r, 1); cols = size(r, 2)
       end if
     else
-      i => int_view(id)
+      i => int_view(sim, id)
       if (associated(i)) then
         rows = size(i, 1); cols = size(i, 2)
       end if
@@ -505,54 +573,66 @@ contains
     capacity = sim%particles%capacity; n_edges = sim%coupling%n_edges
   end subroutine checkpoint_sizes
 
-  subroutine get_real_state(id, rows, cols, a)
+  subroutine get_real_state(run, id, rows, cols, a)
     use fsph_restart, only: real_view
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: id, rows, cols
     real(wp), intent(out) :: a(rows, cols)
     real(wp), pointer :: r(:, :)
-    r => real_view(id)
+    sim => run_state(run)
+    r => real_view(sim, id)
     a = 0.0_wp
     if (associated(r)) then
       if (size(r, 1) == rows .and. size(r, 2) == cols) a = r
     end if
   end subroutine get_real_state
 
-  subroutine get_int_state(id, rows, cols, a)
+  subroutine get_int_state(run, id, rows, cols, a)
     use fsph_restart, only: int_view
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: id, rows, cols
     integer, intent(out) :: a(rows, cols)
     integer, pointer :: i(:, :)
-    i => int_view(id)
+    sim => run_state(run)
+    i => int_view(sim, id)
     a = 0
     if (associated(i)) then
       if (size(i, 1) == rows .and. size(i, 2) == cols) a = i
     end if
   end subroutine get_int_state
 
-  subroutine set_real_state(id, rows, cols, a, ierr)
+  subroutine set_real_state(run, id, rows, cols, a, ierr)
     use fsph_restart, only: real_view
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: id, rows, cols
     real(wp), intent(in) :: a(rows, cols)
     integer, intent(out) :: ierr
     real(wp), pointer :: r(:, :)
+    sim => run_state(run)
     ierr = status_bad_input
-    r => real_view(id)
+    r => real_view(sim, id)
     if (.not. associated(r)) return
     if (size(r, 1) /= rows .or. size(r, 2) /= cols) return
     r = a
     ierr = status_ok
   end subroutine set_real_state
 
-  subroutine set_int_state(id, rows, cols, a, ierr)
+  subroutine set_int_state(run, id, rows, cols, a, ierr)
     use fsph_restart, only: int_view
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: id, rows, cols
     integer, intent(in) :: a(rows, cols)
     integer, intent(out) :: ierr
     integer, pointer :: i(:, :)
+    sim => run_state(run)
     ierr = status_bad_input
-    i => int_view(id)
+    i => int_view(sim, id)
     if (.not. associated(i)) return
     if (size(i, 1) /= rows .or. size(i, 2) /= cols) return
     i = a
@@ -560,43 +640,58 @@ contains
   end subroutine set_int_state
 
   !> Clock and conversion books (see fsph_restart get_scalars).
-  subroutine get_scalar_state(r, i)
+  subroutine get_scalar_state(run, r, i)
     use fsph_restart, only: get_scalars
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(out) :: r(13)   ! fsph_restart n_real_scalars
     integer, intent(out) :: i(9)     ! fsph_restart n_int_scalars
-    call get_scalars(r, i)
+    sim => run_state(run)
+    call get_scalars(sim, r, i)
   end subroutine get_scalar_state
 
   !> Start a restore: allocate for the checkpoint's sizes and set the clock.
-  subroutine restore_begin(nn, ne, np, capacity, n_edges, r, i)
+  subroutine restore_begin(run, nn, ne, np, capacity, n_edges, r, i)
     use fsph_restart, only: allocate_for_restart, set_scalars
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: nn, ne, np, capacity, n_edges
     real(wp), intent(in) :: r(13)
     integer, intent(in) :: i(9)
-    call allocate_for_restart(nn, ne, np, capacity, n_edges)
-    call set_scalars(r, i)
+    sim => run_state(run)
+    call allocate_for_restart(sim, nn, ne, np, capacity, n_edges)
+    call set_scalars(sim, r, i)
   end subroutine restore_begin
 
   !> End a restore: derived maps rebuilt, state ready.
-  subroutine restore_end()
+  subroutine restore_end(run)
     use fsph_restart, only: finish_restore
-    call finish_restore()
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    call finish_restore(sim)
   end subroutine restore_end
 
   !> Run the conversion check of the cycle now (verification): returns the
   !> number of elements converted.
-  subroutine convert_now(n_new)
+  subroutine convert_now(run, n_new)
     use fsph_convert, only: convert_elements
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: n_new
-    call convert_elements(n_new)
+    sim => run_state(run)
+    call convert_elements(sim%elements, sim%nodes, sim%particles, sim%coupling, sim%conversion, sim%contact, &
+                          sim%continuum_of_body, sim%body_coupled, n_new)
   end subroutine convert_now
 
   !> Give every element and real particle the deviator s (rr, zz, rz, tt)
   !> [Pa] and pressure p [Pa] (verification of equilibrium states).
-  subroutine set_stress_state(s, p)
-    use fsph_state, only: sim
+  subroutine set_stress_state(run, s, p)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(in) :: s(4), p
     integer :: i
+    sim => run_state(run)
     do i = 1, sim%elements%n
       sim%elements%s(:, i) = s
       sim%elements%p(i) = p
@@ -612,16 +707,18 @@ contains
   !> forces with coupling tractions and tie forces [N], particle
   !> accelerations [m/s^2]), without advancing (verification). dt [s] is
   !> the step the particle contact penalty would use.
-  subroutine get_forces(nn, np, dt, f, acc)
-    use fsph_state, only: sim
+  subroutine get_forces(run, nn, np, dt, f, acc)
     use fsph_solver, only: solver_forces
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: nn, np
     real(wp), intent(in) :: dt
     real(wp), intent(out) :: f(2, nn), acc(2, np)
+    sim => run_state(run)
     f = 0.0_wp
     acc = 0.0_wp
     if (nn /= sim%nodes%n .or. np /= sim%particles%n) return
-    call solver_forces(dt)
+    call solver_forces(sim, dt)
     if (nn > 0) f = sim%nodes%f(:, 1:nn)
     if (np > 0) acc = sim%particles%acc(:, 1:np)
   end subroutine get_forces
@@ -641,27 +738,33 @@ contains
 
   !> Number of neighbour-list builds of the cycle so far (the lists are
   !> kept while their skin allows, fsph_verlet).
-  subroutine get_list_rebuilds(n)
-    use fsph_state, only: sim
+  subroutine get_list_rebuilds(run, n)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: n
+    sim => run_state(run)
     n = sim%particles%n_rebuilds
   end subroutine get_list_rebuilds
 
   !> Row width of the neighbour search's buffers (verification: the lists
   !> must not depend on it; it grows by itself when a list is longer).
-  subroutine set_neighbour_width(width)
-    use fsph_state, only: sim
+  subroutine set_neighbour_width(run, width)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: width
+    sim => run_state(run)
     sim%particles%search%width = max(width, 1)
     sim%particles%lists_valid = .false.
   end subroutine set_neighbour_width
 
   !> Total number of neighbour entries (ghosts included) of the last search,
   !> each pair of real particles counted in both particles' lists.
-  subroutine get_neighbor_count(nentries)
-    use fsph_state, only: sim
+  subroutine get_neighbor_count(run, nentries)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: nentries
     integer :: n
+    sim => run_state(run)
     nentries = 0
     n = sim%particles%n
     if (n > 0 .and. allocated(sim%particles%nbr_list)) &
@@ -673,11 +776,13 @@ contains
   !> row (half and one-way entries) followed by its low partners.
   !> consistent = 1 when every low entry points at the pair entry that
   !> holds the particle in its partner's half row (verification).
-  subroutine get_neighbors(np, nentries, ptr, list, consistent)
-    use fsph_state, only: sim
+  subroutine get_neighbors(run, np, nentries, ptr, list, consistent)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: np, nentries
     integer, intent(out) :: ptr(np + 1), list(nentries), consistent
     integer :: i, n_own, n_low, m, k, j
+    sim => run_state(run)
     ptr = 1
     list = 0
     consistent = 0
@@ -706,14 +811,16 @@ contains
 
   !> Material table: props(nprop, nmat) in the fsph_material layout and the
   !> strength and EOS model ids of each material.
-  subroutine set_materials(nprop, nmat, props, istrength, ieos, ierr)
-    use fsph_state, only: sim
+  subroutine set_materials(run, nprop, nmat, props, istrength, ieos, ierr)
     use fsph_material, only: n_props
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: nprop, nmat
     real(wp), intent(in) :: props(nprop, nmat)
     integer, intent(in) :: istrength(nmat), ieos(nmat)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (nprop /= n_props .or. nmat < 1) return
     sim%n_materials = nmat
@@ -725,16 +832,19 @@ contains
 
   !> Element mesh: node positions (r, z) and initial velocities, element
   !> connectivity (1-based, counter-clockwise), material and body index.
-  subroutine set_mesh(nn, ne, x, v, conn, mat, body, ierr)
-    use fsph_state, only: sim, state_allocate
+  subroutine set_mesh(run, nn, ne, x, v, conn, mat, body, ierr)
+    use fsph_state, only: state_allocate
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: nn, ne
     real(wp), intent(in) :: x(2, nn), v(2, nn)
     integer, intent(in) :: conn(3, ne), mat(ne), body(ne)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (nn < 3 .or. ne < 1) return
-    call state_allocate(nn, ne)
+    call state_allocate(sim, nn, ne)
     sim%nodes%x = x
     sim%nodes%v = v
     sim%elements%conn = conn
@@ -745,13 +855,16 @@ contains
 
   !> Add a rigid, fixed, frictionless plane through point with unit normal
   !> pointing towards the bodies.
-  subroutine add_rigid_plane(point, normal, ierr)
-    use fsph_state, only: sim, rigid_plane_t
+  subroutine add_rigid_plane(run, point, normal, ierr)
+    use fsph_state, only: rigid_plane_t
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(in) :: point(2), normal(2)
     integer, intent(out) :: ierr
     type(rigid_plane_t) :: plane
     real(wp) :: length
+    sim => run_state(run)
     ierr = status_bad_input
     length = norm2(normal)
     if (.not. (length > 0.0_wp)) return
@@ -764,38 +877,46 @@ contains
   end subroutine add_rigid_plane
 
   !> Derived set-up (masses, densities, maps, first time step).
-  subroutine initialise(ierr, ifault)
+  subroutine initialise(run, ierr, ifault)
     use fsph_solver, only: solver_initialise
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: ierr, ifault
-    call solver_initialise(ierr, ifault)
+    sim => run_state(run)
+    call solver_initialise(sim, ierr, ifault)
   end subroutine initialise
 
   !> Advance to t_target [s], at most max_cycles cycles; land /= 0: end
   !> exactly on t_target (see solver_advance).
   !> In a debug build, floating-point traps (invalid, division by zero,
   !> overflow) are on during the cycle and restored afterwards.
-  subroutine advance(t_target, max_cycles, land, ierr, ifault)
+  subroutine advance(run, t_target, max_cycles, land, ierr, ifault)
     use fsph_solver, only: solver_advance
     use fsph_build, only: debug_checks
     use, intrinsic :: ieee_exceptions, only: ieee_get_halting_mode, ieee_set_halting_mode, &
                                               ieee_invalid, ieee_divide_by_zero, ieee_overflow
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(in) :: t_target
     integer, intent(in) :: max_cycles, land
     integer, intent(out) :: ierr, ifault
     logical :: halting(3)
+    sim => run_state(run)
     if (debug_checks) then
       call ieee_get_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], halting)
       call ieee_set_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], .true.)
     end if
-    call solver_advance(t_target, max_cycles, land, ierr, ifault)
+    call solver_advance(sim, t_target, max_cycles, land, ierr, ifault)
     if (debug_checks) then
       call ieee_set_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], halting)
     end if
   end subroutine advance
 
-  subroutine get_sizes(nn, ne)
-    use fsph_state, only: sim
+  subroutine get_sizes(run, nn, ne)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: nn, ne
+    sim => run_state(run)
     nn = sim%nodes%n
     ne = sim%elements%n
   end subroutine get_sizes
@@ -803,10 +924,12 @@ contains
   !> Clock: time [s], stable step for the next cycle [s], last step [s],
   !> initial stable step [s], cycle count, element or particle controlling
   !> the step (0 for the other kind).
-  subroutine get_clock(time, dt, dt_last, dt_initial, cycle, dt_element, dt_particle)
-    use fsph_state, only: sim
+  subroutine get_clock(run, time, dt, dt_last, dt_initial, cycle, dt_element, dt_particle)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(out) :: time, dt, dt_last, dt_initial
     integer, intent(out) :: cycle, dt_element, dt_particle
+    sim => run_state(run)
     dt_particle = sim%dt_particle
     time = sim%time
     dt = sim%dt
@@ -817,20 +940,24 @@ contains
   end subroutine get_clock
 
   !> Node positions, initial positions [m], velocities [m/s], masses [kg].
-  subroutine get_nodes(nn, x, x0, v, mass)
-    use fsph_state, only: sim
+  subroutine get_nodes(run, nn, x, x0, v, mass)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: nn
     real(wp), intent(out) :: x(2, nn), x0(2, nn), v(2, nn), mass(nn)
+    sim => run_state(run)
     x = sim%nodes%x
     x0 = sim%nodes%x0
     v = sim%nodes%v
     mass = sim%nodes%mass
   end subroutine get_nodes
 
-  subroutine get_elements(ne, conn, mat, body)
-    use fsph_state, only: sim
+  subroutine get_elements(run, ne, conn, mat, body)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: ne
     integer, intent(out) :: conn(3, ne), mat(ne), body(ne)
+    sim => run_state(run)
     conn = sim%elements%conn
     mat = sim%elements%mat
     body = sim%elements%body
@@ -839,11 +966,13 @@ contains
   !> Element fields: deviator s (rr, zz, rz, tt) [Pa], pressure p and viscous
   !> pressure q [Pa], plastic strain [-], density [kg/m^3], specific internal
   !> energy [J/kg], temperature [K], sound speed [m/s], area [m^2], mass [kg].
-  subroutine get_element_fields(ne, s, p, q, eps_p, rho, e, temp, c, area, mass)
-    use fsph_state, only: sim
+  subroutine get_element_fields(run, ne, s, p, q, eps_p, rho, e, temp, c, area, mass)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: ne
     real(wp), intent(out) :: s(4, ne), p(ne), q(ne), eps_p(ne), rho(ne), e(ne), temp(ne)
     real(wp), intent(out) :: c(ne), area(ne), mass(ne)
+    sim => run_state(run)
     associate (el => sim%elements)
       s = el%s; p = el%p; q = el%q; eps_p = el%eps_p; rho = el%rho; e = el%e
       temp = el%temp; c = el%c; area = el%area; mass = el%mass
@@ -851,28 +980,36 @@ contains
   end subroutine get_element_fields
 
   !> Kinetic energy (half-step velocities) and internal energy [J].
-  subroutine get_energies(kinetic, internal)
+  subroutine get_energies(run, kinetic, internal)
     use fsph_solver, only: solver_energies
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     real(wp), intent(out) :: kinetic, internal
-    call solver_energies(kinetic, internal)
+    sim => run_state(run)
+    call solver_energies(sim, kinetic, internal)
   end subroutine get_energies
 
   !> Number of time-history records waiting to be drained.
-  subroutine history_count(n)
-    use fsph_state, only: sim
+  subroutine history_count(run, n)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(out) :: n
+    sim => run_state(run)
     n = sim%n_history
   end subroutine history_count
 
   !> Take the n waiting records (time [s], cycle, dt [s], kinetic [J],
   !> internal [J], contact work [J], energy removed by erosion [J], work of
   !> the rigid planes and the particles' axis wall [J]) and empty the buffer.
-  subroutine drain_history(n, records)
-    use fsph_state, only: sim, history_columns
+  subroutine drain_history(run, n, records)
+    use fsph_state, only: history_columns
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: n
     ! literal 8 = history_columns: f2py cannot size arrays by module constants
     real(wp), intent(out) :: records(8, n)
     integer :: k
+    sim => run_state(run)
     k = min(n, sim%n_history)
     if (history_columns /= size(records, 1)) k = 0
     records = 0.0_wp
@@ -881,12 +1018,14 @@ contains
   end subroutine drain_history
 
   !> Overwrite nodal velocities [m/s] (verification tests and restarts).
-  subroutine set_node_velocities(nn, v, ierr)
-    use fsph_state, only: sim
+  subroutine set_node_velocities(run, nn, v, ierr)
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: nn
     real(wp), intent(in) :: v(2, nn)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (nn /= sim%nodes%n) return
     sim%nodes%v = v
@@ -895,12 +1034,14 @@ contains
 
   !> Overwrite the specific internal energy of every element [J/kg]
   !> (verification tests: e.g. a NaN to exercise the element guard).
-  subroutine set_element_energy(ne, e, ierr)
-    use fsph_state, only: sim
+  subroutine set_element_energy(run, ne, e, ierr)
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: ne
     real(wp), intent(in) :: e(ne)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (ne /= sim%elements%n) return
     sim%elements%e(1:ne) = e
@@ -909,12 +1050,14 @@ contains
 
   !> Overwrite particle positions [m] and velocities [m/s] (verification
   !> tests: e.g. put a particle across the axis to exercise its guard).
-  subroutine set_particle_motion(np, x, v, ierr)
-    use fsph_state, only: sim
+  subroutine set_particle_motion(run, np, x, v, ierr)
     use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: np
     real(wp), intent(in) :: x(2, np), v(2, np)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     ierr = status_bad_input
     if (np /= sim%particles%n) return
     sim%particles%x(:, 1:np) = x
@@ -925,13 +1068,15 @@ contains
 
   !> Strain rates (rr, zz, rz, tt) [1/s] and spin [1/s] of every element for
   !> the current positions and velocities (the kernel the cycle uses).
-  subroutine get_strain_rates(ne, d, spin, ierr)
-    use fsph_state, only: sim
+  subroutine get_strain_rates(run, ne, d, spin, ierr)
     use fsph_status, only: status_ok, status_bad_input
     use fsph_element, only: element_strain_rates
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
     integer, intent(in) :: ne
     real(wp), intent(out) :: d(4, ne), spin(ne)
     integer, intent(out) :: ierr
+    sim => run_state(run)
     d = 0.0_wp
     spin = 0.0_wp
     ierr = status_bad_input

@@ -32,7 +32,7 @@
 !>    correction; O(N) per pass.
 module fsph_contact
   use fsph_kinds, only: wp
-  use fsph_state, only: sim
+  use fsph_state, only: contact_t, contact_grid_t, node_set_t, element_set_t, particle_set_t
   use fsph_arrays, only: reserve
   use fsph_topology, only: elements_with_edge
   implicit none
@@ -58,11 +58,6 @@ module fsph_contact
     real(wp) :: length = 0.0_wp         !< master segment length [m]
   end type contact_pair_t
 
-  ! bucket grid of segment midpoints
-  integer :: grid_nr = 0, grid_nz = 0
-  logical :: grid_ok = .false.
-  real(wp) :: grid_origin(2) = 0.0_wp, grid_cell = 1.0_wp
-
 contains
 
   !> Momentum-weighted correction of one contact pair (seed 002 eqs 1-3):
@@ -85,66 +80,69 @@ contains
   !> Surface segments and nodes of the element region, from the current
   !> mesh (after set-up, a conversion or a restart); built with contact off
   !> too, so penetration can still be measured.
-  subroutine contact_rebuild_surface()
+  subroutine contact_rebuild_surface(ct, el, nd, continuum_of_body)
+    type(contact_t), intent(inout) :: ct
+    type(element_set_t), intent(in) :: el
+    type(node_set_t), intent(in) :: nd
+    integer, intent(in) :: continuum_of_body(:)
     integer :: ie, k, a, b, n_seg
     logical, allocatable :: on_surface(:)
     integer, allocatable :: cont_of_node(:)
-    associate (ct => sim%contact, el => sim%elements, nd => sim%nodes)
-      ct%n_seg = 0
-      ct%n_snode = 0
-      if (el%n == 0) return
-      if (allocated(ct%seg)) deallocate (ct%seg, ct%seg_cont)
-      allocate (ct%seg(2, 3*el%n), ct%seg_cont(3*el%n), on_surface(nd%n), cont_of_node(nd%n))
-      on_surface = .false.
-      cont_of_node = 0
-      n_seg = 0
-      do ie = 1, el%n
-        do k = 1, 3
-          a = el%conn(k, ie)
-          b = el%conn(modulo(k, 3) + 1, ie)
-          if (nd%on_axis(a) .and. nd%on_axis(b)) cycle
-          if (elements_with_edge(a, b, ie) /= 0) cycle
-          n_seg = n_seg + 1
-          ct%seg(:, n_seg) = [a, b]
-          ct%seg_cont(n_seg) = sim%continuum_of_body(el%body(ie))
-          on_surface(a) = .true.
-          on_surface(b) = .true.
-          cont_of_node(a) = ct%seg_cont(n_seg)
-          cont_of_node(b) = ct%seg_cont(n_seg)
-        end do
+    ct%n_seg = 0
+    ct%n_snode = 0
+    if (el%n == 0) return
+    if (allocated(ct%seg)) deallocate (ct%seg, ct%seg_cont)
+    allocate (ct%seg(2, 3*el%n), ct%seg_cont(3*el%n), on_surface(nd%n), cont_of_node(nd%n))
+    on_surface = .false.
+    cont_of_node = 0
+    n_seg = 0
+    do ie = 1, el%n
+      do k = 1, 3
+        a = el%conn(k, ie)
+        b = el%conn(modulo(k, 3) + 1, ie)
+        if (nd%on_axis(a) .and. nd%on_axis(b)) cycle
+        if (elements_with_edge(nd, el, a, b, ie) /= 0) cycle
+        n_seg = n_seg + 1
+        ct%seg(:, n_seg) = [a, b]
+        ct%seg_cont(n_seg) = continuum_of_body(el%body(ie))
+        on_surface(a) = .true.
+        on_surface(b) = .true.
+        cont_of_node(a) = ct%seg_cont(n_seg)
+        cont_of_node(b) = ct%seg_cont(n_seg)
       end do
-      ct%n_seg = n_seg
-      ct%several_continua = .false.
-      if (n_seg > 0) ct%several_continua = any(ct%seg_cont(1:n_seg) /= ct%seg_cont(1))
-      ct%n_snode = count(on_surface)
-      if (allocated(ct%snode)) deallocate (ct%snode, ct%snode_cont)
-      ct%snode = pack([(a, a = 1, nd%n)], on_surface)
-      ct%snode_cont = cont_of_node(ct%snode)
-    end associate
+    end do
+    ct%n_seg = n_seg
+    ct%several_continua = .false.
+    if (n_seg > 0) ct%several_continua = any(ct%seg_cont(1:n_seg) /= ct%seg_cont(1))
+    ct%n_snode = count(on_surface)
+    if (allocated(ct%snode)) deallocate (ct%snode, ct%snode_cont)
+    ct%snode = pack([(a, a = 1, nd%n)], on_surface)
+    ct%snode_cont = cont_of_node(ct%snode)
   end subroutine contact_rebuild_surface
 
   !> Predicted position x + dt v of node a [m].
-  pure function node_predicted(a, dt) result(p)
+  pure function node_predicted(nd, a, dt) result(p)
+    type(node_set_t), intent(in) :: nd
     integer, intent(in) :: a
     real(wp), intent(in) :: dt
     real(wp) :: p(2)
-    p = sim%nodes%x(:, a) + dt*sim%nodes%v(:, a)
+    p = nd%x(:, a) + dt*nd%v(:, a)
   end function node_predicted
 
   !> Predicted position of particle i [m]; a tied particle moves with the
   !> tie point of its edge.
-  pure function particle_predicted(i, dt) result(p)
+  pure function particle_predicted(pt, nd, i, dt) result(p)
+    type(particle_set_t), intent(in) :: pt
+    type(node_set_t), intent(in) :: nd
     integer, intent(in) :: i
     real(wp), intent(in) :: dt
     real(wp) :: p(2), xi
-    associate (pt => sim%particles, nd => sim%nodes)
-      if (pt%tie_a(i) > 0) then
-        xi = pt%tie_xi(i)
-        p = pt%x(:, i) + dt*((1.0_wp - xi)*nd%v(:, pt%tie_a(i)) + xi*nd%v(:, pt%tie_b(i)))
-      else
-        p = pt%x(:, i) + dt*pt%v(:, i)
-      end if
-    end associate
+    if (pt%tie_a(i) > 0) then
+      xi = pt%tie_xi(i)
+      p = pt%x(:, i) + dt*((1.0_wp - xi)*nd%v(:, pt%tie_a(i)) + xi*nd%v(:, pt%tie_b(i)))
+    else
+      p = pt%x(:, i) + dt*pt%v(:, i)
+    end if
   end function particle_predicted
 
   !> Bucket the segments: each is registered in every cell that its reach
@@ -152,89 +150,91 @@ contains
   !> largest contact thickness) overlaps, so a point looks in its own cell
   !> only. Cells as wide as the mean segment, so long segments (a graded
   !> plate's rim) do not coarsen the search near the impact.
-  subroutine build_buckets(dt)
+  subroutine build_buckets(ct, nd, pt, dt)
+    type(contact_t), intent(inout) :: ct
+    type(node_set_t), intent(in) :: nd
+    type(particle_set_t), intent(in) :: pt
     real(wp), intent(in) :: dt
     !> At most this many cells per segment (widely scattered surfaces get
     !> bigger cells instead of a huge grid) [-].
     integer, parameter :: cells_per_segment = 16
     real(wp) :: lo(2), hi(2), l_sum, r_max, xa(2), xb(2), seg_lo(2), seg_hi(2), reach
     integer :: k, ic, n_cells, n_items, ir, iz, c_lo(2), c_hi(2), pass
-    associate (ct => sim%contact, pt => sim%particles)
-      r_max = 0.0_wp
-      if (pt%n > 0) r_max = maxval(pt%radius(1:pt%n))
-      lo = huge(1.0_wp)
-      hi = -huge(1.0_wp)
-      l_sum = 0.0_wp
+    r_max = 0.0_wp
+    if (pt%n > 0) r_max = maxval(pt%radius(1:pt%n))
+    lo = huge(1.0_wp)
+    hi = -huge(1.0_wp)
+    l_sum = 0.0_wp
+    do k = 1, ct%n_seg
+      xa = node_predicted(nd, ct%seg(1, k), dt)
+      xb = node_predicted(nd, ct%seg(2, k), dt)
+      reach = capture_depth*norm2(xb - xa) + r_max
+      lo = min(lo, min(xa, xb) - reach)
+      hi = max(hi, max(xa, xb) + reach)
+      l_sum = l_sum + norm2(xb - xa)
+    end do
+    ct%grid%cell = max(l_sum/ct%n_seg, 2.0_wp*r_max, tiny(1.0_wp))
+    ! a non-finite position (the run is about to stop on it): no search
+    ct%grid%ok = all(abs(lo) <= huge(1.0_wp)) .and. all(abs(hi) <= huge(1.0_wp)) .and. &
+              abs(ct%grid%cell) <= huge(1.0_wp)
+    if (.not. ct%grid%ok) return
+    do
+      ct%grid%nr = int((hi(1) - lo(1))/ct%grid%cell) + 1
+      ct%grid%nz = int((hi(2) - lo(2))/ct%grid%cell) + 1
+      if (real(ct%grid%nr, wp)*real(ct%grid%nz, wp) <= real(cells_per_segment*ct%n_seg + 1024, wp)) exit
+      ct%grid%cell = 2.0_wp*ct%grid%cell
+    end do
+    ct%grid%origin = lo
+    n_cells = ct%grid%nr*ct%grid%nz
+    call reserve(ct%cell_start, n_cells + 1)
+    call reserve(ct%fill, n_cells + 1)
+    associate (fill => ct%fill(1:n_cells + 1))
+    ! two passes: count the registrations per cell, then store them
+    fill = 0
+    do pass = 1, 2
       do k = 1, ct%n_seg
-        xa = node_predicted(ct%seg(1, k), dt)
-        xb = node_predicted(ct%seg(2, k), dt)
+        xa = node_predicted(nd, ct%seg(1, k), dt)
+        xb = node_predicted(nd, ct%seg(2, k), dt)
         reach = capture_depth*norm2(xb - xa) + r_max
-        lo = min(lo, min(xa, xb) - reach)
-        hi = max(hi, max(xa, xb) + reach)
-        l_sum = l_sum + norm2(xb - xa)
-      end do
-      grid_cell = max(l_sum/ct%n_seg, 2.0_wp*r_max, tiny(1.0_wp))
-      ! a non-finite position (the run is about to stop on it): no search
-      grid_ok = all(abs(lo) <= huge(1.0_wp)) .and. all(abs(hi) <= huge(1.0_wp)) .and. &
-                abs(grid_cell) <= huge(1.0_wp)
-      if (.not. grid_ok) return
-      do
-        grid_nr = int((hi(1) - lo(1))/grid_cell) + 1
-        grid_nz = int((hi(2) - lo(2))/grid_cell) + 1
-        if (real(grid_nr, wp)*real(grid_nz, wp) <= real(cells_per_segment*ct%n_seg + 1024, wp)) exit
-        grid_cell = 2.0_wp*grid_cell
-      end do
-      grid_origin = lo
-      n_cells = grid_nr*grid_nz
-      call reserve(ct%cell_start, n_cells + 1)
-      call reserve(ct%fill, n_cells + 1)
-      associate (fill => ct%fill(1:n_cells + 1))
-      ! two passes: count the registrations per cell, then store them
-      fill = 0
-      do pass = 1, 2
-        do k = 1, ct%n_seg
-          xa = node_predicted(ct%seg(1, k), dt)
-          xb = node_predicted(ct%seg(2, k), dt)
-          reach = capture_depth*norm2(xb - xa) + r_max
-          seg_lo = min(xa, xb) - reach
-          seg_hi = max(xa, xb) + reach
-          c_lo = cell_coords(seg_lo)
-          c_hi = cell_coords(seg_hi)
-          do iz = c_lo(2), c_hi(2)
-            do ir = c_lo(1), c_hi(1)
-              ic = iz*grid_nr + ir + 1
-              if (pass == 1) then
-                fill(ic + 1) = fill(ic + 1) + 1
-              else
-                ct%cell_items(fill(ic)) = k
-                fill(ic) = fill(ic) + 1
-              end if
-            end do
+        seg_lo = min(xa, xb) - reach
+        seg_hi = max(xa, xb) + reach
+        c_lo = cell_coords(ct%grid, seg_lo)
+        c_hi = cell_coords(ct%grid, seg_hi)
+        do iz = c_lo(2), c_hi(2)
+          do ir = c_lo(1), c_hi(1)
+            ic = iz*ct%grid%nr + ir + 1
+            if (pass == 1) then
+              fill(ic + 1) = fill(ic + 1) + 1
+            else
+              ct%cell_items(fill(ic)) = k
+              fill(ic) = fill(ic) + 1
+            end if
           end do
         end do
-        if (pass == 1) then
-          ct%cell_start(1) = 1
-          do ic = 1, n_cells
-            ct%cell_start(ic + 1) = ct%cell_start(ic) + fill(ic + 1)
-          end do
-          n_items = ct%cell_start(n_cells + 1) - 1
-          if (allocated(ct%cell_items)) then
-            if (size(ct%cell_items) < n_items) deallocate (ct%cell_items)
-          end if
-          if (.not. allocated(ct%cell_items)) allocate (ct%cell_items(max(n_items + n_items/4, 16)))
-          fill(1:n_cells) = ct%cell_start(1:n_cells)
-        end if
       end do
-      end associate
+      if (pass == 1) then
+        ct%cell_start(1) = 1
+        do ic = 1, n_cells
+          ct%cell_start(ic + 1) = ct%cell_start(ic) + fill(ic + 1)
+        end do
+        n_items = ct%cell_start(n_cells + 1) - 1
+        if (allocated(ct%cell_items)) then
+          if (size(ct%cell_items) < n_items) deallocate (ct%cell_items)
+        end if
+        if (.not. allocated(ct%cell_items)) allocate (ct%cell_items(max(n_items + n_items/4, 16)))
+        fill(1:n_cells) = ct%cell_start(1:n_cells)
+      end if
+    end do
     end associate
   end subroutine build_buckets
 
   !> Cell coordinates (0-based, clamped to the grid) of point p.
-  pure function cell_coords(p) result(c)
+  pure function cell_coords(grid, p) result(c)
+    type(contact_grid_t), intent(in) :: grid
     real(wp), intent(in) :: p(2)
     integer :: c(2)
-    c(1) = min(max(int((p(1) - grid_origin(1))/grid_cell), 0), grid_nr - 1)
-    c(2) = min(max(int((p(2) - grid_origin(2))/grid_cell), 0), grid_nz - 1)
+    c(1) = min(max(int((p(1) - grid%origin(1))/grid%cell), 0), grid%nr - 1)
+    c(2) = min(max(int((p(2) - grid%origin(2))/grid%cell), 0), grid%nz - 1)
   end function cell_coords
 
   !> Deepest contact of point p (predicted; p_now its current position)
@@ -246,7 +246,9 @@ contains
   !> deeper than the capture depth): an existing overlap only stops
   !> growing, it is not pushed out in one step, which would put energy in.
   !> With `whole` the whole penetration is returned (measurement).
-  subroutine find_contact(p, p_now, tau, own, own_allowed, self, dt, best, whole)
+  subroutine find_contact(ct, nd, p, p_now, tau, own, own_allowed, self, dt, best, whole)
+    type(contact_t), intent(in) :: ct
+    type(node_set_t), intent(in) :: nd
     real(wp), intent(in) :: p(2), p_now(2), tau, dt
     integer, intent(in) :: own, self
     logical, intent(in) :: own_allowed
@@ -254,63 +256,61 @@ contains
     logical, intent(in), optional :: whole
     real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2), overlap
     integer :: ir, iz, ic, m, k, a, b
-    associate (ct => sim%contact, nd => sim%nodes)
-      if (.not. grid_ok) return
-      if (.not. (abs(p(1)) <= huge(1.0_wp) .and. abs(p(2)) <= huge(1.0_wp))) return
-      if (p(1) < grid_origin(1) .or. p(2) < grid_origin(2)) return
-      if (p(1) >= grid_origin(1) + grid_nr*grid_cell .or. p(2) >= grid_origin(2) + grid_nz*grid_cell) return
-      ir = min(int((p(1) - grid_origin(1))/grid_cell), grid_nr - 1)
-      iz = min(int((p(2) - grid_origin(2))/grid_cell), grid_nz - 1)
-      ic = iz*grid_nr + ir + 1
-      do m = ct%cell_start(ic), ct%cell_start(ic + 1) - 1
-        k = ct%cell_items(m)
-        a = ct%seg(1, k)
-        b = ct%seg(2, k)
-        if (a == self .or. b == self) cycle
-        thick = tau
-        if (ct%seg_cont(k) == own) then
-          if (.not. own_allowed) cycle
-          thick = 0.0_wp
+    if (.not. ct%grid%ok) return
+    if (.not. (abs(p(1)) <= huge(1.0_wp) .and. abs(p(2)) <= huge(1.0_wp))) return
+    if (p(1) < ct%grid%origin(1) .or. p(2) < ct%grid%origin(2)) return
+    if (p(1) >= ct%grid%origin(1) + ct%grid%nr*ct%grid%cell .or. p(2) >= ct%grid%origin(2) + ct%grid%nz*ct%grid%cell) return
+    ir = min(int((p(1) - ct%grid%origin(1))/ct%grid%cell), ct%grid%nr - 1)
+    iz = min(int((p(2) - ct%grid%origin(2))/ct%grid%cell), ct%grid%nz - 1)
+    ic = iz*ct%grid%nr + ir + 1
+    do m = ct%cell_start(ic), ct%cell_start(ic + 1) - 1
+      k = ct%cell_items(m)
+      a = ct%seg(1, k)
+      b = ct%seg(2, k)
+      if (a == self .or. b == self) cycle
+      thick = tau
+      if (ct%seg_cont(k) == own) then
+        if (.not. own_allowed) cycle
+        thick = 0.0_wp
+      end if
+      xa = node_predicted(nd, a, dt)
+      xb = node_predicted(nd, b, dt)
+      t = xb - xa
+      l = norm2(t)
+      if (.not. (l > 0.0_wp)) cycle
+      t = t/l
+      nrm = [t(2), -t(1)]           ! outward: the element region is on the left
+      s = dot_product(p - xa, t)
+      g = dot_product(p - xa, nrm)
+      if (s >= 0.0_wp .and. s <= l) then
+        ! case (a): onto the segment
+        delta = thick - g
+        if (delta <= 0.0_wp .or. g <= -capture_depth*l) cycle
+        overlap = thick - gap_now(p_now, nd%x(:, a), nd%x(:, b))
+        if (present(whole)) overlap = 0.0_wp
+        delta = delta - max(overlap, 0.0_wp)
+        if (delta <= 0.0_wp) cycle
+        if (best%found .and. delta <= best%delta) cycle   ! case (b): the deepest
+        best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l)
+      else if (thick > 0.0_wp .and. g > 0.0_wp) then
+        ! case (c): beyond the segment's end, on its outer side: the node
+        if (s < 0.0_wp) then
+          e = xa
+        else
+          e = xb
         end if
-        xa = node_predicted(a, dt)
-        xb = node_predicted(b, dt)
-        t = xb - xa
-        l = norm2(t)
-        if (.not. (l > 0.0_wp)) cycle
-        t = t/l
-        nrm = [t(2), -t(1)]           ! outward: the element region is on the left
-        s = dot_product(p - xa, t)
-        g = dot_product(p - xa, nrm)
-        if (s >= 0.0_wp .and. s <= l) then
-          ! case (a): onto the segment
-          delta = thick - g
-          if (delta <= 0.0_wp .or. g <= -capture_depth*l) cycle
-          overlap = thick - gap_now(p_now, nd%x(:, a), nd%x(:, b))
-          if (present(whole)) overlap = 0.0_wp
-          delta = delta - max(overlap, 0.0_wp)
-          if (delta <= 0.0_wp) cycle
-          if (best%found .and. delta <= best%delta) cycle   ! case (b): the deepest
-          best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l)
-        else if (thick > 0.0_wp .and. g > 0.0_wp) then
-          ! case (c): beyond the segment's end, on its outer side: the node
-          if (s < 0.0_wp) then
-            e = xa
-          else
-            e = xb
-          end if
-          d = norm2(p - e)
-          delta = thick - d
-          if (delta <= 0.0_wp .or. .not. (d > 0.0_wp)) cycle
-          overlap = thick - norm2(p_now - nd%x(:, merge(a, b, s < 0.0_wp)))
-          if (present(whole)) overlap = 0.0_wp
-          delta = delta - max(overlap, 0.0_wp)
-          if (delta <= 0.0_wp) cycle
-          if (best%found .and. delta <= best%delta) cycle
-          best = contact_pair_t(.true., delta, (p - e)/d, [merge(a, b, s < 0.0_wp), 0], &
-                                [1.0_wp, 0.0_wp], l)
-        end if
-      end do
-    end associate
+        d = norm2(p - e)
+        delta = thick - d
+        if (delta <= 0.0_wp .or. .not. (d > 0.0_wp)) cycle
+        overlap = thick - norm2(p_now - nd%x(:, merge(a, b, s < 0.0_wp)))
+        if (present(whole)) overlap = 0.0_wp
+        delta = delta - max(overlap, 0.0_wp)
+        if (delta <= 0.0_wp) cycle
+        if (best%found .and. delta <= best%delta) cycle
+        best = contact_pair_t(.true., delta, (p - e)/d, [merge(a, b, s < 0.0_wp), 0], &
+                              [1.0_wp, 0.0_wp], l)
+      end if
+    end do
   end subroutine find_contact
 
   !> Signed distance of point p from the line of segment a-b, positive on
@@ -328,52 +328,54 @@ contains
   !> predicted position x + dt v penetrates another body's surface, and
   !> book the work of the contact impulses. dt_v is the step of the kick
   !> that produced the velocities (mean of the two position steps) [s].
-  subroutine contact_correct(dt, dt_v)
+  subroutine contact_correct(ct, nd, pt, dt, dt_v)
+    type(contact_t), intent(inout) :: ct
+    type(node_set_t), intent(inout) :: nd
+    type(particle_set_t), intent(inout) :: pt
     real(wp), intent(in) :: dt, dt_v
     integer :: pass, j, a, i, n_pairs
     type(contact_pair_t) :: pair
-    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
-      ct%n_active = 0
-      if (.not. ct%enabled .or. ct%n_seg == 0) return
-      ! one body's surface and no particle: nothing can touch anything
-      if (.not. ct%several_continua .and. pt%n == 0) return
-      call keep_start_velocities()
-      call build_buckets(dt)
-      do pass = 1, ct%n_passes
-        n_pairs = 0
-        ! slide lines: surface nodes on the other continua's segments
-        do j = 1, ct%n_snode
-          a = ct%snode(j)
-          call find_contact(node_predicted(a, dt), nd%x(:, a), 0.0_wp, ct%snode_cont(j), .false., &
-                            a, dt, pair)
-          if (.not. pair%found) cycle
-          call apply_pair(pair, dt, slave_node, a)
-          n_pairs = n_pairs + 1
-        end do
-        ! particles on segments: other continua with thickness r_p; their
-        ! own continuum's surface (untied particles) with zero thickness
-        do i = 1, pt%n
-          call find_contact(particle_predicted(i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                            ct%own_particles .and. pt%tie_a(i) == 0, 0, dt, pair)
-          if (.not. pair%found) cycle
-          call apply_pair(pair, dt, slave_particle, i)
-          n_pairs = n_pairs + 1
-        end do
-        if (pass == 1) ct%n_active = n_pairs
-        if (n_pairs == 0) exit
+    ct%n_active = 0
+    if (.not. ct%enabled .or. ct%n_seg == 0) return
+    ! one body's surface and no particle: nothing can touch anything
+    if (.not. ct%several_continua .and. pt%n == 0) return
+    call keep_start_velocities(ct, nd, pt)
+    call build_buckets(ct, nd, pt, dt)
+    do pass = 1, ct%n_passes
+      n_pairs = 0
+      ! slide lines: surface nodes on the other continua's segments
+      do j = 1, ct%n_snode
+        a = ct%snode(j)
+        call find_contact(ct, nd, node_predicted(nd, a, dt), nd%x(:, a), 0.0_wp, ct%snode_cont(j), .false., &
+                          a, dt, pair)
+        if (.not. pair%found) cycle
+        call apply_pair(ct, nd, pt, pair, dt, slave_node, a)
+        n_pairs = n_pairs + 1
       end do
-      ct%dissipated = ct%dissipated - impulse_work(dt_v)
-    end associate
+      ! particles on segments: other continua with thickness r_p; their
+      ! own continuum's surface (untied particles) with zero thickness
+      do i = 1, pt%n
+        call find_contact(ct, nd, particle_predicted(pt, nd, i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
+                          ct%own_particles .and. pt%tie_a(i) == 0, 0, dt, pair)
+        if (.not. pair%found) cycle
+        call apply_pair(ct, nd, pt, pair, dt, slave_particle, i)
+        n_pairs = n_pairs + 1
+      end do
+      if (pass == 1) ct%n_active = n_pairs
+      if (n_pairs == 0) exit
+    end do
+    ct%dissipated = ct%dissipated - impulse_work(ct, nd, pt, dt_v)
   end subroutine contact_correct
 
   !> Velocities of nodes and free particles before the corrections.
-  subroutine keep_start_velocities()
-    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
-      call reserve(ct%v_node0, 2, max(nd%n, 1))
-      call reserve(ct%v_part0, 2, max(pt%n, 1))
-      if (nd%n > 0) ct%v_node0(:, 1:nd%n) = nd%v(:, 1:nd%n)
-      if (pt%n > 0) ct%v_part0(:, 1:pt%n) = pt%v(:, 1:pt%n)
-    end associate
+  subroutine keep_start_velocities(ct, nd, pt)
+    type(contact_t), intent(inout) :: ct
+    type(node_set_t), intent(in) :: nd
+    type(particle_set_t), intent(in) :: pt
+    call reserve(ct%v_node0, 2, max(nd%n, 1))
+    call reserve(ct%v_part0, 2, max(pt%n, 1))
+    if (nd%n > 0) ct%v_node0(:, 1:nd%n) = nd%v(:, 1:nd%n)
+    if (pt%n > 0) ct%v_part0(:, 1:pt%n) = pt%v(:, 1:pt%n)
   end subroutine keep_start_velocities
 
   !> Work of this cycle's contact impulses J = m dv [J], charged at the
@@ -381,106 +383,110 @@ contains
   !> under which the central difference balances kinetic energy against
   !> the work of the forces): surfaces that stay together do no work, an
   !> inelastic closing of a gap removes kinetic energy.
-  real(wp) function impulse_work(dt_v) result(work)
+  real(wp) function impulse_work(ct, nd, pt, dt_v) result(work)
+    type(contact_t), intent(in) :: ct
+    type(node_set_t), intent(in) :: nd
+    type(particle_set_t), intent(in) :: pt
     real(wp), intent(in) :: dt_v
     real(wp) :: dv(2), v_before(2)
     integer :: a, i
     work = 0.0_wp
-    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
-      do a = 1, nd%n
-        dv = nd%v(:, a) - ct%v_node0(:, a)
-        if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
-        v_before = ct%v_node0(:, a) - (dt_v/nd%mass_total(a))*nd%f(:, a)
-        work = work + nd%mass_total(a)*dot_product(dv, 0.5_wp*(v_before + nd%v(:, a)))
-      end do
-      do i = 1, pt%n
-        if (pt%tie_a(i) > 0) cycle
-        dv = pt%v(:, i) - ct%v_part0(:, i)
-        if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
-        v_before = ct%v_part0(:, i) - dt_v*pt%acc(:, i)
-        work = work + pt%mass(i)*dot_product(dv, 0.5_wp*(v_before + pt%v(:, i)))
-      end do
-    end associate
+    do a = 1, nd%n
+      dv = nd%v(:, a) - ct%v_node0(:, a)
+      if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
+      v_before = ct%v_node0(:, a) - (dt_v/nd%mass_total(a))*nd%f(:, a)
+      work = work + nd%mass_total(a)*dot_product(dv, 0.5_wp*(v_before + nd%v(:, a)))
+    end do
+    do i = 1, pt%n
+      if (pt%tie_a(i) > 0) cycle
+      dv = pt%v(:, i) - ct%v_part0(:, i)
+      if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
+      v_before = ct%v_part0(:, i) - dt_v*pt%acc(:, i)
+      work = work + pt%mass(i)*dot_product(dv, 0.5_wp*(v_before + pt%v(:, i)))
+    end do
   end function impulse_work
 
   !> Apply the correction of one pair to the slave (node or particle; a
   !> tied particle through its edge nodes) and its master nodes.
-  subroutine apply_pair(pair, dt, kind, is)
+  subroutine apply_pair(ct, nd, pt, pair, dt, kind, is)
+    type(contact_t), intent(in) :: ct
+    type(node_set_t), intent(inout) :: nd
+    type(particle_set_t), intent(inout) :: pt
     type(contact_pair_t), intent(in) :: pair
     real(wp), intent(in) :: dt
     integer, intent(in) :: kind, is
     real(wp) :: m_s, m_1, m_2, dv_s, dv_1, dv_2, v_s(2), v_m(2), t(2), w_s(2), p_t, p_max, inv_m
     integer :: ta, tb
-    associate (ct => sim%contact, nd => sim%nodes, pt => sim%particles)
-      ta = 0
-      tb = 0
-      w_s = [1.0_wp, 0.0_wp]
-      if (kind == slave_node) then
-        m_s = nd%mass_total(is)
-      else if (pt%tie_a(is) > 0) then
-        ta = pt%tie_a(is)
-        tb = pt%tie_b(is)
-        w_s = [1.0_wp - pt%tie_xi(is), pt%tie_xi(is)]
-        m_s = 1.0_wp/(w_s(1)**2/nd%mass_total(ta) + w_s(2)**2/nd%mass_total(tb))
-      else
-        m_s = pt%mass(is)
-      end if
-      m_1 = nd%mass_total(pair%master(1))
-      m_2 = 1.0_wp
-      if (pair%master(2) > 0) m_2 = nd%mass_total(pair%master(2))
-      call pair_correction(pair%delta, dt, m_s, m_1, m_2, pair%weight(1), pair%weight(2), &
-                           dv_s, dv_1, dv_2)
-      call kick_slave(kind, is, ta, tb, w_s, m_s, dv_s*pair%normal)
-      nd%v(:, pair%master(1)) = nd%v(:, pair%master(1)) + dv_1*pair%normal
-      if (pair%master(2) > 0) nd%v(:, pair%master(2)) = nd%v(:, pair%master(2)) + dv_2*pair%normal
+    ta = 0
+    tb = 0
+    w_s = [1.0_wp, 0.0_wp]
+    if (kind == slave_node) then
+      m_s = nd%mass_total(is)
+    else if (pt%tie_a(is) > 0) then
+      ta = pt%tie_a(is)
+      tb = pt%tie_b(is)
+      w_s = [1.0_wp - pt%tie_xi(is), pt%tie_xi(is)]
+      m_s = 1.0_wp/(w_s(1)**2/nd%mass_total(ta) + w_s(2)**2/nd%mass_total(tb))
+    else
+      m_s = pt%mass(is)
+    end if
+    m_1 = nd%mass_total(pair%master(1))
+    m_2 = 1.0_wp
+    if (pair%master(2) > 0) m_2 = nd%mass_total(pair%master(2))
+    call pair_correction(pair%delta, dt, m_s, m_1, m_2, pair%weight(1), pair%weight(2), &
+                         dv_s, dv_1, dv_2)
+    call kick_slave(nd, pt, kind, is, ta, tb, w_s, m_s, dv_s*pair%normal)
+    nd%v(:, pair%master(1)) = nd%v(:, pair%master(1)) + dv_1*pair%normal
+    if (pair%master(2) > 0) nd%v(:, pair%master(2)) = nd%v(:, pair%master(2)) + dv_2*pair%normal
 
-      if (ct%friction <= 0.0_wp) return
-      ! Coulomb friction: the tangential impulse that stops the relative
-      ! sliding, capped by mu times the normal impulse of this correction
-      t = [-pair%normal(2), pair%normal(1)]
-      v_s = slave_velocity(kind, is, ta, tb, w_s)
-      v_m = pair%weight(1)*nd%v(:, pair%master(1))
-      if (pair%master(2) > 0) v_m = v_m + pair%weight(2)*nd%v(:, pair%master(2))
-      inv_m = 1.0_wp/m_s + pair%weight(1)**2/m_1
-      if (pair%master(2) > 0) inv_m = inv_m + pair%weight(2)**2/m_2
-      p_t = dot_product(v_s - v_m, t)/inv_m
-      p_max = ct%friction*m_s*abs(dv_s)
-      p_t = sign(min(abs(p_t), p_max), p_t)
-      call kick_slave(kind, is, ta, tb, w_s, m_s, -(p_t/m_s)*t)
-      nd%v(:, pair%master(1)) = nd%v(:, pair%master(1)) + (pair%weight(1)*p_t/m_1)*t
-      if (pair%master(2) > 0) nd%v(:, pair%master(2)) = nd%v(:, pair%master(2)) + &
-                                                     (pair%weight(2)*p_t/m_2)*t
-    end associate
+    if (ct%friction <= 0.0_wp) return
+    ! Coulomb friction: the tangential impulse that stops the relative
+    ! sliding, capped by mu times the normal impulse of this correction
+    t = [-pair%normal(2), pair%normal(1)]
+    v_s = slave_velocity(nd, pt, kind, is, ta, tb, w_s)
+    v_m = pair%weight(1)*nd%v(:, pair%master(1))
+    if (pair%master(2) > 0) v_m = v_m + pair%weight(2)*nd%v(:, pair%master(2))
+    inv_m = 1.0_wp/m_s + pair%weight(1)**2/m_1
+    if (pair%master(2) > 0) inv_m = inv_m + pair%weight(2)**2/m_2
+    p_t = dot_product(v_s - v_m, t)/inv_m
+    p_max = ct%friction*m_s*abs(dv_s)
+    p_t = sign(min(abs(p_t), p_max), p_t)
+    call kick_slave(nd, pt, kind, is, ta, tb, w_s, m_s, -(p_t/m_s)*t)
+    nd%v(:, pair%master(1)) = nd%v(:, pair%master(1)) + (pair%weight(1)*p_t/m_1)*t
+    if (pair%master(2) > 0) nd%v(:, pair%master(2)) = nd%v(:, pair%master(2)) + &
+                                                   (pair%weight(2)*p_t/m_2)*t
   end subroutine apply_pair
 
   !> Velocity change dv of a slave of effective mass m_s: a node or free
   !> particle directly; a tied particle as the impulse m_s dv shared by its
   !> edge nodes with weights w_s.
-  subroutine kick_slave(kind, is, ta, tb, w_s, m_s, dv)
+  subroutine kick_slave(nd, pt, kind, is, ta, tb, w_s, m_s, dv)
+    type(node_set_t), intent(inout) :: nd
+    type(particle_set_t), intent(inout) :: pt
     integer, intent(in) :: kind, is, ta, tb
     real(wp), intent(in) :: w_s(2), m_s, dv(2)
-    associate (nd => sim%nodes, pt => sim%particles)
-      if (kind == slave_node) then
-        nd%v(:, is) = nd%v(:, is) + dv
-      else if (ta > 0) then
-        nd%v(:, ta) = nd%v(:, ta) + (w_s(1)*m_s/nd%mass_total(ta))*dv
-        nd%v(:, tb) = nd%v(:, tb) + (w_s(2)*m_s/nd%mass_total(tb))*dv
-      else
-        pt%v(:, is) = pt%v(:, is) + dv
-      end if
-    end associate
+    if (kind == slave_node) then
+      nd%v(:, is) = nd%v(:, is) + dv
+    else if (ta > 0) then
+      nd%v(:, ta) = nd%v(:, ta) + (w_s(1)*m_s/nd%mass_total(ta))*dv
+      nd%v(:, tb) = nd%v(:, tb) + (w_s(2)*m_s/nd%mass_total(tb))*dv
+    else
+      pt%v(:, is) = pt%v(:, is) + dv
+    end if
   end subroutine kick_slave
 
-  function slave_velocity(kind, is, ta, tb, w_s) result(v)
+  function slave_velocity(nd, pt, kind, is, ta, tb, w_s) result(v)
+    type(node_set_t), intent(in) :: nd
+    type(particle_set_t), intent(in) :: pt
     integer, intent(in) :: kind, is, ta, tb
     real(wp), intent(in) :: w_s(2)
     real(wp) :: v(2)
     if (kind == slave_node) then
-      v = sim%nodes%v(:, is)
+      v = nd%v(:, is)
     else if (ta > 0) then
-      v = w_s(1)*sim%nodes%v(:, ta) + w_s(2)*sim%nodes%v(:, tb)
+      v = w_s(1)*nd%v(:, ta) + w_s(2)*nd%v(:, tb)
     else
-      v = sim%particles%v(:, is)
+      v = pt%v(:, is)
     end if
   end function slave_velocity
 
@@ -488,26 +494,27 @@ contains
   !> penetration [m] of a surface node or particle (with the thickness the
   !> contact uses), and the same relative to the length of the segment
   !> penetrated [-] (the local element size).
-  subroutine contact_penetration(depth, relative)
+  subroutine contact_penetration(ct, nd, pt, depth, relative)
+    type(contact_t), intent(inout) :: ct
+    type(node_set_t), intent(in) :: nd
+    type(particle_set_t), intent(in) :: pt
     real(wp), intent(out) :: depth, relative
     integer :: j, i
     type(contact_pair_t) :: pair
     depth = 0.0_wp
     relative = 0.0_wp
-    associate (ct => sim%contact, pt => sim%particles)
-      if (ct%n_seg == 0) return
-      call build_buckets(0.0_wp)
-      do j = 1, ct%n_snode
-        call find_contact(sim%nodes%x(:, ct%snode(j)), sim%nodes%x(:, ct%snode(j)), 0.0_wp, &
-                          ct%snode_cont(j), .false., ct%snode(j), 0.0_wp, pair, whole=.true.)
-        if (pair%found) call keep_deepest(pair)
-      end do
-      do i = 1, pt%n
-        call find_contact(pt%x(:, i), pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                          ct%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair, whole=.true.)
-        if (pair%found) call keep_deepest(pair)
-      end do
-    end associate
+    if (ct%n_seg == 0) return
+    call build_buckets(ct, nd, pt, 0.0_wp)
+    do j = 1, ct%n_snode
+      call find_contact(ct, nd, nd%x(:, ct%snode(j)), nd%x(:, ct%snode(j)), 0.0_wp, &
+                        ct%snode_cont(j), .false., ct%snode(j), 0.0_wp, pair, whole=.true.)
+      if (pair%found) call keep_deepest(pair)
+    end do
+    do i = 1, pt%n
+      call find_contact(ct, nd, pt%x(:, i), pt%x(:, i), pt%radius(i), pt%continuum(i), &
+                        ct%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair, whole=.true.)
+      if (pair%found) call keep_deepest(pair)
+    end do
   contains
     subroutine keep_deepest(found)
       type(contact_pair_t), intent(in) :: found

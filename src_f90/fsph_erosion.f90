@@ -5,15 +5,12 @@
 !> that node still belongs to a remaining element; a node left without
 !> elements is removed. The internal energy of deleted elements and the
 !> mass, momentum and kinetic energy of removed nodes are booked
-!> (sim%erosion), so mass, momentum and energy balances stay closed.
+!> (erosion_t), so mass, momentum and energy balances stay closed.
 module fsph_erosion
   use fsph_kinds, only: wp
-  use fsph_state, only: sim
-  use fsph_convert, only: remove_elements, remove_nodes
-  use fsph_topology, only: rebuild_corner_map, nodal_masses
-  use fsph_contact, only: contact_rebuild_surface
+  use fsph_state, only: erosion_t, element_set_t, node_set_t, particle_set_t, coupling_t, contact_t
+  use fsph_remesh, only: remove_elements, remove_unused_nodes, mesh_changed
   use fsph_arrays, only: reserve
-  use fsph_verlet, only: invalidate_lists
   implicit none
   private
 
@@ -66,44 +63,46 @@ contains
   !> Delete the elements at or beyond the strain limit (after the stress
   !> update of the cycle), book what leaves, renumber, rebuild the corner
   !> map and the contact surfaces. Returns the number of elements deleted.
-  subroutine erode_elements(n_eroded)
+  subroutine erode_elements(er, el, nd, pt, cp, ct, continuum_of_body, n_eroded)
+    type(erosion_t), intent(inout) :: er
+    type(element_set_t), intent(inout) :: el
+    type(node_set_t), intent(inout) :: nd
+    type(particle_set_t), intent(inout) :: pt
+    type(coupling_t), intent(inout) :: cp
+    type(contact_t), intent(inout) :: ct
+    integer, intent(in) :: continuum_of_body(:)
     integer, intent(out) :: n_eroded
     logical, allocatable :: erode(:), keep_node(:)
     integer :: ie, a, k
-    integer :: no_pending(2, 2, 0)
+    integer, allocatable :: new_index(:)
     n_eroded = 0
-    associate (el => sim%elements, nd => sim%nodes, er => sim%erosion)
-      if (.not. er%enabled .or. el%n == 0) return
-      ! the strains in a work array that only grows; the deletion mask only
-      ! when an element goes
-      call reserve(er%strain, el%n)
-      call principal_strains(el%n, nd%n, el%conn, nd%x, nd%x0, er%strain)
-      n_eroded = count(er%strain(1:el%n) >= er%strain_limit)
-      if (n_eroded == 0) return
-      erode = er%strain(1:el%n) >= er%strain_limit
-      do ie = 1, el%n
-        if (.not. erode(ie)) cycle
-        do k = 1, 3
-          a = el%conn(k, ie)
-          nd%mass_eroded(a) = nd%mass_eroded(a) + el%mass(ie)/3.0_wp
-        end do
-        er%element_mass = er%element_mass + el%mass(ie)
-        er%internal = er%internal + el%mass(ie)*el%e(ie)
+    if (.not. er%enabled .or. el%n == 0) return
+    ! the strains in a work array that only grows; the deletion mask only
+    ! when an element goes
+    call reserve(er%strain, el%n)
+    call principal_strains(el%n, nd%n, el%conn, nd%x, nd%x0, er%strain)
+    n_eroded = count(er%strain(1:el%n) >= er%strain_limit)
+    if (n_eroded == 0) return
+    erode = er%strain(1:el%n) >= er%strain_limit
+    do ie = 1, el%n
+      if (.not. erode(ie)) cycle
+      do k = 1, 3
+        a = el%conn(k, ie)
+        nd%mass_eroded(a) = nd%mass_eroded(a) + el%mass(ie)/3.0_wp
       end do
-      call remove_elements(erode, keep_node)
-      do a = 1, nd%n
-        if (keep_node(a)) cycle
-        er%node_mass = er%node_mass + nd%mass(a)
-        er%kinetic = er%kinetic + 0.5_wp*nd%mass(a)*(nd%v(1, a)**2 + nd%v(2, a)**2)
-        er%momentum = er%momentum + nd%mass(a)*nd%v(:, a)
-      end do
-      call remove_nodes(keep_node, no_pending)
-      call rebuild_corner_map()
-      call nodal_masses()
-      call contact_rebuild_surface()
-      call invalidate_lists()
-      er%n_eroded = er%n_eroded + n_eroded
-    end associate
+      er%element_mass = er%element_mass + el%mass(ie)
+      er%internal = er%internal + el%mass(ie)*el%e(ie)
+    end do
+    call remove_elements(el, nd%n, erode, keep_node)
+    do a = 1, nd%n
+      if (keep_node(a)) cycle
+      er%node_mass = er%node_mass + nd%mass(a)
+      er%kinetic = er%kinetic + 0.5_wp*nd%mass(a)*(nd%v(1, a)**2 + nd%v(2, a)**2)
+      er%momentum = er%momentum + nd%mass(a)*nd%v(:, a)
+    end do
+    call remove_unused_nodes(nd, el, pt, cp, keep_node, new_index)
+    call mesh_changed(nd, el, ct, pt, continuum_of_body)
+    er%n_eroded = er%n_eroded + n_eroded
   end subroutine erode_elements
 
 end module fsph_erosion

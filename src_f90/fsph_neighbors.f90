@@ -128,7 +128,6 @@ contains
                  + work%level_nr(l)*min(int((z - work%level_z0(l))/work%level_cell(l)), work%level_nz(l) - 1)
   end function cell_index
 
-
   !> Build the lists (see the module header) of the first nq of n points
   !> (the real particles; the others, imaginary particles, appear only as
   !> one-way entries and never as contact candidates). `body` is the

@@ -5,7 +5,7 @@
 !> not part of it.
 module fsph_restart
   use fsph_kinds, only: wp
-  use fsph_state, only: sim, state_allocate, state_allocate_particles
+  use fsph_state, only: simulation_t, state_allocate, state_allocate_particles
   implicit none
   private
 
@@ -25,7 +25,8 @@ module fsph_restart
 contains
 
   !> Rank-2 view (rows, cols) of real array `id` (null if not allocated).
-  function real_view(id) result(p)
+  function real_view(sim, id) result(p)
+    type(simulation_t), intent(in), target :: sim
     integer, intent(in) :: id
     real(wp), pointer :: p(:, :)
     p => null()
@@ -73,7 +74,8 @@ contains
   end function real_view
 
   !> Rank-2 view (rows, cols) of integer array `id` (null if not allocated).
-  function int_view(id) result(p)
+  function int_view(sim, id) result(p)
+    type(simulation_t), intent(in), target :: sim
     integer, intent(in) :: id
     integer, pointer :: p(:, :)
     p => null()
@@ -97,7 +99,8 @@ contains
   !> contact dissipation, erosion: element mass, internal energy, node mass,
   !> kinetic energy, momentum r and z, work of the planes) and integers (cycle, dt_element,
   !> dt_particle, n_converted, n_events, n_groups, n_edges, n_imag, n_eroded).
-  subroutine get_scalars(r, i)
+  subroutine get_scalars(sim, r, i)
+    type(simulation_t), intent(in) :: sim
     real(wp), intent(out) :: r(n_real_scalars)
     integer, intent(out) :: i(n_int_scalars)
     associate (er => sim%erosion)
@@ -110,7 +113,8 @@ contains
     end associate
   end subroutine get_scalars
 
-  subroutine set_scalars(r, i)
+  subroutine set_scalars(sim, r, i)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: r(n_real_scalars)
     integer, intent(in) :: i(n_int_scalars)
     sim%time = r(1); sim%dt = r(2); sim%dt_last = r(3); sim%dt_initial = r(4)
@@ -130,15 +134,16 @@ contains
   !> Allocate nodes, elements, particles (with their capacity) and coupling
   !> edges for the sizes of a checkpoint; the contents follow through the
   !> views. Materials, planes, control and continua stay as set up.
-  subroutine allocate_for_restart(nn, ne, np, capacity, n_edges)
+  subroutine allocate_for_restart(sim, nn, ne, np, capacity, n_edges)
+    type(simulation_t), intent(inout) :: sim
     integer, intent(in) :: nn, ne, np, capacity, n_edges
     if (ne > 0) then
-      call state_allocate(nn, ne)
+      call state_allocate(sim, nn, ne)
     else
       sim%nodes%n = 0
       sim%elements%n = 0
     end if
-    if (capacity > 0) call state_allocate_particles(np, capacity)
+    if (capacity > 0) call state_allocate_particles(sim, np, capacity)
     if (allocated(sim%coupling%edge)) deallocate (sim%coupling%edge)
     allocate (sim%coupling%edge(2, max(n_edges, 64)))
     sim%coupling%n_edges = n_edges
@@ -147,28 +152,28 @@ contains
   end subroutine allocate_for_restart
 
   !> Before reading integer array 5: the axis flags as integers.
-  subroutine prepare_checkpoint()
+  subroutine prepare_checkpoint(sim)
+    type(simulation_t), intent(inout) :: sim
     if (allocated(sim%nodes%on_axis_int)) deallocate (sim%nodes%on_axis_int)
     allocate (sim%nodes%on_axis_int(max(sim%nodes%n, 1)))
     sim%nodes%on_axis_int = 0
     if (sim%nodes%n > 0) sim%nodes%on_axis_int(1:sim%nodes%n) = merge(1, 0, sim%nodes%on_axis)
   end subroutine prepare_checkpoint
 
-  !> After every array is in: axis flags, the node -> corner map, the
-  !> tied masses and contact surfaces are derived; the state is ready.
-  subroutine finish_restore()
-    use fsph_topology, only: rebuild_corner_map
+  !> After every array is in: axis flags, then what derives from the mesh
+  !> (fsph_remesh mesh_changed), the tied masses and the conversion limits;
+  !> the state is ready.
+  subroutine finish_restore(sim)
+    use fsph_remesh, only: mesh_changed
     use fsph_coupling, only: update_tie_masses
-    use fsph_contact, only: contact_rebuild_surface
     use fsph_convert, only: conversion_limits
-    if (sim%nodes%n > 0) then
-      sim%nodes%on_axis = sim%nodes%on_axis_int(1:sim%nodes%n) /= 0
-      call rebuild_corner_map()
-    end if
-    if (sim%nodes%n > 0) call update_tie_masses()
-    call contact_rebuild_surface()
+    type(simulation_t), intent(inout) :: sim
+    if (sim%nodes%n > 0) sim%nodes%on_axis = sim%nodes%on_axis_int(1:sim%nodes%n) /= 0
+    call mesh_changed(sim%nodes, sim%elements, sim%contact, sim%particles, sim%continuum_of_body)
+    if (sim%nodes%n > 0) call update_tie_masses(sim%particles, sim%nodes)
     ! the conversion criterion of each element, from the initial mesh
-    if (sim%elements%n > 0 .and. sim%conversion%n_groups > 0) call conversion_limits()
+    if (sim%elements%n > 0 .and. sim%conversion%n_groups > 0) &
+      call conversion_limits(sim%elements, sim%nodes, sim%conversion)
     sim%ready = .true.
   end subroutine finish_restore
 

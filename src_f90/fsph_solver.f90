@@ -5,7 +5,7 @@ module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
-  use fsph_state, only: sim, history_columns, state_grow_particles
+  use fsph_state, only: simulation_t, history_columns, state_grow_particles
   use fsph_arrays, only: reserve
   use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
                            strength_elastic, strength_hjc, eos_linear, eos_hjc
@@ -21,9 +21,10 @@ module fsph_solver
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
-                           update_tie_masses, stage_select, stage_start, stage_mid
+                           update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
+                           association_reach
   use fsph_verlet, only: lists_still_valid, record_lists, list_skin
-  use fsph_convert, only: assign_groups, convert_elements, associate_particles, association_reach
+  use fsph_convert, only: assign_groups, convert_elements
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct
   use fsph_erosion, only: erode_elements
@@ -47,7 +48,8 @@ contains
   !> element geometry, masses and densities, lumped nodal masses (1/3 of
   !> each element's ring mass to each of its nodes, EPIC style), the
   !> node-to-corner map, axis flags, initial material state and time step.
-  subroutine solver_initialise(ierr, ifault)
+  subroutine solver_initialise(sim, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     integer, intent(out) :: ierr, ifault
 
     ifault = 0
@@ -58,41 +60,43 @@ contains
     if (any(sim%ieos < eos_linear) .or. any(sim%ieos > eos_hjc)) return
     ! the HJC strength and EOS go together
     if (any((sim%istrength == strength_hjc) .neqv. (sim%ieos == eos_hjc))) return
-    call default_continua()
+    call default_continua(sim)
     if (sim%elements%n > 0) then
-      call initialise_elements(ierr, ifault)
+      call initialise_elements(sim, ierr, ifault)
       if (ierr /= status_ok) return
     end if
     if (sim%particles%n > 0) then
-      call initialise_particles(ierr, ifault)
+      call initialise_particles(sim, ierr, ifault)
       if (ierr /= status_ok) return
     end if
     if (sim%elements%n > 0 .and. sim%particles%capacity > 0) then
-      call assign_groups()
+      call assign_groups(sim%elements, sim%nodes, sim%conversion, sim%body_coupled)
       ! fixed coupling: particles next to the element region are associated
       ! with its surface edges
-      call associate_particles(association_reach)
-      call update_tie_masses()
+      call associate_particles(sim%particles, sim%elements, sim%nodes, sim%coupling, sim%continuum_of_body, &
+                               sim%body_coupled, sim%conversion%alpha_h, association_reach)
+      call update_tie_masses(sim%particles, sim%nodes)
     end if
-    call contact_rebuild_surface()
+    call contact_rebuild_surface(sim%contact, sim%elements, sim%nodes, sim%continuum_of_body)
     sim%contact%dissipated = 0.0_wp
     sim%plane_dissipated = 0.0_wp
 
     sim%time = 0.0_wp
     sim%cycle = 0
     sim%dt_last = 0.0_wp
-    call solver_stable_step()
+    call solver_stable_step(sim)
     sim%dt_initial = sim%dt
     sim%n_history = 0
     sim%history_cycle = -1
-    call record_history()
+    call record_history(sim)
     sim%ready = .true.
     ierr = status_ok
     ifault = 0
   end subroutine solver_initialise
 
   !> Without set_continua every body is its own, uncoupled continuum.
-  subroutine default_continua()
+  subroutine default_continua(sim)
+    type(simulation_t), intent(inout) :: sim
     integer :: nb, ib
     nb = 0
     if (sim%elements%n > 0) nb = max(nb, maxval(sim%elements%body))
@@ -109,7 +113,8 @@ contains
   !> Elements: geometry, masses and densities, lumped nodal masses (1/3 of
   !> each element's ring mass to each of its nodes, EPIC style), the
   !> node-to-corner map, axis flags, initial material state.
-  subroutine initialise_elements(ierr, ifault)
+  subroutine initialise_elements(sim, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     integer, intent(out) :: ierr, ifault
     integer :: ne, nn, ie, im
     real(wp) :: r_extent
@@ -137,7 +142,7 @@ contains
         el%rho(ie) = sim%props(prop_rho0, im)
         el%mass(ie) = el%rho(ie)*el%volume(ie)
         el%temp(ie) = sim%props(prop_t_room, im)
-        el%c(ie) = reference_sound_speed(im)
+        el%c(ie) = reference_sound_speed(sim, im)
       end do
       el%s = 0.0_wp; el%p = 0.0_wp; el%q = 0.0_wp; el%eps_p = 0.0_wp; el%e = 0.0_wp
       el%hist = 0.0_wp
@@ -145,8 +150,8 @@ contains
 
       ! the node -> corner map and lumped masses; every node must belong to
       ! an element
-      call rebuild_corner_map()
-      call nodal_masses()
+      call rebuild_corner_map(nd, el)
+      call nodal_masses(nd, el)
       ierr = status_bad_input
       if (any(nd%corner_ptr(2:nn + 1) == nd%corner_ptr(1:nn))) then
         ifault = findloc(nd%corner_ptr(2:nn + 1) == nd%corner_ptr(1:nn), .true., dim=1)
@@ -158,7 +163,8 @@ contains
 
   !> Particles: reference density, temperature, sound speed, radius; all
   !> particles must start off the axis (r > 0).
-  subroutine initialise_particles(ierr, ifault)
+  subroutine initialise_particles(sim, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     integer, intent(out) :: ierr, ifault
     integer :: i, im, n
     ierr = status_bad_input
@@ -177,7 +183,7 @@ contains
         im = pt%mat(i)
         pt%rho(i) = sim%props(prop_rho0, im)
         pt%temp(i) = sim%props(prop_t_room, im)
-        pt%c(i) = reference_sound_speed(im)
+        pt%c(i) = reference_sound_speed(sim, im)
         pt%continuum(i) = sim%continuum_of_body(pt%body(i))
       end do
       pt%s = 0.0_wp; pt%p = 0.0_wp; pt%sig = 0.0_wp; pt%eps_p = 0.0_wp; pt%e = 0.0_wp
@@ -185,16 +191,27 @@ contains
       pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%drho = 0.0_wp; pt%de = 0.0_wp
       pt%tie_a = 0; pt%tie_b = 0; pt%assoc = 0
     end associate
-    call update_particle_radius()
+    call update_particle_radius(sim)
     ierr = status_ok
   end subroutine initialise_particles
+
+  !> The imaginary particles of the run's elements at `stage` (fsph_coupling
+  !> fill_imaginary; margin: the neighbour lists' skin [m]).
+  subroutine refill_imaginary(sim, stage, margin)
+    type(simulation_t), intent(inout) :: sim
+    integer, intent(in) :: stage
+    real(wp), intent(in), optional :: margin
+    call fill_imaginary(sim%particles, sim%elements, sim%nodes, sim%continuum_of_body, sim%body_coupled, &
+                        sim%conversion%alpha_h, stage, margin)
+  end subroutine refill_imaginary
 
   !> Particle radius (contact thickness, plane and axis offsets) from the
   !> mass and ring radius at the density, but never above the radius at
   !> the reference density: the (SPH) density of separating fragments falls
   !> while the fragments keep their size, and a radius grown from it
   !> reached 7 mm on a concrete debris particle and drew contact kicks.
-  subroutine update_particle_radius()
+  subroutine update_particle_radius(sim)
+    type(simulation_t), intent(inout) :: sim
     integer :: i, n
     n = sim%particles%n
     associate (pt => sim%particles)
@@ -205,7 +222,8 @@ contains
   end subroutine update_particle_radius
 
   !> Sound speed of material im at its reference state [m/s].
-  function reference_sound_speed(im) result(c)
+  function reference_sound_speed(sim, im) result(c)
+    type(simulation_t), intent(in) :: sim
     integer, intent(in) :: im
     real(wp) :: c, a_eos, b_eos, dadrho
     integer :: ierr
@@ -216,7 +234,8 @@ contains
 
   !> Stable step for the next cycle: safety factor times the smallest of
   !> the element limit and the particle limit h/(c + |v|).
-  subroutine solver_stable_step()
+  subroutine solver_stable_step(sim)
+    type(simulation_t), intent(inout) :: sim
     real(wp) :: dt_e, dt_p
     integer :: i_e, i_p
     dt_e = huge(1.0_wp)
@@ -243,7 +262,8 @@ contains
   !> end exactly on t_target; with land = 0 the stable step is never
   !> changed and the clock stops at the first cycle end at or after
   !> t_target, so intermediate outputs do not alter the trajectory.
-  subroutine solver_advance(t_target, max_cycles, land, ierr, ifault)
+  subroutine solver_advance(sim, t_target, max_cycles, land, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: t_target
     integer, intent(in) :: max_cycles, land
     integer, intent(out) :: ierr, ifault
@@ -274,18 +294,19 @@ contains
           dt_step = 0.5_wp*remaining
         end if
       end if
-      call cycle(dt_step, ierr, ifault)
+      call cycle(sim, dt_step, ierr, ifault)
       n_done = n_done + 1
       if (ierr /= status_ok) exit
     end do
     ! the state at the end of each advance is always in the history
-    if (sim%history_cycle /= sim%cycle) call record_history()
+    if (sim%history_cycle /= sim%cycle) call record_history(sim)
   end subroutine solver_advance
 
   !> One explicit cycle of length dt_step [s], ALGORITHMS.md section 7.
   !> On failure ifault is the element or node (> 0) or minus the particle
   !> (< 0) at fault.
-  subroutine cycle(dt_step, ierr, ifault)
+  subroutine cycle(sim, dt_step, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
     integer :: n_new
@@ -293,47 +314,49 @@ contains
     ! 1. forces at t^n: element nodal forces; imaginary particles,
     !    particle neighbours, SPH accelerations, particle contact; coupling
     !    tractions on interface edges; tied particles' forces to their edges
-    call compute_forces(dt_step)
+    call compute_forces(sim, dt_step)
     ! 2. central difference: velocities to t^(n+1/2)
-    call timer_start(phase_integrate)
-    call update_velocities(0.5_wp*(sim%dt_last + dt_step))
-    call timer_stop(phase_integrate)
+    call timer_start(sim%timers, phase_integrate)
+    call update_velocities(sim, 0.5_wp*(sim%dt_last + dt_step))
+    call timer_stop(sim%timers, phase_integrate)
     ! 3. contact between bodies, then boundary conditions on the half-step
     !    velocities; tied particles follow their edges
-    call timer_start(phase_contact)
-    call contact_correct(dt_step, 0.5_wp*(sim%dt_last + dt_step))
-    call timer_stop(phase_contact)
-    call timer_start(phase_integrate)
-    call apply_boundaries(dt_step)
-    call finish_particle_kick(0.5_wp*(sim%dt_last + dt_step), dt_step)
+    call timer_start(sim%timers, phase_contact)
+    call contact_correct(sim%contact, sim%nodes, sim%particles, dt_step, 0.5_wp*(sim%dt_last + dt_step))
+    call timer_stop(sim%timers, phase_contact)
+    call timer_start(sim%timers, phase_integrate)
+    call apply_boundaries(sim, dt_step)
+    call finish_particle_kick(sim, 0.5_wp*(sim%dt_last + dt_step), dt_step)
     ! 4. positions to t^(n+1); the clock moves with them, so a failure in
     !    the rest of the cycle is reported at the time the geometry reached
-    call update_positions(dt_step, ierr, ifault)
-    call timer_stop(phase_integrate)
+    call update_positions(sim, dt_step, ierr, ifault)
+    call timer_stop(sim%timers, phase_integrate)
     if (ierr /= status_ok) return
     sim%time = sim%time + dt_step
     sim%cycle = sim%cycle + 1
     sim%dt_last = dt_step
     ! 5. element strain rates at mid-step, new geometry, stress update
-    call timer_start(phase_element_update)
-    call update_elements(dt_step, ierr, ifault)
-    call timer_stop(phase_element_update)
+    call timer_start(sim%timers, phase_element_update)
+    call update_elements(sim, dt_step, ierr, ifault)
+    call timer_stop(sim%timers, phase_element_update)
     if (ierr /= status_ok) return
     ! 6. particle rates at mid-step (density, energy, strain rate), update
-    call update_particles(dt_step, ierr, ifault)
+    call update_particles(sim, dt_step, ierr, ifault)
     if (ierr /= status_ok) return
     ! 7. erosion of over-strained elements (FEM baseline), conversion of
     !    distorted element groups, surface and ties
-    call timer_start(phase_conversion)
-    call erode_elements(n_new)
-    call convert_elements(n_new)
-    call timer_stop(phase_conversion)
+    call timer_start(sim%timers, phase_conversion)
+    call erode_elements(sim%erosion, sim%elements, sim%nodes, sim%particles, sim%coupling, sim%contact, &
+                        sim%continuum_of_body, n_new)
+    call convert_elements(sim%elements, sim%nodes, sim%particles, sim%coupling, sim%conversion, sim%contact, &
+                          sim%continuum_of_body, sim%body_coupled, n_new)
+    call timer_stop(sim%timers, phase_conversion)
     ! 8. next stable step
-    call timer_start(phase_step)
+    call timer_start(sim%timers, phase_step)
     sim%dt_previous = sim%dt
-    call solver_stable_step()
-    if (mod(sim%cycle, sim%control%history_every) == 0) call record_history()
-    call timer_stop(phase_step)
+    call solver_stable_step(sim)
+    if (mod(sim%cycle, sim%control%history_every) == 0) call record_history(sim)
+    call timer_stop(sim%timers, phase_step)
     if (sim%dt < sim%control%dt_floor_ratio*sim%dt_initial) then
       ierr = status_dt_floor
       ifault = sim%dt_element - sim%dt_particle   ! particle faults are negative
@@ -343,42 +366,43 @@ contains
     end if
   end subroutine cycle
 
-  subroutine compute_forces(dt_step)
+  subroutine compute_forces(sim, dt_step)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer :: n, ntot
     associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
       if (el%n > 0) then
-        call timer_start(phase_element_forces)
+        call timer_start(sim%timers, phase_element_forces)
         call element_corner_forces(el%n, nd%n, el%conn, nd%x, el%s, el%p, el%q, el%fc)
         call gather_corner_forces(nd%n, el%n, size(nd%corner_list), nd%corner_ptr, nd%corner_list, &
                                   el%fc, nd%f)
-        call timer_stop(phase_element_forces)
+        call timer_stop(sim%timers, phase_element_forces)
       end if
       n = pt%n
       if (n > 0) then
-        call timer_start(phase_neighbours)
-        call prepare_particle_sums(ntot)
-        call timer_stop(phase_neighbours)
-        call timer_start(phase_sph_sums)
+        call timer_start(sim%timers, phase_neighbours)
+        call prepare_particle_sums(sim, ntot)
+        call timer_stop(sim%timers, phase_neighbours)
+        call timer_start(sim%timers, phase_sph_sums)
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
         call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
         call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
                                pt%grad_v, pt%switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
                                pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
-        call timer_stop(phase_sph_sums)
-        call timer_start(phase_particle_contact)
-        call update_particle_radius()
+        call timer_stop(sim%timers, phase_sph_sums)
+        call timer_start(sim%timers, phase_particle_contact)
+        call update_particle_radius(sim)
         ! planar areas of pair_weights, from the positions and densities of this stage
         call particle_contact_accelerations(n, pt%x, pt%mass, pt%planar_area, pt%h, pt%cnt_ptr, pt%cnt_list, &
                                             dt_step, sim%control%contact_penalty, sim%control%contact_touch, &
                                             sim%control%contact_slope, pt%contact_excess, pt%acc)
-        call timer_stop(phase_particle_contact)
+        call timer_stop(sim%timers, phase_particle_contact)
         if (el%n > 0) then
-          call timer_start(phase_coupling)
-          call coupling_tractions()
-          call tie_forces()
-          call timer_stop(phase_coupling)
+          call timer_start(sim%timers, phase_coupling)
+          call coupling_tractions(sim%coupling, sim%particles, sim%nodes, sim%continuum_of_body)
+          call tie_forces(sim%particles, sim%nodes)
+          call timer_stop(sim%timers, phase_coupling)
         end if
       end if
     end associate
@@ -389,26 +413,27 @@ contains
   !> particles chosen again, only when the kept lists may miss a pair:
   !> fsph_verlet), their total stress s - p I and room for the pair work
   !> arrays; ntot is the number of real, imaginary and mirror entries.
-  subroutine prepare_particle_sums(ntot)
+  subroutine prepare_particle_sums(sim, ntot)
+    type(simulation_t), intent(inout) :: sim
     integer, intent(out) :: ntot
     integer :: i, n
     real(wp) :: skin
     associate (pt => sim%particles)
       n = pt%n
       if (pt%lists_valid) then
-        if (sim%elements%n > 0 .and. pt%n_imag > 0) call fill_imaginary(stage_start)
-        call fill_mirrors_start()
+        if (sim%elements%n > 0 .and. pt%n_imag > 0) call refill_imaginary(sim, stage_start)
+        call fill_mirrors_start(sim)
       end if
-      if (.not. lists_still_valid()) then
-        skin = list_skin()
+      if (.not. lists_still_valid(sim%particles, sim%nodes, sim%elements, sim%body_coupled, sim%conversion%alpha_h)) then
+        skin = list_skin(sim%particles, sim%control%neighbour_skin)
         pt%n_imag = 0
-        if (sim%elements%n > 0) call fill_imaginary(stage_select, skin)
-        call select_mirrors(skin)
-        call fill_mirrors_start()
+        if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
+        call select_mirrors(sim, skin)
+        call fill_mirrors_start(sim)
         call build_neighbors(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, pt%continuum, skin, pt%search, &
                              pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
                              pt%cnt_ptr, pt%cnt_list)
-        call record_lists(skin)
+        call record_lists(sim%particles, sim%nodes, sim%elements, sim%conversion%alpha_h, skin)
       end if
       ntot = n + pt%n_imag + pt%n_mirror
       do i = 1, n
@@ -427,7 +452,8 @@ contains
   !> Choose the particles mirrored across rigid planes normal to the axis
   !> (fsph_mirror), making room for their images after the imaginary
   !> particles.
-  subroutine select_mirrors(skin)
+  subroutine select_mirrors(sim, skin)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: skin
     integer :: first, ip
     real(wp) :: point(2, max(sim%n_planes, 1)), normal(2, max(sim%n_planes, 1))
@@ -442,7 +468,7 @@ contains
       call mirror_select(pt%n, pt%x, pt%h, skin, sim%n_planes, point, normal, pt%capacity - first, pt%n_mirror, &
                          pt%mirror_of, pt%mirror_plane)
       if (first + pt%n_mirror > pt%capacity) then
-        call state_grow_particles(first + pt%n_mirror + (first + pt%n_mirror)/4)
+        call state_grow_particles(sim%particles, first + pt%n_mirror + (first + pt%n_mirror)/4)
         call mirror_select(pt%n, pt%x, pt%h, skin, sim%n_planes, point, normal, pt%capacity - first, &
                            pt%n_mirror, pt%mirror_of, pt%mirror_plane)
       end if
@@ -450,7 +476,8 @@ contains
   end subroutine select_mirrors
 
   !> Plane points and normals as arrays (2, n_planes).
-  subroutine plane_arrays(point, normal)
+  subroutine plane_arrays(sim, point, normal)
+    type(simulation_t), intent(in) :: sim
     real(wp), intent(out) :: point(:, :), normal(:, :)
     integer :: ip
     do ip = 1, sim%n_planes
@@ -460,11 +487,12 @@ contains
   end subroutine plane_arrays
 
   !> Mirror images at the start of the cycle.
-  subroutine fill_mirrors_start()
+  subroutine fill_mirrors_start(sim)
+    type(simulation_t), intent(inout) :: sim
     real(wp) :: point(2, max(sim%n_planes, 1)), normal(2, max(sim%n_planes, 1))
     associate (pt => sim%particles)
       if (pt%n_mirror == 0) return
-      call plane_arrays(point, normal)
+      call plane_arrays(sim, point, normal)
       call mirror_fill_start(pt%n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%mirror_plane, sim%n_planes, point, &
                              normal, pt%x, pt%v, pt%v_bar, pt%mass, pt%rho, pt%rho_mid, pt%h, pt%radius, pt%c, &
                              pt%s, pt%p, pt%sig, pt%grad_v, pt%continuum, pt%mat, pt%body)
@@ -472,12 +500,14 @@ contains
   end subroutine fill_mirrors_start
 
   !> Forces of the current state (step 1 of the cycle), for verification.
-  subroutine solver_forces(dt_step)
+  subroutine solver_forces(sim, dt_step)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
-    call compute_forces(dt_step)
+    call compute_forces(sim, dt_step)
   end subroutine solver_forces
 
-  subroutine update_velocities(dt_v)
+  subroutine update_velocities(sim, dt_v)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_v  !< velocity step: mean of the two position steps [s]
     integer :: n
     associate (nd => sim%nodes, pt => sim%particles)
@@ -493,7 +523,8 @@ contains
     end associate
   end subroutine update_velocities
 
-  subroutine apply_boundaries(dt_step)
+  subroutine apply_boundaries(sim, dt_step)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer :: ip, n
     real(wp) :: work
@@ -528,18 +559,20 @@ contains
   !> Tied particles take their edge velocity; v_bar becomes the velocity at
   !> which the viscous work of this kick is charged: the mean over the kick,
   !> scaled from the kick length to the step length.
-  subroutine finish_particle_kick(dt_v, dt_step)
+  subroutine finish_particle_kick(sim, dt_v, dt_step)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_v, dt_step
     integer :: n
     n = sim%particles%n
     if (n == 0) return
-    if (sim%nodes%n > 0) call tie_velocities()
+    if (sim%nodes%n > 0) call tie_velocities(sim%particles, sim%nodes)
     associate (pt => sim%particles)
       pt%v_bar(:, 1:n) = 0.5_wp*(pt%v_bar(:, 1:n) + pt%v(:, 1:n))*(dt_v/dt_step)
     end associate
   end subroutine finish_particle_kick
 
-  subroutine update_positions(dt_step, ierr, ifault)
+  subroutine update_positions(sim, dt_step, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
     ierr = status_ok
@@ -559,7 +592,8 @@ contains
     end associate
   end subroutine update_positions
 
-  subroutine update_elements(dt_step, ierr, ifault)
+  subroutine update_elements(sim, dt_step, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
     ierr = status_ok
@@ -579,7 +613,8 @@ contains
   !> energy of eq 3 with the mid-step stress and density (the time-centred
   !> work of the central difference, so no secular energy drift), and the
   !> pressure at the final energy.
-  subroutine update_particles(dt_step, ierr, ifault)
+  subroutine update_particles(sim, dt_step, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
     integer :: i, n, ntot
@@ -594,30 +629,30 @@ contains
         ifault = -findloc(.not. (pt%x_mid(1, 1:n) > 0.0_wp), .true., dim=1)
         return
       end if
-      call timer_start(phase_coupling)
-      if (pt%n_imag > 0) call fill_imaginary(stage_mid)
+      call timer_start(sim%timers, phase_coupling)
+      if (pt%n_imag > 0) call refill_imaginary(sim, stage_mid)
       if (pt%n_mirror > 0) then
-        call plane_arrays(point, normal)
+        call plane_arrays(sim, point, normal)
         call mirror_fill_mid(n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%mirror_plane, sim%n_planes, point, &
                              pt%x_mid, pt%v, pt%v_bar, pt%rho, pt%rho_mid)
       end if
-      call timer_stop(phase_coupling)
+      call timer_stop(sim%timers, phase_coupling)
       ntot = n + pt%n_imag + pt%n_mirror
-      call timer_start(phase_sph_sums)
+      call timer_start(sim%timers, phase_sph_sums)
       call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho, pt%wgt, pt%planar_area)
       call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
                      pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
                      pt%d, pt%spin, pt%grad_v)
-      call timer_stop(phase_sph_sums)
-      call timer_start(phase_particle_update)
+      call timer_stop(sim%timers, phase_sph_sums)
+      call timer_start(sim%timers, phase_particle_update)
       pt%e_old(1:n) = pt%e(1:n)
       pt%rho_old(1:n) = pt%rho(1:n)
       call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, dt_step, &
                                  sim%control%debris_ratio, pt%x, pt%drho, pt%d, pt%spin, pt%e, pt%rho, &
                                  pt%s, pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, pt%n_debris, ierr, ifault)
-      call timer_stop(phase_particle_update)
+      call timer_stop(sim%timers, phase_particle_update)
       if (ierr == status_ok) then
-        call timer_start(phase_sph_sums)
+        call timer_start(sim%timers, phase_sph_sums)
         do i = 1, n
           pt%sig_mid(:, i) = 0.5_wp*(pt%sig(:, i) + pt%s(:, i))
           pt%sig_mid([1, 2, 4], i) = pt%sig_mid([1, 2, 4], i) - 0.5_wp*pt%p(i)
@@ -629,12 +664,12 @@ contains
         call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, pt%wgt, &
                              pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
                              pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
-        call timer_stop(phase_sph_sums)
-        call timer_start(phase_particle_update)
+        call timer_stop(sim%timers, phase_sph_sums)
+        call timer_start(sim%timers, phase_particle_update)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
                                     sim%control%debris_ratio, pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%c, &
                                     ierr, ifault)
-        call timer_stop(phase_particle_update)
+        call timer_stop(sim%timers, phase_particle_update)
       end if
       ifault = -ifault
     end associate
@@ -644,7 +679,8 @@ contains
   !> by erosion, work of the rigid planes and the axis wall) to the history
   !> buffer,
   !> doubling its capacity when full (rare: the API drains it).
-  subroutine record_history()
+  subroutine record_history(sim)
+    type(simulation_t), intent(inout) :: sim
     real(wp), allocatable :: grown(:, :)
     real(wp) :: kinetic, internal
     integer, parameter :: initial_capacity = 256
@@ -654,7 +690,7 @@ contains
       grown(:, 1:sim%n_history) = sim%history(:, 1:sim%n_history)
       call move_alloc(grown, sim%history)
     end if
-    call solver_energies(kinetic, internal)
+    call solver_energies(sim, kinetic, internal)
     sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
     sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal, &
@@ -664,7 +700,8 @@ contains
 
   !> Kinetic energy (half-step velocities) and internal energy [J] of
   !> nodes, elements and particles.
-  subroutine solver_energies(kinetic, internal)
+  subroutine solver_energies(sim, kinetic, internal)
+    type(simulation_t), intent(in) :: sim
     real(wp), intent(out) :: kinetic, internal
     kinetic = 0.0_wp
     internal = 0.0_wp

@@ -1,11 +1,15 @@
-!> The one simulation state: nodes, elements, materials, boundaries, control
-!> parameters and clock. Derived types live here and never cross the f2py
-!> boundary; fsph_api copies plain arrays in and out.
+!> The types of a run's state: nodes, elements, particles, coupling,
+!> conversion, contact, erosion, materials, boundaries, control parameters
+!> and clock, gathered in simulation_t. The module holds no state: each run
+!> is an instance owned by fsph_runs, and procedures receive the parts they
+!> touch as arguments. Derived types never cross the f2py boundary;
+!> fsph_api copies plain arrays in and out.
 module fsph_state
   use fsph_kinds, only: wp
   use fsph_material, only: n_hist
   use fsph_neighbors, only: neighbour_work_t
   use fsph_arrays, only: grow
+  use fsph_timers, only: phase_timers_t
   implicit none
   private
 
@@ -145,6 +149,14 @@ module fsph_state
     logical, allocatable :: hit(:)        !< work: elements meeting the criterion this cycle
   end type conversion_t
 
+  !> Grid of the contact buckets (fsph_contact), rebuilt every cycle.
+  type, public :: contact_grid_t
+    integer :: nr = 0, nz = 0             !< cells along r and z
+    logical :: ok = .false.               !< the grid holds every segment
+    real(wp) :: origin(2) = 0.0_wp        !< lower corner (r, z) [m]
+    real(wp) :: cell = 1.0_wp             !< cell side [m]
+  end type contact_grid_t
+
   !> Contact between bodies (ALGORITHMS.md section 5): the element-region
   !> surfaces (segments and their nodes), rebuilt at set-up and after every
   !> conversion, and the books of the corrections.
@@ -163,6 +175,7 @@ module fsph_state
     integer, allocatable :: snode(:)      !< surface nodes (slaves of the slide lines)
     integer, allocatable :: snode_cont(:) !< continuum of each surface node
     integer, allocatable :: cell_start(:), cell_items(:), fill(:) !< work: segment buckets
+    type(contact_grid_t) :: grid          !< the buckets' grid
     real(wp), allocatable :: v_node0(:, :), v_part0(:, :) !< work: velocities before the corrections [m/s]
   end type contact_t
 
@@ -241,17 +254,16 @@ module fsph_state
     integer :: n_history = 0              !< records waiting in history
     integer :: history_cycle = -1         !< cycle of the last record
     real(wp), allocatable :: history(:, :) !< (history_columns, capacity), drained by the API
+    type(phase_timers_t) :: timers        !< wall time of each phase of the cycle
   end type simulation_t
 
-  !> The simulation state of this process.
-  type(simulation_t), public, save, target :: sim
-
-  public :: state_reset, state_allocate, state_allocate_particles, state_grow_particles
+  public :: state_allocate, state_allocate_particles, state_grow_particles
 
 contains
 
   !> Allocate every node and element array for nn nodes and ne elements.
-  subroutine state_allocate(nn, ne)
+  subroutine state_allocate(sim, nn, ne)
+    type(simulation_t), intent(inout) :: sim
     integer, intent(in) :: nn, ne
     sim%nodes = node_set_t()
     sim%elements = element_set_t()
@@ -271,17 +283,14 @@ contains
                 el%rbar(ne), el%volume(ne), el%lmin(ne), el%d(4, ne), el%spin(ne), el%fc(2, 3, ne), &
                 el%hist(n_hist, ne))
       el%hist = 0.0_wp
+      el%group = 0      ! no conversion group until assign_groups (checkpoints read it)
     end associate
   end subroutine state_allocate
 
-  !> Forget everything: deallocate and return to defaults.
-  subroutine state_reset()
-    sim = simulation_t()
-  end subroutine state_reset
-
   !> Allocate every particle array for np real particles and room for
   !> `capacity` entries in all (real and imaginary).
-  subroutine state_allocate_particles(np, capacity)
+  subroutine state_allocate_particles(sim, np, capacity)
+    type(simulation_t), intent(inout) :: sim
     integer, intent(in) :: np, capacity
     integer :: cap
     cap = max(capacity, np, 1)
@@ -315,10 +324,11 @@ contains
 
   !> Make room for `capacity` particle entries (real, imaginary and
   !> mirror), keeping every array's contents.
-  subroutine state_grow_particles(capacity)
+  subroutine state_grow_particles(pt, capacity)
+    type(particle_set_t), intent(inout) :: pt
     integer, intent(in) :: capacity
     integer :: cap
-    associate (pt => sim%particles)
+    block
       if (capacity <= pt%capacity) return
       cap = capacity
       pt%capacity = cap
@@ -337,7 +347,7 @@ contains
       call grow(pt%grad_v, cap); call grow(pt%switch, cap); call grow(pt%mirror_of, cap)
       call grow(pt%mirror_plane, cap)
       if (allocated(pt%x_listed)) call grow(pt%x_listed, cap)
-    end associate
+    end block
   end subroutine state_grow_particles
 
 end module fsph_state

@@ -23,10 +23,13 @@ module fsph_timers
   integer, parameter, public :: phase_step = 11            !< stable step, history
   integer, parameter, public :: n_phases = 11
 
-  real(wp), save :: elapsed(n_phases) = 0.0_wp   !< accumulated wall time [s]
-  real(wp), save :: started(n_phases) = 0.0_wp   !< clock at the open start [s]
+  !> The phase timers of one run.
+  type, public :: phase_timers_t
+    real(wp) :: elapsed(n_phases) = 0.0_wp   !< accumulated wall time [s]
+    real(wp) :: started(n_phases) = 0.0_wp   !< clock at the open start [s]
+  end type phase_timers_t
 
-  public :: timer_start, timer_stop, timer_reset, timer_elapsed, wall_clock
+  public :: timer_start, timer_stop, wall_clock
 
 contains
 
@@ -40,24 +43,16 @@ contains
     t = real(count, wp)/real(rate, wp)
   end function wall_clock
 
-  subroutine timer_start(phase)
+  subroutine timer_start(timers, phase)
+    type(phase_timers_t), intent(inout) :: timers
     integer, intent(in) :: phase
-    started(phase) = wall_clock()
+    timers%started(phase) = wall_clock()
   end subroutine timer_start
 
-  subroutine timer_stop(phase)
+  subroutine timer_stop(timers, phase)
+    type(phase_timers_t), intent(inout) :: timers
     integer, intent(in) :: phase
-    elapsed(phase) = elapsed(phase) + (wall_clock() - started(phase))
+    timers%elapsed(phase) = timers%elapsed(phase) + (wall_clock() - timers%started(phase))
   end subroutine timer_stop
-
-  subroutine timer_reset()
-    elapsed = 0.0_wp
-  end subroutine timer_reset
-
-  !> Accumulated time of every phase [s].
-  subroutine timer_elapsed(times)
-    real(wp), intent(out) :: times(n_phases)
-    times = elapsed
-  end subroutine timer_elapsed
 
 end module fsph_timers

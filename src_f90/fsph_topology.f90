@@ -1,9 +1,9 @@
-!> Topology of the element mesh held in the state: the node -> element
-!> corner map, lumped nodal masses and edge queries. Rebuilt at set-up and
-!> after every conversion.
+!> Topology of the element mesh: the node -> element corner map, lumped
+!> nodal masses and edge queries. Rebuilt at set-up and whenever the mesh
+!> changes (fsph_remesh).
 module fsph_topology
   use fsph_kinds, only: wp
-  use fsph_state, only: sim
+  use fsph_state, only: node_set_t, element_set_t
   implicit none
   private
 
@@ -12,79 +12,79 @@ module fsph_topology
 contains
 
   !> Node -> element-corner map (CSR) of the current mesh.
-  subroutine rebuild_corner_map()
+  subroutine rebuild_corner_map(nd, el)
+    type(node_set_t), intent(inout) :: nd
+    type(element_set_t), intent(in) :: el
     integer :: ie, k, a
     integer, allocatable :: fill(:)
-    associate (el => sim%elements, nd => sim%nodes)
-      if (allocated(nd%corner_ptr)) deallocate (nd%corner_ptr)
-      allocate (nd%corner_ptr(nd%n + 1), fill(nd%n + 1))
-      fill = 0
-      do ie = 1, el%n
-        do k = 1, 3
-          fill(el%conn(k, ie) + 1) = fill(el%conn(k, ie) + 1) + 1
-        end do
+    if (allocated(nd%corner_ptr)) deallocate (nd%corner_ptr)
+    allocate (nd%corner_ptr(nd%n + 1), fill(nd%n + 1))
+    fill = 0
+    do ie = 1, el%n
+      do k = 1, 3
+        fill(el%conn(k, ie) + 1) = fill(el%conn(k, ie) + 1) + 1
       end do
-      nd%corner_ptr(1) = 1
-      do a = 1, nd%n
-        nd%corner_ptr(a + 1) = nd%corner_ptr(a) + fill(a + 1)
+    end do
+    nd%corner_ptr(1) = 1
+    do a = 1, nd%n
+      nd%corner_ptr(a + 1) = nd%corner_ptr(a) + fill(a + 1)
+    end do
+    if (allocated(nd%corner_list)) deallocate (nd%corner_list)
+    allocate (nd%corner_list(max(3*el%n, 1)))
+    fill(1:nd%n) = nd%corner_ptr(1:nd%n)
+    do ie = 1, el%n
+      do k = 1, 3
+        a = el%conn(k, ie)
+        nd%corner_list(fill(a)) = 3*(ie - 1) + k
+        fill(a) = fill(a) + 1
       end do
-      if (allocated(nd%corner_list)) deallocate (nd%corner_list)
-      allocate (nd%corner_list(max(3*el%n, 1)))
-      fill(1:nd%n) = nd%corner_ptr(1:nd%n)
-      do ie = 1, el%n
-        do k = 1, 3
-          a = el%conn(k, ie)
-          nd%corner_list(fill(a)) = 3*(ie - 1) + k
-          fill(a) = fill(a) + 1
-        end do
-      end do
-    end associate
+    end do
   end subroutine rebuild_corner_map
 
   !> Lumped nodal masses: 1/3 of each element's ring mass to each of its
   !> nodes (EPIC style), plus the mass inherited from eroded elements.
-  subroutine nodal_masses()
+  subroutine nodal_masses(nd, el)
+    type(node_set_t), intent(inout) :: nd
+    type(element_set_t), intent(in) :: el
     integer :: ie, k
-    associate (nd => sim%nodes, el => sim%elements)
-      nd%mass = nd%mass_eroded
-      do ie = 1, el%n
-        do k = 1, 3
-          nd%mass(el%conn(k, ie)) = nd%mass(el%conn(k, ie)) + el%mass(ie)/3.0_wp
-        end do
+    nd%mass = nd%mass_eroded
+    do ie = 1, el%n
+      do k = 1, 3
+        nd%mass(el%conn(k, ie)) = nd%mass(el%conn(k, ie)) + el%mass(ie)/3.0_wp
       end do
-      nd%mass_total = nd%mass + nd%mass_tie
-    end associate
+    end do
+    nd%mass_total = nd%mass + nd%mass_tie
   end subroutine nodal_masses
 
   !> Number of elements, other than `except`, that have both nodes a and b.
-  integer function elements_with_edge(a, b, except) result(count)
+  integer function elements_with_edge(nd, el, a, b, except) result(count)
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
     integer, intent(in) :: a, b, except
     integer :: k, ie
     count = 0
-    associate (el => sim%elements, nd => sim%nodes)
-      do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
-        ie = (nd%corner_list(k) - 1)/3 + 1
-        if (ie == except) cycle
-        if (any(el%conn(:, ie) == b)) count = count + 1
-      end do
-    end associate
+    do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
+      ie = (nd%corner_list(k) - 1)/3 + 1
+      if (ie == except) cycle
+      if (any(el%conn(:, ie) == b)) count = count + 1
+    end do
   end function elements_with_edge
 
   !> The element other than `except` that has edge (a, b), 0 if none.
-  integer function element_across(a, b, except) result(other)
+  integer function element_across(nd, el, a, b, except) result(other)
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
     integer, intent(in) :: a, b, except
     integer :: k, ie
     other = 0
-    associate (el => sim%elements, nd => sim%nodes)
-      do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
-        ie = (nd%corner_list(k) - 1)/3 + 1
-        if (ie == except) cycle
-        if (any(el%conn(:, ie) == b)) then
-          other = ie
-          return
-        end if
-      end do
-    end associate
+    do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
+      ie = (nd%corner_list(k) - 1)/3 + 1
+      if (ie == except) cycle
+      if (any(el%conn(:, ie) == b)) then
+        other = ie
+        return
+      end if
+    end do
   end function element_across
 
 end module fsph_topology

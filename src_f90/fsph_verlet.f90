@@ -12,7 +12,7 @@
 !> forces a rebuild.
 module fsph_verlet
   use fsph_kinds, only: wp
-  use fsph_state, only: sim
+  use fsph_state, only: particle_set_t, node_set_t, element_set_t
   use fsph_arrays, only: reserve
   use fsph_kernel, only: kernel_support
   use fsph_coupling, only: coupled_body, element_mean, element_smoothing_length
@@ -25,68 +25,81 @@ contains
 
   !> Skin for lists built now [m]: the control fraction of the smallest
   !> kernel support of the real particles (0: lists rebuilt every cycle).
-  real(wp) function list_skin()
+  real(wp) function list_skin(pt, neighbour_skin)
+    type(particle_set_t), intent(in) :: pt
+    real(wp), intent(in) :: neighbour_skin
     integer :: n
-    n = sim%particles%n
+    n = pt%n
     list_skin = 0.0_wp
-    if (n > 0) list_skin = sim%control%neighbour_skin*kernel_support*minval(sim%particles%h(1:n))
+    if (n > 0) list_skin = neighbour_skin*kernel_support*minval(pt%h(1:n))
   end function list_skin
 
   !> Forget the lists: the next cycle rebuilds them.
-  subroutine invalidate_lists()
-    sim%particles%lists_valid = .false.
+  subroutine invalidate_lists(pt)
+    type(particle_set_t), intent(inout) :: pt
+    pt%lists_valid = .false.
   end subroutine invalidate_lists
 
   !> Positions of the real particles and centroids and h of the elements at
   !> a build with skin `skin` [m].
-  subroutine record_lists(skin)
+  subroutine record_lists(pt, nd, el, alpha_h, skin)
+    type(particle_set_t), intent(inout) :: pt
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
+    real(wp), intent(in) :: alpha_h
     real(wp), intent(in) :: skin
     integer :: n, ne, ie
-    n = sim%particles%n
-    ne = sim%elements%n
-    if (.not. allocated(sim%particles%x_listed)) allocate (sim%particles%x_listed(2, sim%particles%capacity))
-    sim%particles%x_listed(:, 1:n) = sim%particles%x(:, 1:n)
-    call reserve(sim%particles%elem_listed, 3, max(ne, 1))
-    !$omp parallel do default(none) shared(sim, ne) private(ie)
+    n = pt%n
+    ne = el%n
+    if (.not. allocated(pt%x_listed)) allocate (pt%x_listed(2, pt%capacity))
+    pt%x_listed(:, 1:n) = pt%x(:, 1:n)
+    call reserve(pt%elem_listed, 3, max(ne, 1))
+    !$omp parallel do default(none) shared(pt, nd, el, alpha_h, ne) private(ie)
     do ie = 1, ne
-      sim%particles%elem_listed(1:2, ie) = element_mean(sim%nodes%x, ie)
-      sim%particles%elem_listed(3, ie) = element_smoothing_length(ie)
+      pt%elem_listed(1:2, ie) = element_mean(nd%x, el%conn, ie)
+      pt%elem_listed(3, ie) = element_smoothing_length(alpha_h, el%area(ie))
     end do
     !$omp end parallel do
-    sim%particles%skin = skin
-    sim%particles%n_listed = n
-    sim%particles%lists_valid = skin > 0.0_wp
-    sim%particles%n_rebuilds = sim%particles%n_rebuilds + 1
+    pt%skin = skin
+    pt%n_listed = n
+    pt%lists_valid = skin > 0.0_wp
+    pt%n_rebuilds = pt%n_rebuilds + 1
   end subroutine record_lists
 
   !> Whether the lists of the last build still hold every pair within the
   !> kernel support (see the module header).
-  logical function lists_still_valid()
+  logical function lists_still_valid(pt, nd, el, body_coupled, alpha_h)
+    type(particle_set_t), intent(in) :: pt
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
+    logical, intent(in) :: body_coupled(:)
+    real(wp), intent(in) :: alpha_h
     integer :: n, ne, ie
     real(wp) :: d2_max, dh_max, xe(2)
     lists_still_valid = .false.
-    n = sim%particles%n
-    ne = sim%elements%n
-    if (.not. sim%particles%lists_valid .or. n /= sim%particles%n_listed .or. n == 0) return
+    n = pt%n
+    ne = el%n
+    if (.not. pt%lists_valid .or. n /= pt%n_listed .or. n == 0) return
     d2_max = 0.0_wp
     dh_max = 0.0_wp
-    !$omp parallel do default(none) shared(sim, n) private(ie) reduction(max:d2_max)
+    !$omp parallel do default(none) shared(pt, n) private(ie) reduction(max:d2_max)
     do ie = 1, n
-      d2_max = max(d2_max, sum((sim%particles%x(:, ie) - sim%particles%x_listed(:, ie))**2))
+      d2_max = max(d2_max, sum((pt%x(:, ie) - pt%x_listed(:, ie))**2))
     end do
     !$omp end parallel do
     if (ne > 0) then
-      if (size(sim%particles%elem_listed, 2) < ne) return
-      !$omp parallel do default(none) shared(sim, ne) private(ie, xe) reduction(max:d2_max, dh_max)
+      if (size(pt%elem_listed, 2) < ne) return
+      !$omp parallel do default(none) shared(pt, nd, el, body_coupled, alpha_h, ne) private(ie, xe) &
+      !$omp reduction(max:d2_max, dh_max)
       do ie = 1, ne
-        if (.not. coupled_body(sim%elements%body(ie))) cycle
-        xe = element_mean(sim%nodes%x, ie)
-        d2_max = max(d2_max, sum((xe - sim%particles%elem_listed(1:2, ie))**2))
-        dh_max = max(dh_max, element_smoothing_length(ie) - sim%particles%elem_listed(3, ie))
+        if (.not. coupled_body(body_coupled, el%body(ie))) cycle
+        xe = element_mean(nd%x, el%conn, ie)
+        d2_max = max(d2_max, sum((xe - pt%elem_listed(1:2, ie))**2))
+        dh_max = max(dh_max, element_smoothing_length(alpha_h, el%area(ie)) - pt%elem_listed(3, ie))
       end do
       !$omp end parallel do
     end if
-    lists_still_valid = 2.0_wp*sqrt(d2_max) + kernel_support*dh_max < sim%particles%skin
+    lists_still_valid = 2.0_wp*sqrt(d2_max) + kernel_support*dh_max < pt%skin
   end function lists_still_valid
 
 end module fsph_verlet

@@ -103,10 +103,11 @@ def jittered_rod(write_deck, seed, smoothing_lengths):
     x = part["x"] + rng.uniform(-0.2, 0.2, part["x"].shape) * spacing
     x[:, 0] = np.maximum(x[:, 0], 0.2 * spacing)
     h = smoothing_lengths(rng, len(x))
-    ierr = _api.set_particles(np.asfortranarray(x.T), np.zeros((2, len(x)), order="F"), part["mass"], h,
-                              (part["material"] + 1).astype(np.int32), (part["body"] + 1).astype(np.int32))
+    ierr = _api.set_particles(rod._run, np.asfortranarray(x.T), np.zeros((2, len(x)), order="F"),
+                              part["mass"], h, (part["material"] + 1).astype(np.int32),
+                              (part["body"] + 1).astype(np.int32))
     assert ierr == 0
-    assert _api.initialise()[0] == 0
+    assert _api.initialise(rod._run)[0] == 0
     return rod, x, h
 
 
@@ -133,7 +134,7 @@ def test_neighbour_lists_of_any_length_match_brute_force(write_deck):
     # from narrower than most parts (rows overflow and grow) to as wide as
     # the longest (full rows)
     for width in range(4, counts.max() + 2):
-        _api.set_neighbour_width(int(width))
+        _api.set_neighbour_width(rod._run, int(width))
         rod.particle_rates()
         assert_lists_exact(rod, x, h, width)
 
@@ -154,11 +155,11 @@ def set_particle_velocity(sim, v):
     """Rebuild the particle state with velocities v (n, 2) [m/s]."""
     from fsph.simulation import _api
     part = sim.snapshot()["particles"]
-    ierr = _api.set_particles(np.asfortranarray(part["x"].T), np.asfortranarray(np.asarray(v).T),
+    ierr = _api.set_particles(sim._run, np.asfortranarray(part["x"].T), np.asfortranarray(np.asarray(v).T),
                               part["mass"], part["h"], (part["material"] + 1).astype(np.int32),
                               (part["body"] + 1).astype(np.int32))
     assert ierr == 0
-    ierr, _ = _api.initialise()
+    ierr, _ = _api.initialise(sim._run)
     assert ierr == 0
 
 
@@ -306,11 +307,11 @@ def test_particle_on_the_axis_is_refused(rod):
     part = rod.snapshot()["particles"]
     x = part["x"].copy()
     x[5, 0] = 0.0
-    ierr = _api.set_particles(np.asfortranarray(x.T), np.asfortranarray(part["velocity"].T),
+    ierr = _api.set_particles(rod._run, np.asfortranarray(x.T), np.asfortranarray(part["velocity"].T),
                               part["mass"], part["h"], (part["material"] + 1).astype(np.int32),
                               (part["body"] + 1).astype(np.int32))
     assert ierr == 0
-    ierr, ifault = _api.initialise()
+    ierr, ifault = _api.initialise(rod._run)
     assert ierr == 10 and ifault == -6
 
 

@@ -1,0 +1,88 @@
+"""Runs are instances: several fsph.Simulation objects in one process
+advance independently, and the reference runs end in the same state, bit
+for bit, as before the solver's state became an instance (the stored
+digests)."""
+
+import gc
+
+import pytest
+
+import fsph
+from fsph import deck as deck_module
+from fsph.checkpoint import state_digest
+
+from conftest import CASES, rod_deck
+
+# Digest (fsph.checkpoint.state_digest) of the final state of each reference
+# run, advanced to its end time in one call, measured with the release build
+# (gfortran -O3) before the refactor that made the state an instance. The
+# state does not depend on the thread count. A change meant to alter the
+# results must re-measure the validations and update these with it.
+REFERENCE_DIGESTS = {
+    "taylor_armco": "5466fed00e048bb53c711c384e37a55a6d960e53ddb3e35778fd52486f570f2e",
+    "al_plate_508": "33a31bff3cceacd9e79b739c62dbeb83bb91833e0aaff8ca4c84b30f99c3d326",
+    "concrete_1058": "267728e552404c9457ec733d6ba621da7a313f2ce71b702141e9e8a582705d3f",
+}
+
+
+@pytest.mark.parametrize("case", sorted(REFERENCE_DIGESTS))
+def test_reference_run_ends_in_the_stored_state(case):
+    deck = deck_module.load(CASES / f"{case}.nml")
+    sim = fsph.Simulation(deck)
+    sim.advance(deck["control"]["end_time"])
+    assert state_digest(sim) == REFERENCE_DIGESTS[case]
+
+
+def small_decks(write_deck):
+    """Two different small runs: an elastic element rod on a plane, and a
+    particle rod striking it faster."""
+    elements = write_deck(rod_deck(control="end_time = 4.0e-6"), "elements.nml")
+    particles = write_deck(rod_deck(control="end_time = 4.0e-6\n mode = 'sph'",
+                                    body="velocity_z = -120.0"), "particles.nml")
+    return [deck_module.load(elements), deck_module.load(particles)]
+
+
+STEPS = 8
+
+
+def run_alone(deck):
+    """Digest and sizes of a run advanced alone, in STEPS calls (landing
+    on each call's end shapes the trajectory, so both sides use them)."""
+    sim = fsph.Simulation(deck)
+    for step in range(1, STEPS + 1):
+        sim.advance(deck["control"]["end_time"] * step / STEPS)
+    return state_digest(sim), sim.n_elements, sim.n_particles
+
+
+def test_interleaved_runs_match_each_run_alone(write_deck):
+    """Two runs built one after the other and advanced in alternation end
+    in the state each reaches alone, bit for bit."""
+    decks = small_decks(write_deck)
+    alone = [run_alone(deck) for deck in decks]
+    sims = [fsph.Simulation(deck) for deck in decks]
+    for step in range(1, STEPS + 1):
+        for sim, deck in zip(sims, decks):
+            sim.advance(deck["control"]["end_time"] * step / STEPS)
+    together = [(state_digest(sim), sim.n_elements, sim.n_particles) for sim in sims]
+    assert together == alone
+    assert alone[0][1] > 0 and alone[1][2] > 0      # the runs differ in kind
+
+
+def test_a_new_run_leaves_a_live_one_alone(write_deck):
+    """Building, advancing and freeing a second run changes nothing in the
+    first: its mesh, clock and energy balance stay its own."""
+    first_deck, second_deck = small_decks(write_deck)
+    first = fsph.Simulation(first_deck)
+    end = first_deck["control"]["end_time"]
+    first.advance(end / STEPS)
+    before = (state_digest(first), first.n_elements, first.time, first.energies()["relative_error"])
+    second = fsph.Simulation(second_deck)
+    second.advance(2.0e-6)
+    assert (state_digest(first), first.n_elements, first.time,
+            first.energies()["relative_error"]) == before
+    del second
+    gc.collect()
+    assert state_digest(first) == before[0]
+    for step in range(2, STEPS + 1):
+        first.advance(end * step / STEPS)
+    assert state_digest(first) == run_alone(first_deck)[0]
