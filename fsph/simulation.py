@@ -443,13 +443,13 @@ class Simulation:
         return {"acc": acc.T.copy(), "drho": drho.copy(), "de": de.copy(), "d": d.T.copy(),
                 "spin": spin.copy()}
 
-    def neighbors(self):
+    def neighbours(self):
         """Neighbour lists of the last search: CSR pointer (n+1,) and entries
         (+j neighbour, -j mirror of j across the axis), 1-based as in Fortran;
         a pair of real particles is in both lists. Raises if the search's
         pair bookkeeping is inconsistent."""
-        n_entries = int(_api.get_neighbor_count(self._run))
-        ptr, lst, consistent = _api.get_neighbors(self._run, self.n_particles, n_entries)
+        n_entries = int(_api.get_neighbour_count(self._run))
+        ptr, lst, consistent = _api.get_neighbours(self._run, self.n_particles, n_entries)
         if not consistent:
             raise FsphError("neighbour lists: a low entry does not point at its pair")
         return ptr.copy(), lst.copy()

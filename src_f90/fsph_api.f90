@@ -16,7 +16,7 @@ module fsph_api
   public :: get_strain_rates
   public :: material_point, history_count, drain_history, set_sph_control, set_particles
   public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
-  public :: get_neighbor_count, get_neighbors, kernel_values, set_continua, reserve_particles
+  public :: get_neighbour_count, get_neighbours, kernel_values, set_continua, reserve_particles
   public :: set_conversion, get_element_groups, get_conversion_stats, get_particle_ties
   public :: convert_now, set_stress_state, get_forces
   public :: checkpoint_layout, checkpoint_sizes, get_real_state, get_int_state, set_real_state
@@ -759,7 +759,7 @@ contains
 
   !> Total number of neighbour entries (ghosts included) of the last search,
   !> each pair of real particles counted in both particles' lists.
-  subroutine get_neighbor_count(run, nentries)
+  subroutine get_neighbour_count(run, nentries)
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(out) :: nentries
@@ -769,14 +769,14 @@ contains
     n = sim%particles%n
     if (n > 0 .and. allocated(sim%particles%nbr_list)) &
       nentries = sim%particles%nbr_ptr(n + 1) - 1 + sim%particles%low_ptr(n + 1) - 1
-  end subroutine get_neighbor_count
+  end subroutine get_neighbour_count
 
   !> Full neighbour lists of the last search: CSR pointer (np+1) and entries
   !> (+j neighbour, -j mirror of j across the axis): each particle's own
   !> row (half and one-way entries) followed by its low partners.
   !> consistent = 1 when every low entry points at the pair entry that
   !> holds the particle in its partner's half row (verification).
-  subroutine get_neighbors(run, np, nentries, ptr, list, consistent)
+  subroutine get_neighbours(run, np, nentries, ptr, list, consistent)
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: np, nentries
@@ -807,7 +807,7 @@ contains
         end do
       end do
     end associate
-  end subroutine get_neighbors
+  end subroutine get_neighbours
 
   !> Material table: props(nprop, nmat) in the fsph_material layout and the
   !> strength and EOS model ids of each material.

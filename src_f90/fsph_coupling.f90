@@ -25,7 +25,7 @@ module fsph_coupling
   use fsph_kinds, only: wp, pi, two_pi
   use fsph_state, only: particle_set_t, node_set_t, element_set_t, coupling_t
   use fsph_kernel, only: kernel_support
-  use fsph_neighbors, only: build_neighbors
+  use fsph_neighbours, only: build_neighbours
   use fsph_topology, only: elements_with_edge
   implicit none
   private
@@ -338,7 +338,7 @@ contains
     if (n == 0 .or. el%n == 0) return
     call fill_imaginary(pt, el, nd, continuum_of_body, body_coupled, alpha_h, stage_select)
     ! lists without a skin, for this search only: the cycle rebuilds its own
-    call build_neighbors(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, 0.0_wp, pt%search, pt%nbr_ptr, &
+    call build_neighbours(n, n + pt%n_imag, pt%x, pt%h, pt%continuum, 0.0_wp, pt%search, pt%nbr_ptr, &
                          pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, pt%cnt_ptr, &
                          pt%cnt_list)
     pt%lists_valid = .false.

@@ -13,7 +13,7 @@ module fsph_solver
                           element_update, element_time_step
   use fsph_boundary, only: apply_axis, apply_rigid_plane
   use fsph_integrate, only: integrate_velocities, integrate_positions
-  use fsph_neighbors, only: build_neighbors
+  use fsph_neighbours, only: build_neighbours
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
                       pair_weights, compression_switch
   use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
@@ -430,7 +430,7 @@ contains
         if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
         call select_mirrors(sim, skin)
         call fill_mirrors_start(sim)
-        call build_neighbors(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, pt%continuum, skin, pt%search, &
+        call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, pt%continuum, skin, pt%search, &
                              pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
                              pt%cnt_ptr, pt%cnt_list)
         call record_lists(sim%particles, sim%nodes, sim%elements, sim%conversion%alpha_h, skin)

@@ -1,5 +1,5 @@
 !> Axisymmetric SPH sums (seed 000 eqs 2-4; ALGORITHMS.md section 2) over
-!> the neighbour lists of fsph_neighbors. A pair of real particles is
+!> the neighbour lists of fsph_neighbours. A pair of real particles is
 !> evaluated once, in the row of the lower index, which keeps what the
 !> partner needs per entry (force, kernel gradient, work); a second loop
 !> over every particle's low list adds the partners' terms in a fixed

@@ -7,7 +7,7 @@
 module fsph_state
   use fsph_kinds, only: wp
   use fsph_material, only: n_hist
-  use fsph_neighbors, only: neighbour_work_t
+  use fsph_neighbours, only: neighbour_work_t
   use fsph_arrays, only: grow
   use fsph_timers, only: phase_timers_t
   implicit none
@@ -98,7 +98,7 @@ module fsph_state
     integer, allocatable :: mirror_of(:)  !< particle of each mirror image (index - n - n_imag)
     integer, allocatable :: mirror_plane(:) !< plane of each mirror image
     real(wp), allocatable :: e_old(:), rho_old(:), rho_mid(:), sig_mid(:, :) !< cycle work arrays
-    ! neighbour search (fsph_neighbors): its work arrays, same-body and contact lists
+    ! neighbour search (fsph_neighbours): its work arrays, same-body and contact lists
     type(neighbour_work_t) :: search
     ! lists kept across cycles (fsph_verlet)
     logical :: lists_valid = .false.      !< the lists may be reused (false forces a rebuild)

@@ -1,5 +1,5 @@
 !> Neighbour lists kept across cycles (Verlet lists): the lists of
-!> fsph_neighbors are built with every pair's reach widened by a skin, and
+!> fsph_neighbours are built with every pair's reach widened by a skin, and
 !> reused while no pair can have come within the kernel support unlisted:
 !> while 2 d_max + kernel_support dh_max < skin, with d_max the largest
 !> displacement since the build of a real particle or of the centroid of an

@@ -78,7 +78,7 @@ def test_neighbour_lists_match_brute_force(rod):
     2 h_ij that an all-pairs check finds, and none beyond 2 h_ij plus the
     skin (&sph neighbour_skin times the smallest 2h)."""
     rod.particle_rates()                     # builds the lists
-    ptr, lst = rod.neighbors()
+    ptr, lst = rod.neighbours()
     part = rod.snapshot()["particles"]
     x, h = part["x"], part["h"]
     skin = rod.deck["sph"]["neighbour_skin"] * 2.0 * h.min()
@@ -112,7 +112,7 @@ def jittered_rod(write_deck, seed, smoothing_lengths):
 
 
 def assert_lists_exact(rod, x, h, label):
-    ptr, lst = rod.neighbors()
+    ptr, lst = rod.neighbours()
     for i in range(len(x)):
         entries = lst[ptr[i] - 1:ptr[i + 1] - 1].tolist()
         assert len(entries) == len(set(entries)), (label, i)
@@ -128,7 +128,7 @@ def test_neighbour_lists_of_any_length_match_brute_force(write_deck):
     from fsph.simulation import _api
     rod, x, h = jittered_rod(write_deck, 7, lambda rng, n: rng.uniform(1.2, 3.0, n) * 0.1e-3)
     rod.particle_rates()
-    counts = np.diff(rod.neighbors()[0])
+    counts = np.diff(rod.neighbours()[0])
     assert counts.min() < 32 < counts.max()
     # buffer rows (half, low and one-way parts of the lists) of every width
     # from narrower than most parts (rows overflow and grow) to as wide as

@@ -26,14 +26,14 @@
 !> (cells, then points), which depends on the positions only. Contact candidates, particles of
 !> another body within the support (section 5), have a separate full list
 !> (cnt_ptr, cnt_list). SPH sums never cross continuum boundaries.
-module fsph_neighbors
+module fsph_neighbours
   use fsph_kinds, only: wp
   use fsph_kernel, only: kernel_support
   use fsph_arrays, only: reserve
   implicit none
   private
 
-  public :: build_neighbors
+  public :: build_neighbours
 
   !> Largest number of size levels (a factor 2 in h each; the last takes
   !> all larger points).
@@ -132,7 +132,7 @@ contains
   !> (the real particles; the others, imaginary particles, appear only as
   !> one-way entries and never as contact candidates). `body` is the
   !> continuum index. The allocatable lists grow as needed.
-  subroutine build_neighbors(nq, n, x, h, body, skin, work, nbr_ptr, nbr_list, half_end, low_ptr, low_pair, &
+  subroutine build_neighbours(nq, n, x, h, body, skin, work, nbr_ptr, nbr_list, half_end, low_ptr, low_pair, &
                              low_other, cnt_ptr, cnt_list)
     integer, intent(in) :: nq, n
     real(wp), intent(in) :: x(2, n)        !< positions (r >= 0, z) [m]
@@ -205,7 +205,7 @@ contains
     end do
     !$omp end parallel do
 
-  end subroutine build_neighbors
+  end subroutine build_neighbours
 
   !> Insertion sort of a short list (a row of some tens of entries).
   pure subroutine sort_ascending(a)
@@ -380,4 +380,4 @@ contains
     allocate (list(max(m + m/4, 16)))
   end subroutine ensure_size
 
-end module fsph_neighbors
+end module fsph_neighbours
