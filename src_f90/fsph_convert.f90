@@ -1,5 +1,5 @@
-!> Automatic conversion of distorted elements into particles (seed 000
-!> section 2.3, eqs 9-13; ALGORITHMS.md section 4): element groups, the
+!> Automatic conversion of distorted elements into particles (Xiao et al. 2012
+!> section 2.3, eqs 9-13): element groups, the
 !> conversion criteria, the conversion itself (mass exact, momentum to
 !> round-off, the kinetic energy of the nodes' relative motion turned into
 !> heat of the new particle), removal of orphan nodes, the element-region
@@ -31,7 +31,7 @@ module fsph_convert
   !> its centre lies within this many smoothing lengths of the edge, on its
   !> outer side [-]: the kernel support, so the particles whose mean stress
   !> loads an edge are those its elements act on through their imaginary
-  !> particles. (The first particle row only, as in seed 000, left the
+  !> particles. (The first particle row only, as in Xiao et al. 2012, left the
   !> energy 5.6 % high mid-run on the Taylor rod; the support, 1.6 %.)
   real(wp), parameter, public :: association_reach = kernel_support
 
@@ -342,7 +342,7 @@ contains
     end associate
   end function meets_criterion
 
-  !> Append one particle per converted element (seed 000: the variables of
+  !> Append one particle per converted element (Xiao et al. 2012: the variables of
   !> the imaginary particle): mass, density, stress, plastic strain,
   !> energy, temperature, strain rate and velocity gradient; velocity the
   !> mean of the nodes; position the centre of mass of the element's ring
@@ -505,7 +505,7 @@ contains
 
   !> The new particles (the last size(pending, 3)) are tied to the nearer
   !> of their pending edges (edges of remaining elements they were made
-  !> next to; seed 000 Fig. 5); associations follow in associate_particles.
+  !> next to; Xiao et al. 2012 Fig. 5); associations follow in associate_particles.
   subroutine tie_new_particles(pending)
     integer, intent(in) :: pending(:, :, :)
     integer :: i, k, slot, n_new

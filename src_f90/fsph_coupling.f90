@@ -1,6 +1,6 @@
-!> Element-particle coupling (seed 000 section 2.1, eqs 5-8; ALGORITHMS.md
-!> section 3) and the ties of particles to element edges (Johnson et al.
-!> 2002 style, section 4).
+!> Element-particle coupling (Xiao et al. 2012 section 2.1, eqs 5-8)
+!> and the ties of particles to element edges (Johnson et al.
+!> 2002, as in Xiao et al. 2012 section 2.3).
 !>
 !>  - Elements -> particles: each element of a coupled body is an imaginary
 !>    particle (mass and density of the element, position and velocity the
