@@ -1,9 +1,9 @@
 """Ogive rod through the 178 mm slab of 48 MPa concrete (Hanchak et al.
-1992): the 1058 m/s case in the three methods of seed 002's table 1 (FEM
+1992): the 1058 m/s case in the three methods of table 1 of Hu et al. 2013 (FEM
 with erosion, SPH, adaptive FEM-SPH: residual velocity, error against the
 experiment's 947 m/s, relative wall time) and the 606 m/s case adaptive and
 with fixed coupling (residual against 449 m/s, wall-time ratio
-fixed/adaptive; seed 000: 167/59 min). Runs the decks (or reuses outputs in
+fixed/adaptive; Xiao et al. 2012: 167/59 min). Runs the decks (or reuses outputs in
 --out) with the thread count of the environment, prints the tables, writes
 JSON.
 
@@ -11,7 +11,7 @@ JSON.
         --json docs/concrete.json [--mesh-study]
 
 --mesh-study also runs the 606 m/s adaptive case on a mesh refined by 1.6
-in each direction (slab about 26 000 elements, near the seed's 33 600) for
+in each direction (slab about 26 000 elements, near the 33 600 of Xiao et al. 2012) for
 the convergence note.
 """
 
@@ -26,7 +26,7 @@ from common import machine, machine_line, run_or_reuse
 from common import refined_deck as common_refined_deck
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
-#: deck, experiment residual [m/s], seed's method label and computed value
+#: deck, method label, the paper's residual velocity [m/s] and relative cost
 RUNS_1058 = (("concrete_1058_fem", "FEM (erosion)", 956.598, 1.000),
              ("concrete_1058_sph", "SPH", 945.128, 4.128),
              ("concrete_1058", "FEM-SPH (adaptive)", 952.831, 2.831))
@@ -74,20 +74,20 @@ def main(argv=None):
     result = {"machine": info}
     for velocity, runs in ((1058, RUNS_1058), (606, RUNS_606)):
         rows = {}
-        for deck, label, seed_value, seed_cost in runs:
+        for deck, label, paper_value, paper_cost in runs:
             summary = run_or_reuse(CASES / f"{deck}.nml", out / deck, args.rerun)
             rows[deck] = dict(row(summary, EXPERIMENT[velocity]), method=label,
-                              seed_v_r=seed_value, seed_cost=seed_cost)
+                              paper_v_r=paper_value, paper_cost=paper_cost)
         base = rows[runs[0][0]]["wall_s"]
         print(f"\n{velocity} m/s (experiment {EXPERIMENT[velocity]:.0f} m/s)")
         print(f"{'method':>20s} {'v_r [m/s]':>10s} {'error':>7s} {'wall [s]':>9s} "
-              f"{'relative':>8s} {'seed':>7s} {'E err max':>9s} {'momentum':>9s} {'status':>9s}")
-        for deck, label, seed_value, seed_cost in runs:
+              f"{'relative':>8s} {'paper':>7s} {'E err max':>9s} {'momentum':>9s} {'status':>9s}")
+        for deck, label, paper_value, paper_cost in runs:
             r = rows[deck]
             r["relative_wall"] = r["wall_s"] / base
-            seed_rel = seed_cost / runs[0][3]
+            paper_rel = paper_cost / runs[0][3]
             print(f"{label:>20s} {r['v_r']:10.1f} {r['error_percent']:+6.1f}% {r['wall_s']:9.1f} "
-                  f"{r['relative_wall']:8.2f} {seed_rel:7.2f} {r['energy_error_max']:+9.2%} "
+                  f"{r['relative_wall']:8.2f} {paper_rel:7.2f} {r['energy_error_max']:+9.2%} "
                   f"{r['momentum_error']:9.1e} {r['status']:>9s}")
         result[str(velocity)] = rows
     if args.mesh_study:

@@ -10,7 +10,7 @@ process of its own; peak memory is that child's resident set):
      us per particle-cycle, split into neighbour search, sums, stress update
   c  cases/taylor_armco.nml (adaptive, 60 us) through `fsph run`: wall time
      from process start, cycles, time share of elements, particles,
-     coupling, conversion and contact (as seed 002's table 2)
+     coupling, conversion and contact (as table 2 of Hu et al. 2013)
   d  the 508 m/s plate case to 200 us, adaptive and pure SPH, and their
      wall-time ratio
   e  the adaptive Taylor case refined x1, x2, x4 in each direction (2 680,
@@ -42,7 +42,7 @@ REPO = Path(__file__).resolve().parents[1]
 CASES = REPO / "cases"
 THREADS = (1, 2)
 
-#: phases of the cycle (fsph.simulation.PHASES) grouped as seed 002's table 2
+#: phases of the cycle (fsph.simulation.PHASES) grouped as table 2 of Hu et al. 2013
 GROUPS = {"elements": ("element_forces", "element_update"),
           "particles": ("neighbours", "sph_sums", "particle_update"),
           "coupling": ("coupling",),

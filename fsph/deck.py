@@ -339,7 +339,7 @@ SCHEMA = {
         },
     ),
     "convert": Group(
-        "Automatic conversion of distorted elements into particles (mode adaptive; seed 000 "
+        "Automatic conversion of distorted elements into particles (mode adaptive; Xiao et al. 2012 "
         "section 2.3). Elements are grouped at set-up into rectangles of side kappa * R_max, "
         "R_max = 2 alpha_h sqrt(A0) (&sph alpha_h), A0 the median initial element area of the "
         "body (eq 9 takes the largest, the same on a uniform mesh; on a graded plate the "
@@ -347,11 +347,11 @@ SCHEMA = {
         "group meets the criterion, the whole group becomes particles.",
         {
             "criterion": Key("str", "min_angle", "-",
-                             "min_angle: smallest interior angle below theta_c (seed 000); "
+                             "min_angle: smallest interior angle below theta_c (Xiao et al. 2012); "
                              "plastic_strain: equivalent plastic strain at least eps_c "
-                             "(seed 002); equivalent_stress: von Mises stress at least sigma_c.",
+                             "(Hu et al. 2013); equivalent_stress: von Mises stress at least sigma_c.",
                              choices=("min_angle", "plastic_strain", "equivalent_stress")),
-            "theta_c": Key("float", 30.0, "deg", "Critical minimum interior angle (seed 000: 30).",
+            "theta_c": Key("float", 30.0, "deg", "Critical minimum interior angle (Xiao et al. 2012: 30).",
                            lower=0.0, upper=60.0, lower_open=True, upper_open=True),
             "relative_angle": Key("float", 0.75, "-",
                                   "min_angle criterion for elements that start below theta_c "
@@ -360,22 +360,22 @@ SCHEMA = {
                                   "its minimum angle is below both theta_c and relative_angle "
                                   "times its initial minimum angle. Elements that start at or "
                                   "above theta_c (crossed squares: 45 deg) see theta_c alone, "
-                                  "as in seed 000.", lower=0.0, upper=1.0, lower_open=True),
+                                  "as in Xiao et al. 2012.", lower=0.0, upper=1.0, lower_open=True),
             "eps_c": Key("float", 0.4, "-",
-                         "Critical equivalent plastic strain (seed 002 uses 0.4; 0.3-0.6 usual).",
+                         "Critical equivalent plastic strain (Hu et al. 2013 use 0.4; 0.3-0.6 usual).",
                          lower=0.0, lower_open=True),
             "sigma_c": _pos("Critical equivalent stress (criterion equivalent_stress).", "Pa", None),
             "kappa": Key("float", 1.5, "-",
-                         "Group size factor of seed 000 eq 9 (> 1, so a converted group's "
+                         "Group size factor of Xiao et al. 2012 eq 9 (> 1, so a converted group's "
                          "particles stay within its neighbouring groups).",
                          lower=1.0, lower_open=True),
         },
     ),
     "contact": Group(
-        "Contact between bodies (ALGORITHMS.md section 5): element-element slide lines "
+        "Contact between bodies (Xiao et al. 2012 section 2.2): element-element slide lines "
         "(every surface node against the other bodies' surface segments, so each surface is "
         "master and slave in turn, after Johnson & Stryk 2001) and particle-element contact "
-        "(seed 002 eqs 1-3, the particle radius as contact thickness), as momentum-conserving "
+        "(Hu et al. 2013 eqs 1-3, the particle radius as contact thickness), as momentum-conserving "
         "corrections of the half-step velocities; particle-particle contact between bodies is "
         "a contact potential (&sph contact_penalty). Surfaces follow the element region as elements "
         "are converted. The kinetic energy the corrections remove is reported "
@@ -385,12 +385,12 @@ SCHEMA = {
                            "Contact on. It only acts where two bodies (or a particle and an "
                            "element surface) meet, so leaving it on costs little."),
             "passes": Key("int", 3, "-",
-                          "Correction passes per cycle (seed 002: 3 to 5 give satisfactory "
+                          "Correction passes per cycle (Hu et al. 2013: 3 to 5 give satisfactory "
                           "results; the pairs share master nodes, so one pass does not remove "
                           "every penetration).", lower=1, upper=20),
             "friction": Key("float", 0.0, "-",
                             "Coulomb friction coefficient of element and particle contact "
-                            "(0: frictionless, the default of the seeds).", lower=0.0, upper=2.0),
+                            "(0: frictionless, as in Xiao et al. 2012 and Hu et al. 2013).", lower=0.0, upper=2.0),
             "own_particles": Key("bool", True, "-",
                                  "Untied particles may not cross into their own body's element "
                                  "region either (zero contact thickness; nearer than that the "
@@ -398,18 +398,18 @@ SCHEMA = {
         },
     ),
     "erosion": Group(
-        "Element erosion, the FEM baseline of seed 002 (mode fem only): an element whose "
+        "Element erosion, the FEM baseline of Hu et al. 2013 (mode fem only): an element whose "
         "largest principal strain (logarithmic: ln of the largest principal stretch, the hoop "
         "stretch included, from the deformation since t = 0) reaches principal_strain is "
         "deleted. A third of its mass stays on each of its nodes while the node belongs to a "
-        "remaining element (seed 002: the mass goes to the neighbouring nodes); a node left "
+        "remaining element (Hu et al. 2013: the mass goes to the neighbouring nodes); a node left "
         "without elements is removed. The deleted internal energy and the removed nodes' "
         "mass, momentum and kinetic energy are reported (summary.json `erosion`) and counted "
         "in the energy balance.",
         {
             "enabled": Key("bool", False, "-", "Erosion on."),
             "principal_strain": Key("float", 1.5, "-",
-                                    "Largest principal strain at deletion (seed 002: 1.5; "
+                                    "Largest principal strain at deletion (Hu et al. 2013: 1.5; "
                                     "1.0-3.0 usual, chosen by experience, and the result is "
                                     "sensitive to it).", lower=0.0, lower_open=True),
         },

@@ -31,12 +31,12 @@ NO_PRESSURE_CUTOFF = -1.0e300
 
 LIBRARY = {
     "steel_elastic_bar": {
-        "source": "seed 000 section 3.1 (elastic bar): rho 7850 kg/m^3, E 206 GPa, nu 0.3",
+        "source": "Xiao et al. 2012 section 3.1 (elastic bar): rho 7850 kg/m^3, E 206 GPa, nu 0.3",
         "strength": "elastic", "eos": "linear",
         "density": 7850.0, "youngs_modulus": 206.0e9, "poisson_ratio": 0.3,
     },
     "armco_iron": {
-        "source": ("Libersky et al. 1993 (J. Comput. Phys. 109:67) as used by seed 000 "
+        "source": ("Libersky et al. 1993 (J. Comput. Phys. 109:67) as used by Xiao et al. 2012 "
                    "section 3.2: EPP + Mie-Grueneisen; values as read in a public SPH "
                    "Taylor-bar example of the same geometry (s printed there as 1800, "
                    "a typo for 1.8)"),
@@ -54,13 +54,13 @@ LIBRARY = {
         "c0": 3630.0, "s": 1.8, "gamma0": 1.81,
     },
     "steel_4340_epp": {
-        "source": "seed 000 section 3.3 projectile: EPP, rho 7830, E 206 GPa, nu 0.3, Y0 1.43 GPa",
+        "source": "Xiao et al. 2012 section 3.3 projectile: EPP, rho 7830, E 206 GPa, nu 0.3, Y0 1.43 GPa",
         "strength": "epp", "eos": "linear",
         "density": 7830.0, "youngs_modulus": 206.0e9, "poisson_ratio": 0.3,
         "yield_stress": 1.43e9,
     },
     "al_6061_t651": {
-        "source": "seed 000 table 1 (6061-T651 target): Johnson-Cook + Mie-Grueneisen",
+        "source": "Xiao et al. 2012 table 1 (6061-T651 target): Johnson-Cook + Mie-Grueneisen",
         "strength": "johnson_cook", "eos": "mie_gruneisen",
         "density": 2710.0, "youngs_modulus": 69.0e9, "poisson_ratio": 0.33,
         "c0": 5380.0, "s": 1.337, "gamma0": 2.1, "specific_heat": 880.0,
@@ -68,7 +68,7 @@ LIBRARY = {
         "melt_temperature": 920.0, "jc_m": 1.0, "p_min": -0.5e9,
     },
     "projectile_bilinear_concrete": {
-        "source": ("seed 000 section 3.4 projectile: bilinear hardening rho 8300, "
+        "source": ("Xiao et al. 2012 section 3.4 projectile: bilinear hardening rho 8300, "
                    "E 200 GPa, nu 0.3, Y0 1.72 GPa, E_T 15 GPa"),
         "strength": "bilinear", "eos": "linear",
         "density": 8300.0, "youngs_modulus": 200.0e9, "poisson_ratio": 0.3,
@@ -77,8 +77,8 @@ LIBRARY = {
     "concrete_48mpa_hjc": {
         "source": ("Holmquist, Johnson & Cook 1993 (14th Int. Symp. Ballistics 591-600) "
                    "constants for the 48 MPa concrete of Hanchak et al. 1992, as used by "
-                   "seeds 000 section 3.4 and 002 section 4 (read in two independent public "
-                   "decks, shared/validation/README.md section 4)"),
+                   "Xiao et al. 2012 section 3.4 and Hu et al. 2013 section 4 (read in two independent public "
+                   "decks)"),
         "strength": "hjc", "eos": "hjc",
         "density": 2440.0, "shear_modulus": 14.86e9,
         "hjc_a": 0.79, "hjc_b": 1.60, "hjc_n": 0.61, "hjc_c": 0.007,

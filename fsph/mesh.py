@@ -2,7 +2,7 @@
 
 Each quadrilateral is split into four triangles through a centre node: the
 pattern that keeps constant-strain triangles from locking in nearly
-incompressible plastic flow (ALGORITHMS.md section 1).
+incompressible plastic flow (after EPIC, Johnson et al. 1997).
 
 Generators (each with a particle twin returning a ParticleLattice for
 pure-SPH bodies): crossed_quads / lattice (tensor grids), crossed_mapped /

@@ -1,6 +1,6 @@
 """Pictures of a run: the deformed body at chosen times, elements and
 particles in different colours, with the experimental Taylor lengths marked
-(as seed 000 Fig. 8). Reads the outputs of `fsph run` (fsph.h5,
+(as Xiao et al. 2012 Fig. 8). Reads the outputs of `fsph run` (fsph.h5,
 summary.json); matplotlib with the Agg backend, no display needed."""
 
 import json
@@ -169,7 +169,7 @@ def damage_map(run_dir, times_us=None, output=None, dpi=150):
     """Write a PNG of the damage field (HJC damage D, 0 to 1) at chosen
     times (the nearest snapshots; default: four spread over the run), one
     panel each, elements as filled triangles and particles as dots,
-    mirrored about the axis (as seed 000 Fig. 13); returns the PNG path,
+    mirrored about the axis (as Xiao et al. 2012 Fig. 13); returns the PNG path,
     or None when no point of the run is damaged."""
     import matplotlib
     matplotlib.use("Agg")

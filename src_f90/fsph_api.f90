@@ -484,7 +484,7 @@ contains
     call contact_penetration(sim%contact, sim%nodes, sim%particles, depth, relative)
   end subroutine get_contact_penetration
 
-  !> The correction of one contact pair (seed 002 eqs 1-3), for
+  !> The correction of one contact pair (Hu et al. 2013 eqs 1-3), for
   !> verification: normal velocity changes of slave and master nodes [m/s].
   subroutine contact_pair_values(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
     use fsph_contact, only: pair_correction

@@ -1,4 +1,4 @@
-!> Contact between bodies (ALGORITHMS.md section 5; seed 002 section 3.2.3):
+!> Contact between bodies (Xiao et al. 2012 section 2.2; Hu et al. 2013 section 3.2.3):
 !> element-element slide lines and particle-element contact, as
 !> momentum-conserving corrections of the half-step velocities, so that
 !> the predicted positions x + dt v do not interpenetrate.
@@ -13,16 +13,16 @@
 !>    against its own continuum's surface, with zero thickness (it may not
 !>    cross into the element region; nearer than that, the SPH sums with
 !>    the imaginary particles and the coupling tractions act).
-!>  - Cases of seed 002 fig 2: (a) one penetrated segment; (b) several: the
+!>  - Cases of Hu et al. 2013 fig 2: (a) one penetrated segment; (b) several: the
 !>    deepest; (c) the projection falls beyond two adjacent segments: the
 !>    shared node.
-!>  - Correction of one pair (seed 002 eqs 1-3), along the contact normal:
+!>  - Correction of one pair (Hu et al. 2013 eqs 1-3), along the contact normal:
 !>    dV_s = (delta/dt) / (1 + R1^2 M_s/M_1 + R2^2 M_s/M_2),
 !>    dV_1 = -R1 M_s dV_s/M_1, dV_2 = -R2 M_s dV_s/M_2 (R1, R2 the linear
 !>    weights of the contact point), which removes the predicted
 !>    penetration delta of the pair and conserves its momentum. Pairs are
 !>    corrected one after another (Gauss-Seidel, in a fixed order) in
-!>    n_passes passes (seed 002: 3-5). Optional Coulomb friction: the
+!>    n_passes passes (Hu et al. 2013: 3-5). Optional Coulomb friction: the
 !>    tangential impulse that stops the relative sliding, at most mu times
 !>    the normal impulse.
 !>  - A tied particle moves with its edge: its correction goes to the two
@@ -60,7 +60,7 @@ module fsph_contact
 
 contains
 
-  !> Momentum-weighted correction of one contact pair (seed 002 eqs 1-3):
+  !> Momentum-weighted correction of one contact pair (Hu et al. 2013 eqs 1-3):
   !> normal velocity changes [m/s] of the slave and of the two master nodes
   !> that remove the predicted penetration delta [m] in one step dt [s].
   pure subroutine pair_correction(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)

@@ -1,5 +1,5 @@
-!> Automatic conversion of distorted elements into particles (seed 000
-!> section 2.3, eqs 9-13; ALGORITHMS.md section 4): element groups, the
+!> Automatic conversion of distorted elements into particles (Xiao et al. 2012
+!> section 2.3, eqs 9-13): element groups, the
 !> conversion criteria and the making of particles (mass exact, momentum to
 !> round-off, the kinetic energy of the nodes' relative motion turned into
 !> heat of the new particle). The mesh surgery is fsph_remesh's, the ties
@@ -234,7 +234,7 @@ contains
     end select
   end function meets_criterion
 
-  !> Append one particle per converted element (seed 000: the variables of
+  !> Append one particle per converted element (Xiao et al. 2012: the variables of
   !> the imaginary particle): mass, density, stress, plastic strain,
   !> energy, temperature, strain rate and velocity gradient; velocity the
   !> mean of the nodes; position the centre of mass of the element's ring

@@ -1,6 +1,6 @@
-!> Element-particle coupling (seed 000 section 2.1, eqs 5-8; ALGORITHMS.md
-!> section 3) and the ties of particles to element edges (Johnson et al.
-!> 2002 style, section 4).
+!> Element-particle coupling (Xiao et al. 2012 section 2.1, eqs 5-8)
+!> and the ties of particles to element edges (Johnson et al.
+!> 2002, as in Xiao et al. 2012 section 2.3).
 !>
 !>  - Elements -> particles: each element of a coupled body is an imaginary
 !>    particle (mass and density of the element, position and velocity the
@@ -38,7 +38,7 @@ module fsph_coupling
   !> its centre lies within this many smoothing lengths of the edge, on its
   !> outer side [-]: the kernel support, so the particles whose mean stress
   !> loads an edge are those its elements act on through their imaginary
-  !> particles. (The first particle row only, as in seed 000, left the
+  !> particles. (The first particle row only, as in Xiao et al. 2012, left the
   !> energy 5.6 % high mid-run on the Taylor rod; the support, 1.6 %.)
   real(wp), parameter, public :: association_reach = kernel_support
 
@@ -395,7 +395,7 @@ contains
 
   !> The new particles (the last size(pending, 3)) are tied to the nearer
   !> of their pending edges (edges of remaining elements they were made
-  !> next to; seed 000 Fig. 5); associations follow in associate_particles.
+  !> next to; Xiao et al. 2012 Fig. 5); associations follow in associate_particles.
   subroutine tie_new_particles(pt, nd, pending)
     type(particle_set_t), intent(inout) :: pt
     type(node_set_t), intent(in) :: nd

@@ -1,6 +1,6 @@
 !> Axisymmetric constant-strain triangles (T3): geometry, strain rates, nodal
 !> forces, artificial viscosity, stress update driver and stable time step
-!> (ALGORITHMS.md section 1). Kernels take sizes first, then explicit-shape
+!> (after EPIC, Johnson et al. 1997). Kernels take sizes first, then explicit-shape
 !> arrays; they hold no module state and are threaded over elements.
 !>
 !> Coordinates x(1,:) = r (radius), x(2,:) = z (axis) [m]; nodes of each

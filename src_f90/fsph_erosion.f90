@@ -1,4 +1,4 @@
-!> Element erosion, the FEM baseline of seed 002 (section 3.3.4): an element
+!> Element erosion, the FEM baseline of Hu et al. 2013 (section 3.3.4): an element
 !> whose largest principal strain exceeds a limit (1.5 there) is deleted and
 !> its mass stays on the nodes of the neighbouring elements. Here each
 !> deleted element leaves a third of its mass on each of its nodes while

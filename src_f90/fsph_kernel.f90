@@ -1,6 +1,6 @@
 !> SPH smoothing kernel: the cubic B-spline of Monaghan & Lattanzio (1985)
 !> with support 2h and the 2D (planar) normalisation 10/(7 pi h^2), so that
-!> the integral of W over the plane is 1 (ALGORITHMS.md section 2).
+!> the integral of W over the plane is 1 (as in Xiao et al. 2012 section 1).
 module fsph_kernel
   use fsph_kinds, only: wp, pi
   implicit none

@@ -1,7 +1,7 @@
 !> Constitutive models shared by elements and (later) particles: equations of
 !> state, strength models with radial return, the Jaumann rotation and the
 !> energy update. Every routine is pure and works on one material point, so a
-!> caller threads over points (ALGORITHMS.md section 6).
+!> caller threads over points (docs/method.md, "One cycle").
 !>
 !> Conventions: Cauchy stress, tension positive; the stress of a point is
 !> sigma = s - (p + q) I with s the deviator (rr, zz, rz, tt), p the EOS

@@ -19,12 +19,12 @@
 !>  - then its one-way entries: ghosts, the mirror images of same-body
 !>    particles j across the axis r = 0 within the support (stored as -j,
 !>    i's own mirror included), and the imaginary particles j > nq of its
-!>    continuum (ALGORITHMS.md sections 2 and 3).
+!>    continuum (Petschek & Libersky 1993; Xiao et al. 2012 section 2.1).
 !> Its low list (low_ptr(i) .. low_ptr(i+1)-1) holds the real particles
 !> j < i within the support, as low_other = j and low_pair = the entry of
 !> the pair (j, i) in j's row. Entries come in the order of the scan
 !> (cells, then points), which depends on the positions only. Contact candidates, particles of
-!> another body within the support (section 5), have a separate full list
+!> another body within the support (docs/method.md, "Contact"), have a separate full list
 !> (cnt_ptr, cnt_list). SPH sums never cross continuum boundaries.
 module fsph_neighbours
   use fsph_kinds, only: wp

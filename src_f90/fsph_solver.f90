@@ -1,4 +1,4 @@
-!> The hydrocode cycle (ALGORITHMS.md section 7): set-up of derived
+!> The hydrocode cycle (docs/method.md, "The cycle, module by module"): set-up of derived
 !> quantities and `solver_advance`, one call per phase, for elements,
 !> particles, their coupling and the conversion of elements to particles.
 module fsph_solver
@@ -302,7 +302,7 @@ contains
     if (sim%history_cycle /= sim%cycle) call record_history(sim)
   end subroutine solver_advance
 
-  !> One explicit cycle of length dt_step [s], ALGORITHMS.md section 7.
+  !> One explicit cycle of length dt_step [s] (docs/method.md, "One cycle").
   !> On failure ifault is the element or node (> 0) or minus the particle
   !> (< 0) at fault.
   subroutine cycle(sim, dt_step, ierr, ifault)

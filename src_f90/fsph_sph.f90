@@ -1,4 +1,4 @@
-!> Axisymmetric SPH sums (seed 000 eqs 2-4; ALGORITHMS.md section 2) over
+!> Axisymmetric SPH sums (Xiao et al. 2012 eqs 2-4) over
 !> the neighbour lists of fsph_neighbours. A pair of real particles is
 !> evaluated once, in the row of the lower index, which keeps what the
 !> partner needs per entry (force, kernel gradient, work); a second loop
@@ -19,7 +19,7 @@
 !>
 !> Density: the planar density is carried, d eta_i/dt = sum_j m_j
 !> (v_i - v_j) . grad_i W (ghosts with their signed mass), and rho_i =
-!> eta_i/(2 pi r_i) (Petschek & Libersky 1993). Seed 000's eq 1 weights
+!> eta_i/(2 pi r_i) (Petschek & Libersky 1993). Eq 1 of Xiao et al. 2012 weights
 !> the neighbours by m_j/r_j instead: a particle next to the axis that
 !> moves out by delta from a lattice at rest then loses density delta/r_i
 !> (the hoop term alone), while eta-continuity lets it carry its ring mass
@@ -34,7 +34,7 @@
 !> + 2 pi sum_j m_j (r_i/eta_i^2) sigma_i : (v_j - v_i) grad_i W, so the
 !> pair work of eqs 2-3 is exactly the change of kinetic energy, and the
 !> pressure work of a particle is the p dv of its own density (the
-!> eta-continuity above); the half-and-half split of seed 000's eq 3 gave
+!> eta-continuity above); the half-and-half split of eq 3 of Xiao et al. 2012 gave
 !> a particle next to the axis half its own pressure work against the
 !> whole hoop work, which drained its energy in tension until it flew
 !> apart. A ghost is not a particle of its own: the heat of a ghost entry
@@ -476,7 +476,7 @@ contains
 
   !> Stable particle step before the safety factor: min L/(c + |v|) [s]
   !> with L = min(h, 2r) and the particle that sets it. h/(c + |v|) is the
-  !> step of ALGORITHMS.md section 1; next to the axis the hoop term
+  !> particle step (docs/method.md, "The particle phase"); next to the axis the hoop term
   !> -sigma_tt/(rho r) adds a mode of frequency about c/r, stable under the
   !> central difference for dt < 2r/c, which a particle made from an
   !> element touching the axis (r = Delta/6) would break.

@@ -59,7 +59,7 @@ module fsph_state
 
   !> SPH particles (full-ring masses) and their material-point state.
   !> Entries 1..n are real particles; entries n+1..n+n_imag are the
-  !> imaginary particles of the elements (seed 000 eq 5) and entries
+  !> imaginary particles of the elements (Xiao et al. 2012 eq 5) and entries
   !> n+n_imag+1..n+n_imag+n_mirror the mirror images of particles across
   !> rigid planes (fsph_mirror), refilled every step: they enter the SPH
   !> sums of real particles as neighbours only. Arrays are sized for
@@ -124,7 +124,7 @@ module fsph_state
 
   !> Coupling-interface edges of the element region: node pairs oriented as
   !> in their element (element region on the left), with the particles
-  !> associated with them (seed 000 eqs 6-8).
+  !> associated with them (Xiao et al. 2012 eqs 6-8).
   type, public :: coupling_t
     integer :: n_edges = 0
     integer, allocatable :: edge(:, :)    !< (2, n_edges) node pairs
@@ -132,7 +132,7 @@ module fsph_state
     real(wp), allocatable :: loose_z(:), ring(:) !< work: per continuum, unassociated axial force, edge ring area
   end type coupling_t
 
-  !> Conversion of elements to particles (seed 000 section 2.3).
+  !> Conversion of elements to particles (Xiao et al. 2012 section 2.3).
   type, public :: conversion_t
     logical :: enabled = .false.
     integer :: criterion = 1              !< 1 min angle, 2 plastic strain, 3 equivalent stress
@@ -157,12 +157,12 @@ module fsph_state
     real(wp) :: cell = 1.0_wp             !< cell side [m]
   end type contact_grid_t
 
-  !> Contact between bodies (ALGORITHMS.md section 5): the element-region
+  !> Contact between bodies (Xiao et al. 2012 section 2.2): the element-region
   !> surfaces (segments and their nodes), rebuilt at set-up and after every
   !> conversion, and the books of the corrections.
   type, public :: contact_t
     logical :: enabled = .false.
-    integer :: n_passes = 3               !< correction passes per cycle (seed 002: 3-5)
+    integer :: n_passes = 3               !< correction passes per cycle (Hu et al. 2013: 3-5)
     real(wp) :: friction = 0.0_wp         !< Coulomb friction coefficient [-]
     logical :: own_particles = .true.     !< untied particles also against their own body's surface
     real(wp) :: dissipated = 0.0_wp       !< kinetic energy removed by the corrections [J]
@@ -179,7 +179,7 @@ module fsph_state
     real(wp), allocatable :: v_node0(:, :), v_part0(:, :) !< work: velocities before the corrections [m/s]
   end type contact_t
 
-  !> Element erosion (the FEM baseline of seed 002): an element whose
+  !> Element erosion (the FEM baseline of Hu et al. 2013): an element whose
   !> largest principal strain reaches the limit is deleted. Its mass stays
   !> on its nodes while they belong to a remaining element; a node left
   !> without elements is removed. Everything removed is booked.

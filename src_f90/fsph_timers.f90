@@ -1,5 +1,5 @@
 !> Wall-clock time spent in each phase of the cycle, accumulated since the
-!> last reset (for the benchmarks' cost split, as seed 002's table 2). A
+!> last reset (for the benchmarks' cost split, as table 2 of Hu et al. 2013). A
 !> timer reads the clock twice per phase per cycle, about 50 ns, which is
 !> below 0.1 % of the cheapest cycle that is benchmarked. Serial code calls
 !> the timers, never a parallel region.

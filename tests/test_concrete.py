@@ -1,6 +1,6 @@
 """Validation: the CRH 3.0 ogive rod (0.50 kg, 25.4 mm) through a 178 mm
-slab of 48 MPa concrete (Hanchak et al. 1992; seeds 000 section 3.4 and
-002 section 4), HJC concrete with damage. Bars of the concrete issue:
+slab of 48 MPa concrete (Hanchak et al. 1992; Xiao et al. 2012 section 3.4 and
+Hu et al. 2013 section 4), HJC concrete with damage. Bars of the concrete issue:
 606 m/s adaptive within 5 % of the experiment's 449 m/s; 1058 m/s within
 3 % of 947 m/s in FEM with erosion, SPH and adaptive FEM-SPH. The adaptive
 606 m/s and both 1058 m/s runs with elements are in CI; the pure SPH and
@@ -75,7 +75,7 @@ def test_606_adaptive_residual_velocity(adaptive_606):
 
 
 def test_606_adaptive_damages_the_slab(adaptive_606):
-    """Seed 000 Fig. 13: fully damaged material around the channel, damage
+    """Xiao et al. 2012 Fig. 13: fully damaged material around the channel, damage
     spreading far beyond it."""
     import h5py
     with h5py.File(adaptive_606["_output"] / "fsph.h5") as h5:
@@ -107,7 +107,7 @@ def test_1058_sph_residual_velocity(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured 482.0 m/s, +7.3 % against 449 (seed 000's fixed "
+@pytest.mark.xfail(strict=True, reason="measured 482.0 m/s, +7.3 % against 449 (Xiao et al. 2012 with fixed "
                    "coupling: 466; 472.8 m/s before the SPH viscosity's compression switch, which "
                    "removed the viscous drag of the fully damaged crater); the converged "
                    "frictionless model lies near +7 % (docs/validation.md)")
@@ -131,7 +131,7 @@ def test_606_adaptive_refined_mesh_residual_velocity(tmp_path_factory):
 
 
 def test_1058_decks_differ_only_in_method():
-    """The three methods of seed 002's table run the same problem: the
+    """The three methods of the table of Hu et al. 2013 run the same problem: the
     decks agree on materials, bodies, outputs and metrics; only the mode,
     title, the method's own group (&convert, &erosion) and the resolution
     of the SPH lattices (twice as fine as the quadrilaterals, so there are

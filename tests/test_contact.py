@@ -1,5 +1,5 @@
-"""Contact between bodies (ALGORITHMS.md section 5): the pair correction of
-seed 002 eqs 1-3, element-element slide lines against 1D theory, and
+"""Contact between bodies (Xiao et al. 2012 section 2.2): the pair correction of
+Hu et al. 2013 eqs 1-3, element-element slide lines against 1D theory, and
 particle-element contact without interpenetration."""
 
 import numpy as np
@@ -41,7 +41,7 @@ def body_momentum_z(sim):
 
 @pytest.mark.parametrize("weights", [(1.0, 0.0), (0.5, 0.5), (0.2, 0.8)])
 def test_pair_correction_conserves_momentum_and_removes_penetration(weights):
-    """Seed 002 eqs 1-3 for one pair: the momentum of slave and master nodes
+    """Hu et al. 2013 eqs 1-3 for one pair: the momentum of slave and master nodes
     is unchanged, and the predicted penetration delta is removed exactly
     (the slave's displacement relative to the contact point grows by
     delta over the step)."""

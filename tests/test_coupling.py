@@ -1,4 +1,4 @@
-"""Element-particle coupling and conversion (seed 000 sections 2.1 and 2.3):
+"""Element-particle coupling and conversion (Xiao et al. 2012 sections 2.1 and 2.3):
 group assignment, conversion bookkeeping, equilibrium across a coupling
 interface, ties."""
 

@@ -1,4 +1,4 @@
-"""Verification: the elastic bar of seed 000 section 3.1 against 1D bar
+"""Verification: the elastic bar of Xiao et al. 2012 section 3.1 against 1D bar
 theory, with elements (fem) and with particles (sph), each at the bar its
 issue names."""
 
@@ -51,7 +51,7 @@ def test_bar_wave_front(bar_run):
 
 
 def test_bar_crosses_coupling_interface(tmp_path):
-    """Coupled bar (seed 000 Fig. 6: elements 0-10 mm, particles 10-20 mm):
+    """Coupled bar (Xiao et al. 2012 Fig. 6: elements 0-10 mm, particles 10-20 mm):
     the mean stress on either side of the interface (3 mm windows) differs
     by less than 5 % of the plateau: no reflection from the coupling."""
     summary = run(CASES / "elastic_bar_coupled.nml", tmp_path, quiet=True)

@@ -1,4 +1,4 @@
-"""Element erosion (the FEM baseline of seed 002): a copper rod striking a
+"""Element erosion (the FEM baseline of Hu et al. 2013): a copper rod striking a
 copper block at 500 m/s with a low strain limit, so that elements of both
 bodies are deleted at the interface. What erosion takes out of the mesh is
 booked, so mass, momentum and energy balances close; deleted elements never

@@ -1,5 +1,5 @@
 """Validation: the ogive-nose 4340 rod through the 26.3 mm 6061-T651 plate
-at 508 m/s (seed 000 section 3.3), adaptive FEM-SPH with slide lines and
+at 508 m/s (Xiao et al. 2012 section 3.3), adaptive FEM-SPH with slide lines and
 particle-element contact, and the same case in pure SPH. The experimental
 residual velocities (Piekutowski et al. 1996) were not available here
 (docs/validation.md), so the bars are the issue's: momentum of the

@@ -43,7 +43,7 @@ def test_adaptive_each_length(adaptive, key):
 
 
 def test_adaptive_mean_error(adaptive):
-    """Seed 000's measure: mean of |dL|/L, |dD|/D, |dW|/W."""
+    """The measure of Xiao et al. 2012: mean of |dL|/L, |dD|/D, |dW|/W."""
     t = adaptive["metrics"]["taylor"]
     mean = sum(abs(t[k] - REF["taylor"][k]) / REF["taylor"][k] for k in ("L_mm", "D_mm", "W_mm")) / 3
     assert mean * 100.0 <= BANDS["mean_percent"]
