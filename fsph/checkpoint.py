@@ -17,11 +17,22 @@ from .simulation import _api
 FORMAT = 2
 
 
+def _state_arrays(sim):
+    """Every non-empty state array of `sim`, in checkpoint order, as
+    ("real" or "int", its number, the array)."""
+    n_real, n_int, _, _ = _api.checkpoint_layout(sim._run)
+    for kind, name, count, getter in ((1, "real", n_real, _api.get_real_state),
+                                      (2, "int", n_int, _api.get_int_state)):
+        for k in range(1, count + 1):
+            rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
+            if rows * cols > 0:
+                yield name, k, getter(sim._run, k, rows, cols)
+
+
 def save(sim, path):
     """Write the state of `sim` to `path` (HDF5)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    n_real, n_int, _, _ = _api.checkpoint_layout(sim._run)
     r, i = _api.get_scalar_state(sim._run)
     with h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = FORMAT
@@ -32,12 +43,9 @@ def save(sim, path):
         h5["scalars_int"] = i
         sizes = _api.checkpoint_sizes(sim._run, 1, 1)[2:]
         h5.attrs["sizes"] = np.array(sizes)          # nodes, elements, particles, capacity, edges
-        for kind, count, getter in ((1, n_real, _api.get_real_state), (2, n_int, _api.get_int_state)):
-            group = h5.create_group("real" if kind == 1 else "int")
-            for k in range(1, count + 1):
-                rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
-                if rows * cols > 0:
-                    group[str(k)] = getter(sim._run, k, rows, cols)
+        groups = {"real": h5.create_group("real"), "int": h5.create_group("int")}
+        for kind, k, values in _state_arrays(sim):
+            groups[kind][str(k)] = values
     os.replace(tmp, path)
     return path
 
@@ -75,12 +83,8 @@ def state_digest(sim):
     same digest continue identically; the reference runs' digests guard
     refactoring (tests/test_runs.py)."""
     digest = hashlib.sha256()
-    n_real, n_int, _, _ = _api.checkpoint_layout(sim._run)
     for scalars in _api.get_scalar_state(sim._run):
         digest.update(np.ascontiguousarray(scalars).tobytes())
-    for kind, count, getter in ((1, n_real, _api.get_real_state), (2, n_int, _api.get_int_state)):
-        for k in range(1, count + 1):
-            rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
-            if rows * cols > 0:
-                digest.update(np.ascontiguousarray(getter(sim._run, k, rows, cols)).tobytes())
+    for _, _, values in _state_arrays(sim):
+        digest.update(np.ascontiguousarray(values).tobytes())
     return digest.hexdigest()

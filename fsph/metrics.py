@@ -14,18 +14,6 @@ def _body_elements(snap, body_index):
     return snap["conn"][keep], keep
 
 
-def _element_extent(snap, body_index):
-    """Element nodes (k, 2) of a body and the end points of its boundary edges."""
-    if "conn" not in snap:
-        return EMPTY, EMPTY, EMPTY
-    conn, _ = _body_elements(snap, body_index)
-    if len(conn) == 0:
-        return EMPTY, EMPTY, EMPTY
-    x = snap["x"]
-    edges = boundary_edges(conn)
-    return x[np.unique(conn)], x[edges[:, 0]], x[edges[:, 1]]
-
-
 def _particle_extent(snap, body_index):
     """Particle centres (k, 2) and radii (k,) of a body."""
     if "particles" not in snap:

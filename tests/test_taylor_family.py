@@ -108,11 +108,6 @@ def family_run(material, mode, resolution, tmp_path_factory):
     return out
 
 
-def cases(resolutions, modes=MODES):
-    return [pytest.param(m, mode, res, id=f"{m}-{mode}-{res}", marks=_marks(m, mode, res))
-            for res in resolutions for m in MATERIALS for mode in modes]
-
-
 def _marks(material, mode, resolution):
     return [pytest.mark.slow] if resolution == "fine" else []
 
@@ -130,9 +125,10 @@ ENERGY_REASON = ("the element-particle coupling makes energy on the coarse mesh 
                  "docs/validation.md")
 
 
-def cases_with_shortfalls(resolutions, modes, shortfalls, reason):
+def cases(resolutions, modes=MODES, shortfalls=None, reason=""):
     """Parameters of the runs, those listed in shortfalls (with what was
     measured) marked as strict expected failures."""
+    shortfalls = shortfalls or {}
     out = []
     for res in resolutions:
         for m in MATERIALS:
@@ -145,7 +141,7 @@ def cases_with_shortfalls(resolutions, modes, shortfalls, reason):
     return out
 
 
-@pytest.mark.parametrize("material, mode, resolution", cases_with_shortfalls(
+@pytest.mark.parametrize("material, mode, resolution", cases(
     ["coarse", "medium", "fine"], MODES, ENERGY_SHORT, ENERGY_REASON))
 def test_energy_balance(material, mode, resolution, tmp_path_factory):
     """Completed, and the energy error within 1 % at the end and at its
@@ -181,7 +177,7 @@ def test_particle_density(material, mode, resolution, tmp_path_factory):
     assert got["density_min"] >= DENSITY_BAR
 
 
-@pytest.mark.parametrize("material, mode, resolution", cases_with_shortfalls(
+@pytest.mark.parametrize("material, mode, resolution", cases(
     ["coarse", "medium", "fine"], ("sph", "adaptive"), HEAT_SHORT, HEAT_REASON))
 def test_particle_heat(material, mode, resolution, tmp_path_factory):
     """No particle whose specific internal energy exceeds ten times the
