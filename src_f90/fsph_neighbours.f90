@@ -320,6 +320,9 @@ contains
         jr_hi = min(floor((ri + big)/cell), work%level_nr(l) - 1)
         jz_lo = max(floor((zi - big - work%level_z0(l))/cell), 0)
         jz_hi = min(floor((zi + big - work%level_z0(l))/cell), work%level_nz(l) - 1)
+        ! a point beyond this level's grid (farther out than its points) has
+        ! no candidate in it; cell_start(row + jr_lo) would lie past the row
+        if (jr_lo > jr_hi) cycle
         do jz = jz_lo, jz_hi
           ! real and imaginary neighbours and contact candidates: the cells
           ! jr_lo .. jr_hi of a row are one run of sorted points
