@@ -1,8 +1,8 @@
 """Checkpoint and restart: the whole state the next cycle reads, written to
-HDF5 through the solver's numbered state arrays and read back so that a
-restarted run continues bit for bit (same thread count). Files are written
-to a temporary name and renamed: a crash mid-write never leaves a torn
-checkpoint."""
+HDF5 by name (fsph.layouts: /state/nodes/x, /state/elements/rho, ...,
+/scalars/time, ...) and read back so that a restarted run continues bit
+for bit (same thread count). Files are written to a temporary name and
+renamed: a crash mid-write never leaves a torn checkpoint."""
 
 import hashlib
 import os
@@ -11,43 +11,84 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from . import layouts
 from .errors import FsphError
-from .simulation import _api
+from .simulation import STATUS_OK, _api
 
-FORMAT = 2
+#: 3: datasets and scalars named (fsph.layouts), not numbered
+FORMAT = 3
+_REAL, _INT = 1, 2    # the solver's kinds of state array
 
 
 def _state_arrays(sim):
-    """Every non-empty state array of `sim`, in checkpoint order, as
-    ("real" or "int", its number, the array)."""
-    n_real, n_int, _, _ = _api.checkpoint_layout(sim._run)
-    for kind, name, count, getter in ((1, "real", n_real, _api.get_real_state),
-                                      (2, "int", n_int, _api.get_int_state)):
-        for k in range(1, count + 1):
+    """Every non-empty state array of `sim`, in checkpoint order (the order
+    of fsph.layouts), as (its name, the array)."""
+    _api.checkpoint_layout(sim._run)     # the axis flags as integers, for nodes/on_axis
+    for kind, names, getter in ((_REAL, layouts.CHECKPOINT_REAL, _api.get_real_state),
+                                (_INT, layouts.CHECKPOINT_INT, _api.get_int_state)):
+        for k, name in enumerate(names, 1):
             rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
             if rows * cols > 0:
-                yield name, k, getter(sim._run, k, rows, cols)
+                yield name, getter(sim._run, k, rows, cols)
+
+
+def _scalars(sim):
+    """The clock and books as (real, int) arrays in the order of fsph.layouts."""
+    r, i, ierr = _api.get_scalar_state(sim._run, len(layouts.CHECKPOINT_REAL_SCALARS),
+                                       len(layouts.CHECKPOINT_INT_SCALARS))
+    if ierr != STATUS_OK:
+        raise FsphError("checkpoint scalars: layout mismatch, rebuild the package")
+    return r, i
 
 
 def save(sim, path):
     """Write the state of `sim` to `path` (HDF5)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    r, i = _api.get_scalar_state(sim._run)
+    r, i = _scalars(sim)
     with h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = FORMAT
         h5.attrs["initial_energy"] = sim.initial_energy
         h5.attrs["n_elements0"] = sim.n_elements0
         h5["particle_radius0"] = sim.particle_radius0
-        h5["scalars_real"] = r
-        h5["scalars_int"] = i
-        sizes = _api.checkpoint_sizes(sim._run, 1, 1)[2:]
+        scalars = h5.create_group("scalars")
+        for names, values in ((layouts.CHECKPOINT_REAL_SCALARS, r), (layouts.CHECKPOINT_INT_SCALARS, i)):
+            for name, value in zip(names, values):
+                scalars.attrs[name] = value
+        sizes = _api.checkpoint_sizes(sim._run, _REAL, 1)[2:]
         h5.attrs["sizes"] = np.array(sizes)          # nodes, elements, particles, capacity, edges
-        groups = {"real": h5.create_group("real"), "int": h5.create_group("int")}
-        for kind, k, values in _state_arrays(sim):
-            groups[kind][str(k)] = values
+        state = h5.create_group("state")
+        for name, values in _state_arrays(sim):
+            state[name] = values
     os.replace(tmp, path)
     return path
+
+
+def _read_scalars(h5, path):
+    """(real, int) scalar arrays of a checkpoint, in the order of fsph.layouts."""
+    attrs = h5["scalars"].attrs
+    missing = [n for n in layouts.CHECKPOINT_REAL_SCALARS + layouts.CHECKPOINT_INT_SCALARS
+               if n not in attrs]
+    if missing:
+        raise FsphError(f"{path}: checkpoint lacks the scalars {', '.join(missing)}")
+    return (np.array([attrs[n] for n in layouts.CHECKPOINT_REAL_SCALARS], dtype=np.float64),
+            np.array([attrs[n] for n in layouts.CHECKPOINT_INT_SCALARS], dtype=np.int32))
+
+
+def _restore_arrays(sim, h5, path):
+    """Copy every named state array of the checkpoint into `sim`."""
+    known = {name: (_REAL, k) for k, name in enumerate(layouts.CHECKPOINT_REAL, 1)}
+    known.update({name: (_INT, k) for k, name in enumerate(layouts.CHECKPOINT_INT, 1)})
+    names = []
+    h5["state"].visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
+    for name in names:
+        if name not in known:
+            raise FsphError(f"{path}: unknown state array '{name}' (written by another fsph version?)")
+        kind, k = known[name]
+        setter = _api.set_real_state if kind == _REAL else _api.set_int_state
+        if setter(sim._run, k, np.asfortranarray(h5["state"][name][...])) != STATUS_OK:
+            raise FsphError(f"{path}: state array '{name}' does not fit this deck "
+                            "(was the checkpoint written from another deck?)")
 
 
 def restore(sim, path):
@@ -62,15 +103,10 @@ def restore(sim, path):
         if h5.attrs.get("format") != FORMAT:
             raise FsphError(f"{path}: expected an fsph checkpoint of format {FORMAT}")
         nn, ne, np_, cap, n_edges = (int(v) for v in h5.attrs["sizes"])
-        _api.restore_begin(sim._run, nn, ne, np_, cap, n_edges, h5["scalars_real"][...],
-                           h5["scalars_int"][...])
-        for kind, setter in ((1, _api.set_real_state), (2, _api.set_int_state)):
-            group = h5["real" if kind == 1 else "int"]
-            for key in group:
-                values = np.asfortranarray(group[key][...])
-                if setter(sim._run, int(key), values) != 0:
-                    raise FsphError(f"{path}: state array {kind}/{key} does not fit this deck "
-                                    "(was the checkpoint written from another deck?)")
+        r, i = _read_scalars(h5, path)
+        if _api.restore_begin(sim._run, nn, ne, np_, cap, n_edges, r, i) != STATUS_OK:
+            raise FsphError(f"{path}: checkpoint scalars do not fit this build")
+        _restore_arrays(sim, h5, path)
         _api.restore_end(sim._run)
         sim.initial_energy = float(h5.attrs["initial_energy"])
         sim.n_elements0 = int(h5.attrs["n_elements0"])
@@ -83,8 +119,8 @@ def state_digest(sim):
     same digest continue identically; the reference runs' digests guard
     refactoring (tests/test_runs.py)."""
     digest = hashlib.sha256()
-    for scalars in _api.get_scalar_state(sim._run):
+    for scalars in _scalars(sim):
         digest.update(np.ascontiguousarray(scalars).tobytes())
-    for _, _, values in _state_arrays(sim):
+    for _, values in _state_arrays(sim):
         digest.update(np.ascontiguousarray(values).tobytes())
     return digest.hexdigest()

@@ -8,19 +8,13 @@ import math
 
 import numpy as np
 
-# Property table layout: must match the prop_* indices of fsph_material.f90
-# (checked against the compiled layout at set-up).
-PROPERTY_NAMES = (
-    "rho0", "shear", "bulk", "yield", "hard",
-    "jc_a", "jc_b", "jc_n", "jc_c", "jc_m",
-    "t_melt", "t_room", "cv", "chi", "eps0",
-    "c0", "s", "gamma0", "pmin",
-    "hjc_a", "hjc_b", "hjc_n", "hjc_c", "hjc_fc", "hjc_t", "hjc_smax", "hjc_efmin",
-    "hjc_d1", "hjc_d2", "hjc_pcrush", "hjc_mucrush", "hjc_plock", "hjc_mulock",
-    "hjc_k1", "hjc_k2", "hjc_k3", "hjc_muplock",
-)
-STRENGTH_MODELS = {"elastic": 1, "epp": 2, "bilinear": 3, "johnson_cook": 4, "hjc": 5}
-EOS_MODELS = {"linear": 1, "mie_gruneisen": 2, "hjc": 3}
+from . import layouts
+
+# Property table layout, model ids: fsph.layouts, the one source the solver
+# is generated from (the build checks both agree through the layout digest).
+PROPERTY_NAMES = layouts.PROPERTY_NAMES
+STRENGTH_MODELS = {name: k for k, (name, _) in enumerate(layouts.STRENGTH_MODELS, 1)}
+EOS_MODELS = {name: k for k, (name, _) in enumerate(layouts.EOS_MODELS, 1)}
 #: Deck keys of the Holmquist-Johnson-Cook model (strength hjc with eos hjc).
 HJC_KEYS = ("hjc_a", "hjc_b", "hjc_n", "hjc_c", "hjc_fc", "hjc_t", "hjc_smax", "hjc_efmin",
             "hjc_d1", "hjc_d2", "hjc_pcrush", "hjc_mucrush", "hjc_plock", "hjc_mulock",

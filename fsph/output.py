@@ -9,7 +9,10 @@ import h5py
 import meshio
 import numpy as np
 
-HISTORY_FIELDS = ("time", "cycle", "dt", "kinetic", "internal", "contact", "eroded", "plane")
+from . import layouts
+
+#: columns of the time history (fsph.layouts), the energy total included
+HISTORY_FIELDS = tuple(name for name, _, _ in layouts.HISTORY_COLUMNS)
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
                         "internal_energy", "temperature", "damage", "material", "body")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
@@ -50,7 +53,7 @@ class RunWriter:
         self.h5.attrs["title"] = title
         self.h5["deck"] = deck_text
         hist = self.h5.create_group("history")
-        for name in HISTORY_FIELDS + ("total",):
+        for name in HISTORY_FIELDS:
             hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
         self.snapshots = self.h5.create_group("snapshots")
         self.n_snapshots = 0
@@ -63,13 +66,13 @@ class RunWriter:
             (self.outdir / "vtu").mkdir(exist_ok=True)
 
     def append_history(self, records):
-        """records: (k, 8) rows of HISTORY_FIELDS. Also tracks the largest
+        """records: (k, len(HISTORY_FIELDS)) rows. Also tracks the largest
         departure of the total energy (kinetic + internal + the work of the
         contact corrections + the energy erosion removed + the energy the
-        rigid planes removed) from its first recorded value."""
+        rigid planes removed, summed by the solver) from its first value."""
         if len(records) == 0:
             return
-        total = records[:, 3] + records[:, 4] + records[:, 5] + records[:, 6] + records[:, 7]
+        total = records[:, HISTORY_FIELDS.index("total")]
         if self.energy0 is None:
             self.energy0 = total[0]
         if self.energy0:
@@ -77,15 +80,13 @@ class RunWriter:
             error = (total[worst] - self.energy0) / self.energy0
             if abs(error) > abs(self.max_energy_error):
                 self.max_energy_error = float(error)
-                self.max_energy_error_time = float(records[worst, 0])
+                self.max_energy_error_time = float(records[worst, HISTORY_FIELDS.index("time")])
         hist = self.h5["history"]
         n0 = hist["time"].shape[0]
         n1 = n0 + len(records)
         for j, name in enumerate(HISTORY_FIELDS):
             hist[name].resize((n1,))
             hist[name][n0:n1] = records[:, j]
-        hist["total"].resize((n1,))
-        hist["total"][n0:n1] = total
 
     def write_snapshot(self, snap):
         g = self.snapshots.create_group(f"{self.n_snapshots:05d}")

@@ -4,9 +4,10 @@ take snapshots. The Fortran side is reached only through ``fsph._core``."""
 import numpy as np
 
 from . import deck as deck_module
+from . import layouts
 from . import mesh as mesh_module
 from .errors import DeckError, FsphError, SimulationError
-from .materials import PROPERTY_NAMES, property_table
+from .materials import property_table
 try:
     from ._core import fsph_api as _api
 except ImportError as exc:  # importing the source folder instead of the installed package
@@ -15,31 +16,12 @@ except ImportError as exc:  # importing the source folder instead of the install
         f"{__file__.rsplit('/', 2)[0]}: run `make test`/`make run` (they build and install "
         "fsph into .venv) and use .venv/bin/python from outside the source folder") from exc
 
-# fsph_status codes (src_f90/fsph_status.f90)
-STATUS_OK = 0
-STATUS_MAX_CYCLES = 8
-STATUS_TEXT = {
-    1: "inverted element (area <= 0): the mesh has tangled",
-    2: "non-finite stress or energy (NaN/Inf) in an element",
-    3: "non-finite position or velocity (NaN/Inf) at a node",
-    4: "time step collapsed below the floor (dt_floor_ratio x initial step)",
-    5: "compression beyond the range of the equation of state",
-    6: "invalid set-up input",
-    7: "state not initialised",
-    8: "cycle limit (max_cycles) reached",
-    9: "non-finite state (NaN/Inf) or non-positive density in a particle",
-    10: "a particle reached the axis (r <= 0)",
-    11: "time step fell by more than the allowed factor in one cycle (dt_drop_ratio)",
-    12: "energy error above the limit (energy_error_limit)",
-}
-# rows of the material history (fsph_material hist_*)
-HIST_DAMAGE, HIST_MU_MAX = 0, 1
-N_HIST = 2
-# index conventions of fsph_solver: > 0 element (node for code 3), < 0 particle
-NODE_FAULTS = {3}
-# timed phases of the cycle, in the order of src_f90/fsph_timers.f90
-PHASES = ("element_forces", "element_update", "neighbours", "sph_sums", "particle_update",
-          "particle_contact", "coupling", "contact", "integrate", "conversion", "time_step")
+# status codes, phases and row layouts: fsph.layouts (the solver is built from it)
+STATUS_OK = layouts.status_code("ok")
+STATUS_MAX_CYCLES = layouts.status_code("max_cycles")
+STATUS_BAD_INPUT = layouts.status_code("bad_input")
+NODE_FAULTS = {code for code, _, index, _ in layouts.STATUS if index == "node"}
+PHASES = tuple(name for name, _ in layouts.PHASES)
 
 
 def threads():
@@ -47,11 +29,22 @@ def threads():
     return int(_api.threads())
 
 
+def fortran_index(index):
+    """1-based Fortran indices (int32) of 0-based ones; -1 (none) becomes 0.
+    Every index handed to the solver goes through here."""
+    return (np.asarray(index) + 1).astype(np.int32)
+
+
+def python_index(index):
+    """0-based indices of the solver's 1-based ones; 0 (none) becomes -1.
+    Every index read from the solver goes through here."""
+    return np.asarray(index) - 1
+
+
 def _check_layout():
-    nprop, _, _ = _api.layout()
-    if nprop != len(PROPERTY_NAMES):
-        raise FsphError(f"fsph._core expects {nprop} material properties, the Python "
-                        f"package packs {len(PROPERTY_NAMES)}: rebuild the package")
+    if int(_api.get_layout_digest()) != layouts.digest():
+        raise FsphError("fsph._core was built from other layouts than fsph/layouts.py "
+                        "(a stale build): rebuild the package")
 
 
 class Simulation:
@@ -85,7 +78,7 @@ class Simulation:
             except ValueError as err:   # a combination of keys the generator cannot mesh
                 raise DeckError(deck.get("path", "deck"), f"body #{ib + 1}", "geometry",
                                 f"keys that '{b['geometry']}' can mesh", str(err)) from None
-            mat = self.material_names.index(b["material"]) + 1
+            mat = self.material_names.index(b["material"])
             (elem_bodies if b["discretisation"] == "elements" else part_bodies).append(
                 (ib, b, geometry, mat))
 
@@ -105,8 +98,7 @@ class Simulation:
         ierr, ifault = _api.initialise(self._run)
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault, during="set-up")
-        ke, ie = _api.get_energies(self._run)
-        self.initial_energy = ke + ie
+        self.initial_energy = self.energy_budget()["total"]
         self.particle_radius0 = (self._particles()["radius"].copy() if self.n_particles
                                  else np.zeros(0))
         self.n_elements0 = self.n_elements
@@ -128,13 +120,13 @@ class Simulation:
             vel[:, 1] = b["velocity_z"]
             vels.append(vel)
             mats.append(np.full(m.n_elements, mat))
-            body_ids.append(np.full(m.n_elements, ib + 1))
+            body_ids.append(np.full(m.n_elements, ib))
             offset += m.n_nodes
         x, conn = np.vstack(xs), np.vstack(conns)
         self._call(_api.set_mesh(self._run, np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
-                                 np.asfortranarray(conn.T + 1, dtype=np.int32),
-                                 np.concatenate(mats).astype(np.int32),
-                                 np.concatenate(body_ids).astype(np.int32)), "mesh")
+                                 np.asfortranarray(fortran_index(conn.T)),
+                                 fortran_index(np.concatenate(mats)),
+                                 fortran_index(np.concatenate(body_ids))), "mesh")
 
     def _set_particles(self, bodies, rho0, alpha_h):
         xs, vels, masses, hs, mats, body_ids = [], [], [], [], [], []
@@ -146,30 +138,30 @@ class Simulation:
             masses.append(rho0[b["material"]] * lat.ring_volume)
             hs.append(alpha_h * lat.spacing)
             mats.append(np.full(lat.n_particles, mat))
-            body_ids.append(np.full(lat.n_particles, ib + 1))
+            body_ids.append(np.full(lat.n_particles, ib))
         x = np.vstack(xs)
         self._call(_api.set_particles(self._run, np.asfortranarray(x.T), np.asfortranarray(np.vstack(vels).T),
                                       np.concatenate(masses), np.concatenate(hs),
-                                      np.concatenate(mats).astype(np.int32),
-                                      np.concatenate(body_ids).astype(np.int32)), "particles")
+                                      fortran_index(np.concatenate(mats)),
+                                      fortran_index(np.concatenate(body_ids))), "particles")
 
     def _set_coupling(self, deck, has_elements, has_particles):
         """Continua (bodies joined by joined_to), which element bodies act as
         imaginary particles, and the conversion parameters."""
         bodies = deck["body"]
         names = [b["name"] for b in bodies]
-        continuum = list(range(1, len(bodies) + 1))
+        continuum = list(range(len(bodies)))     # union-find of joined bodies, 0-based
 
         def root(k):
-            while continuum[k] != k + 1:
-                k = continuum[k] - 1
+            while continuum[k] != k:
+                k = continuum[k]
             return k
 
         for ib, b in enumerate(bodies):
             if b["joined_to"] is not None:
                 a, c = root(ib), root(names.index(b["joined_to"]))
-                continuum[max(a, c)] = min(a, c) + 1
-        continuum = [root(k) + 1 for k in range(len(bodies))]
+                continuum[max(a, c)] = min(a, c)
+        continuum = [root(k) for k in range(len(bodies))]
         mode = self.control["mode"]
         coupled = []
         for ib, b in enumerate(bodies):
@@ -177,11 +169,11 @@ class Simulation:
             has_part = any(bodies[j]["discretisation"] == "particles" for j in same)
             coupled.append(int(b["discretisation"] == "elements"
                                and (mode == "adaptive" or (mode == "fixed" and has_part))))
-        self._call(_api.set_continua(self._run, np.array(continuum, dtype=np.int32),
+        self._call(_api.set_continua(self._run, fortran_index(continuum),
                                      np.array(coupled, dtype=np.int32)), "continua")
         conv = deck["convert"]
-        criteria = {"min_angle": 1, "plastic_strain": 2, "equivalent_stress": 3}
-        _api.set_conversion(self._run, int(mode == "adaptive"), criteria[conv["criterion"]],
+        criteria = [name for name, _ in layouts.CONVERSION_CRITERIA]
+        _api.set_conversion(self._run, int(mode == "adaptive"), layouts.index_of(criteria, conv["criterion"]),
                             np.radians(conv["theta_c"]), conv["relative_angle"], conv["eps_c"], conv["sigma_c"] or 0.0,
                             conv["kappa"], deck["sph"]["alpha_h"])
         if has_elements and not has_particles and mode == "adaptive":
@@ -196,30 +188,31 @@ class Simulation:
     def _call(ierr, what):
         if ierr != STATUS_OK:
             raise FsphError(f"set-up of the {what} rejected by the solver: "
-                            f"{STATUS_TEXT.get(ierr, ierr)}")
+                            f"{layouts.status_text(int(ierr))}")
 
     def _failure(self, ierr, ifault, during="run"):
+        """The SimulationError of status ierr, naming where the element,
+        particle (ifault < 0) or node at fault is."""
         time, cycle = self.time, self.cycle
-        text = STATUS_TEXT.get(int(ierr), f"status {ierr}")
+        text = layouts.status_text(int(ierr))
         where, location = "", None
+        raw = self._raw_snapshot()
         if ifault < 0:
-            part = self._particles()
-            k = -ifault - 1
-            location = part["x"][k]
-            where = (f"; particle {-ifault} of body '{self.body_names[part['body'][k]]}' "
+            k = int(python_index(-ifault))
+            location = raw["particle_fields"][k, _PF["x_r"]:_PF["x_r"] + 2]
+            body = python_index(raw["particle_ids"][k, _ID["body"]])
+            where = (f"; particle {-ifault} of body '{self.body_names[body]}' "
                      f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
         elif ifault > 0 and ierr in NODE_FAULTS:
-            nn, _ = _api.get_sizes(self._run)
-            x, x0, _, _ = _api.get_nodes(self._run, nn)
-            location = x0[:, ifault - 1]
+            location = raw["node_fields"][int(python_index(ifault)), _NF["x0_r"]:_NF["x0_r"] + 2]
             where = (f"; node {ifault} (initially at r = {location[0] * 1e3:.4g} mm, "
                      f"z = {location[1] * 1e3:.4g} mm)")
-        elif ifault > 0 and ierr != 6:
-            nn, ne = _api.get_sizes(self._run)
-            x, _, _, _ = _api.get_nodes(self._run, nn)
-            conn, _, body = _api.get_elements(self._run, ne)
-            location = x[:, conn[:, ifault - 1] - 1].mean(axis=1)
-            where = (f"; element {ifault} of body '{self.body_names[body[ifault - 1] - 1]}' "
+        elif ifault > 0 and ierr != STATUS_BAD_INPUT:
+            k = int(python_index(ifault))
+            corners = python_index(raw["conn"][k])
+            location = raw["node_fields"][corners, _NF["x_r"]:_NF["x_r"] + 2].mean(axis=0)
+            body = python_index(raw["element_ids"][k, _ID["body"]])
+            where = (f"; element {ifault} of body '{self.body_names[body]}' "
                      f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
         elif ifault > 0:
             where = f"; index {ifault}"
@@ -254,14 +247,15 @@ class Simulation:
         _api.reset_phase_times(self._run)
 
     def drain_history(self):
-        """Time-history records (k, 8) recorded by the cycle since the last
-        call: time [s], cycle, dt [s], kinetic [J], internal [J], work of the
-        contact corrections [J], energy removed by erosion [J], kinetic energy
-        removed by the rigid planes and the particles' axis wall [J]."""
+        """Time-history records (k, len(fsph.layouts.HISTORY_COLUMNS))
+        recorded by the cycle since the last call: time [s], cycle, dt [s],
+        then the energy budget [J] (kinetic, internal, removed by contact,
+        erosion and the rigid planes, total)."""
         n = int(_api.history_count(self._run))
-        if n == 0:
-            return np.zeros((0, 8))
-        return _api.drain_history(self._run, n).T.copy()
+        records, ierr = _api.drain_history(self._run, len(layouts.HISTORY_COLUMNS), n)
+        if ierr != STATUS_OK:
+            raise FsphError("time history: layout mismatch, rebuild the package")
+        return records.T.copy()
 
     @property
     def list_rebuilds(self):
@@ -279,7 +273,7 @@ class Simulation:
 
     @property
     def n_particles(self):
-        return int(_api.get_particle_count(self._run))
+        return int(_api.get_sizes(self._run)[2])
 
     def conversion(self):
         """Elements converted so far, conversion events, kinetic energy of
@@ -288,32 +282,6 @@ class Simulation:
         n_conv, n_events, heat, n_edges = _api.get_conversion_stats(self._run)
         return {"n_converted": int(n_conv), "n_events": int(n_events), "heat_J": float(heat),
                 "n_coupling_edges": int(n_edges)}
-
-    def ties(self):
-        """Particle ties: tied edge nodes (0-based, -1 free), position along
-        the edge, associated edges (n, 2, 2) node pairs (-1 none)."""
-        a, b, xi, assoc = _api.get_particle_ties(self._run, self.n_particles)
-        return {"tie_a": a - 1, "tie_b": b - 1, "tie_xi": xi.copy(),
-                "assoc": assoc.transpose(2, 1, 0) - 1}
-
-    def convert_now(self):
-        """Run the conversion check immediately; returns elements converted."""
-        return int(_api.convert_now(self._run))
-
-    def set_stress_state(self, deviator, pressure):
-        """Uniform stress in every element and particle: deviator (rr, zz,
-        rz, tt) and pressure [Pa] (verification)."""
-        _api.set_stress_state(self._run, np.asarray(deviator, dtype=float), float(pressure))
-
-    def forces(self, dt=None):
-        """Nodal forces (n, 2) [N] (with coupling tractions and ties) and
-        particle accelerations (m, 2) [m/s^2] of the current state."""
-        f, acc = _api.get_forces(self._run, self.n_nodes, self.n_particles, float(dt or self.dt))
-        return f.T.copy(), acc.T.copy()
-
-    def element_groups(self):
-        """Conversion group of every element (0-based, -1 none)."""
-        return _api.get_element_groups(self._run, self.n_elements) - 1
 
     @property
     def time(self):
@@ -349,150 +317,127 @@ class Simulation:
         &sph debris_density times the reference, no stress."""
         return int(_api.get_debris_count(self._run))
 
-    def principal_strains(self):
-        """Largest principal logarithmic strain of every element (the
-        erosion measure) [-]."""
-        strain, ierr = _api.get_principal_strains(self._run, self.n_elements)
-        if ierr != STATUS_OK:
-            raise FsphError("principal_strains: no elements")
-        return strain.copy()
-
     def penetration(self):
         """Deepest interpenetration of bodies at the current positions [m]
         and relative to the penetrated segment's length [-]."""
-        depth, relative = _api.get_contact_penetration(self._run)
-        return {"depth": float(depth), "relative": float(relative)}
+        scalars = self._raw_snapshot()["scalars"]
+        return {"depth": float(scalars[_SS["contact_penetration"]]),
+                "relative": float(scalars[_SS["contact_penetration_relative"]])}
+
+    def energy_budget(self):
+        """The solver's energy budget [J] by name (fsph.layouts.ENERGY_COLUMNS:
+        kinetic, internal, contact, eroded, plane, total)."""
+        budget, ierr = _api.get_energy_budget(self._run, len(layouts.ENERGY_COLUMNS))
+        if ierr != STATUS_OK:
+            raise FsphError("energy budget: layout mismatch, rebuild the package")
+        return dict(zip(layouts.ENERGY_COLUMNS, (float(v) for v in budget)))
 
     def energies(self):
-        """Kinetic, internal, contact-dissipated, plane-dissipated and total
-        energy [J] and the relative error of the total against the initial
-        energy. Contact corrections and the kinematic condition of rigid
-        planes (and of the particles' axis wall) remove kinetic energy as
-        perfectly inelastic collisions of what strikes them; both are
+        """Kinetic, internal, contact-dissipated, plane-dissipated, eroded
+        and total energy [J] and the relative error of the total against the
+        initial energy. Contact corrections and the kinematic condition of
+        rigid planes (and of the particles' axis wall) remove kinetic energy
+        as perfectly inelastic collisions of what strikes them; both are
         booked, so the total is conserved by the method."""
-        ke, ie = _api.get_energies(self._run)
-        dissipated = float(_api.get_contact_stats(self._run)[0])
-        plane = float(_api.get_plane_dissipation(self._run))
-        er = self.erosion()
-        eroded = er["internal_J"] + er["kinetic_J"]
-        total = ke + ie + dissipated + plane + eroded
-        return {"kinetic": float(ke), "internal": float(ie), "contact": dissipated,
-                "plane": plane, "eroded": eroded, "total": float(total),
-                "relative_error": float((total - self.initial_energy) / self.initial_energy)
-                if self.initial_energy else 0.0}
+        energies = self.energy_budget()
+        energies["relative_error"] = ((energies["total"] - self.initial_energy) / self.initial_energy
+                                      if self.initial_energy else 0.0)
+        return energies
 
-    def _particles(self):
-        """Particle arrays (positions etc.), 0-based material and body."""
-        np_ = int(_api.get_particle_count(self._run))
-        x, x0, v, mass, h, radius, mat, body = _api.get_particles(self._run, np_)
-        return {"x": x.T.copy(), "x0": x0.T.copy(), "velocity": v.T.copy(), "mass": mass,
-                "h": h, "radius": radius, "material": mat - 1, "body": body - 1}
+    def _raw_snapshot(self):
+        """The solver's snapshot rows (fsph.layouts NODE_FIELDS, ...), one
+        row per node, element or particle; indices 1-based as stored."""
+        nn, ne, np_ = (int(v) for v in _api.get_sizes(self._run))
+        nodes, conn, eids, efields, pids, pfields, scalars, ierr = _api.get_snapshot(
+            self._run, nn, ne, np_, len(layouts.NODE_FIELDS), len(layouts.ELEMENT_FIELDS),
+            len(layouts.PARTICLE_FIELDS), len(layouts.ID_FIELDS), len(layouts.SNAPSHOT_SCALARS))
+        if ierr != STATUS_OK:
+            raise FsphError("snapshot: layout mismatch, rebuild the package")
+        return {"node_fields": nodes.T, "conn": conn.T, "element_ids": eids.T,
+                "element_fields": efields.T, "particle_ids": pids.T, "particle_fields": pfields.T,
+                "scalars": scalars}
 
     def snapshot(self):
-        """Current state as plain arrays. Elements: nodes (n, 2), connectivity
-        (m, 3) 0-based and element fields; particles (if any) under
-        "particles". Stress is the total Cauchy stress (rr, zz, rz, tt)."""
-        pen = self.penetration()
-        snap = {"time": self.time, "cycle": self.cycle, "contact_penetration": pen["depth"],
-                "contact_penetration_relative": pen["relative"],
-                "eroded_momentum_z": self.erosion()["momentum_kg_m_s"][1]}
-        if self.n_elements:
-            nn, ne = _api.get_sizes(self._run)
-            x, x0, v, mass = _api.get_nodes(self._run, nn)
-            conn, mat, body = _api.get_elements(self._run, ne)
-            s, p, q, eps_p, rho, e, temp, c, area, emass = _api.get_element_fields(self._run, ne)
-            stress = s.T.copy()
-            stress[:, [0, 1, 3]] -= (p + q)[:, None]
-            snap.update({
-                "x": x.T.copy(), "x0": x0.T.copy(), "velocity": v.T.copy(), "node_mass": mass,
-                "conn": conn.T - 1, "material": mat - 1, "body": body - 1,
-                "stress": stress, "pressure": p.copy(), "q": q.copy(),
-                "plastic_strain": eps_p.copy(), "density": rho.copy(),
-                "internal_energy": e.copy(), "temperature": temp.copy(), "sound_speed": c.copy(),
-                "area": area.copy(), "element_mass": emass.copy(),
-                "damage": self._history("element", ne)[HIST_DAMAGE],
-            })
-        if self.n_particles:
-            part = self._particles()
-            s, p, eps_p, rho, e, temp, c = _api.get_particle_fields(self._run, self.n_particles)
-            stress = s.T.copy()
-            stress[:, [0, 1, 3]] -= p[:, None]
+        """Current state as plain arrays, from one solver call that changes
+        nothing. Elements: nodes (n, 2), connectivity (m, 3) 0-based and
+        element fields; particles (if any) under "particles". Stress is the
+        total Cauchy stress (rr, zz, rz, tt)."""
+        raw = self._raw_snapshot()
+        scalars = raw["scalars"]
+        snap = {"time": float(scalars[_SS["time"]]), "cycle": int(scalars[_SS["cycle"]]),
+                "contact_penetration": float(scalars[_SS["contact_penetration"]]),
+                "contact_penetration_relative": float(scalars[_SS["contact_penetration_relative"]]),
+                "eroded_momentum_z": float(scalars[_SS["eroded_momentum_z"]])}
+        if len(raw["conn"]):
+            snap.update(_element_snapshot(raw))
+        if len(raw["particle_ids"]):
+            part = _particle_snapshot(raw["particle_fields"], raw["particle_ids"])
             radius0 = part["radius"].copy()
             radius0[:len(self.particle_radius0)] = self.particle_radius0
-            part.update({"stress": stress, "pressure": p.copy(), "plastic_strain": eps_p.copy(),
-                         "density": rho.copy(), "internal_energy": e.copy(),
-                         "temperature": temp.copy(), "sound_speed": c.copy(),
-                         "damage": self._history("particle", self.n_particles)[HIST_DAMAGE],
-                         "radius0": radius0})
+            part["radius0"] = radius0
             snap["particles"] = part
         return snap
 
-    def _history(self, kind, n):
-        """Material history rows (N_HIST, n) of elements or particles."""
-        hist, ierr = _api.get_material_history(self._run, 1 if kind == "element" else 2, N_HIST, n)
-        if ierr != STATUS_OK:
-            raise FsphError(f"{kind} history: layout mismatch, rebuild the package")
-        return hist.copy()
+    def _particles(self):
+        """Particle positions etc. (as in snapshot()["particles"])."""
+        raw = self._raw_snapshot()
+        return _particle_snapshot(raw["particle_fields"], raw["particle_ids"])
 
-    def particle_rates(self):
-        """SPH rates for the current state (verification): accelerations
-        (n, 2), density rate, energy rate, strain rates (n, 4), spin."""
-        acc, drho, de, d, spin, ierr = _api.get_particle_rates(self._run, self.n_particles)
-        if ierr != STATUS_OK:
-            raise FsphError("particle_rates: no particles set up")
-        return {"acc": acc.T.copy(), "drho": drho.copy(), "de": de.copy(), "d": d.T.copy(),
-                "spin": spin.copy()}
 
-    def neighbours(self):
-        """Neighbour lists of the last search: CSR pointer (n+1,) and entries
-        (+j neighbour, -j mirror of j across the axis), 1-based as in Fortran;
-        a pair of real particles is in both lists. Raises if the search's
-        pair bookkeeping is inconsistent."""
-        n_entries = int(_api.get_neighbour_count(self._run))
-        ptr, lst, consistent = _api.get_neighbours(self._run, self.n_particles, n_entries)
-        if not consistent:
-            raise FsphError("neighbour lists: a low entry does not point at its pair")
-        return ptr.copy(), lst.copy()
+# rows of the snapshot layouts by name (0-based columns of the transposed rows)
+_NF = {name: k for k, name in enumerate(layouts.NODE_FIELDS)}
+_EF = {name: k for k, name in enumerate(layouts.ELEMENT_FIELDS)}
+_PF = {name: k for k, name in enumerate(layouts.PARTICLE_FIELDS)}
+_ID = {name: k for k, name in enumerate(layouts.ID_FIELDS)}
+_SS = {name: k for k, name in enumerate(layouts.SNAPSHOT_SCALARS)}
 
-    # ---- verification hooks (used by tests) ----------------------------
-    def set_velocities(self, v):
-        """Overwrite nodal velocities (n, 2) [m/s] (elements)."""
-        ierr = _api.set_node_velocities(self._run, np.asfortranarray(np.asarray(v, float).T))
-        if ierr != STATUS_OK:
-            raise FsphError("set_velocities: wrong number of nodes")
 
-    def set_element_energy(self, e):
-        """Overwrite the specific internal energy (m,) [J/kg] of every element."""
-        ierr = _api.set_element_energy(self._run, np.asarray(e, float))
-        if ierr != STATUS_OK:
-            raise FsphError("set_element_energy: wrong number of elements")
+def _pairs(fields, rows, first):
+    """(n, 2) columns first_r, first_z of a row table."""
+    return fields[:, rows[first + "_r"]:rows[first + "_r"] + 2].copy()
 
-    def set_particle_motion(self, x, v):
-        """Overwrite particle positions (n, 2) [m] and velocities (n, 2) [m/s]."""
-        ierr = _api.set_particle_motion(self._run, np.asfortranarray(np.asarray(x, float).T),
-                                        np.asfortranarray(np.asarray(v, float).T))
-        if ierr != STATUS_OK:
-            raise FsphError("set_particle_motion: wrong number of particles")
 
-    def strain_rates(self):
-        """Element strain rates (m, 4) (rr, zz, rz, tt) and spin (m,) for the
-        current positions and velocities [1/s]."""
-        d, spin, ierr = _api.get_strain_rates(self._run, self.n_elements)
-        if ierr != STATUS_OK:
-            raise FsphError("strain_rates: state not set up")
-        return d.T.copy(), spin.copy()
+def _cauchy_stress(fields, rows, pressure):
+    """Total Cauchy stress (n, 4) (rr, zz, rz, tt) [Pa] from the deviator
+    rows and a pressure (n,) [Pa] (tension positive)."""
+    stress = fields[:, rows["s_rr"]:rows["s_tt"] + 1].copy()
+    stress[:, [0, 1, 3]] -= pressure[:, None]
+    return stress
+
+
+def _element_snapshot(raw):
+    """Node and element entries of a snapshot from the solver's rows."""
+    nodes, ef = raw["node_fields"], raw["element_fields"]
+    column = {name: ef[:, k].copy() for name, k in _EF.items()}
+    return {
+        "x": _pairs(nodes, _NF, "x"), "x0": _pairs(nodes, _NF, "x0"), "velocity": _pairs(nodes, _NF, "v"),
+        "node_mass": nodes[:, _NF["mass"]].copy(),
+        "conn": python_index(raw["conn"]), "material": python_index(raw["element_ids"][:, _ID["material"]]),
+        "body": python_index(raw["element_ids"][:, _ID["body"]]),
+        "stress": _cauchy_stress(ef, _EF, column["p"] + column["q"]), "pressure": column["p"],
+        "q": column["q"], "plastic_strain": column["eps_p"], "density": column["rho"],
+        "internal_energy": column["e"], "temperature": column["temp"], "sound_speed": column["c"],
+        "area": column["area"], "element_mass": column["mass"], "damage": column["damage"],
+    }
+
+
+def _particle_snapshot(pf, ids):
+    """Particle entries of a snapshot from the solver's rows."""
+    column = {name: pf[:, k].copy() for name, k in _PF.items()}
+    return {
+        "x": _pairs(pf, _PF, "x"), "x0": _pairs(pf, _PF, "x0"), "velocity": _pairs(pf, _PF, "v"),
+        "mass": column["mass"], "h": column["h"], "radius": column["radius"],
+        "material": python_index(ids[:, _ID["material"]]), "body": python_index(ids[:, _ID["body"]]),
+        "stress": _cauchy_stress(pf, _PF, column["p"]), "pressure": column["p"],
+        "plastic_strain": column["eps_p"], "density": column["rho"], "internal_energy": column["e"],
+        "temperature": column["temp"], "sound_speed": column["c"], "damage": column["damage"],
+    }
 
 
 def kernel(dist, h):
     """Smoothing kernel W [1/m^2] and dW/dr [1/m^3] at distances dist [m]."""
     w, dw, _ = _api.kernel_values(np.asarray(dist, dtype=float), float(h))
     return w, dw
-
-
-def kernel_gradient_factor(dist, h):
-    """(dW/dr)/dist [1/m^4] at distances dist [m], as the pair sums take it
-    (grad_i W = factor (x_i - x_j))."""
-    return _api.kernel_values(np.asarray(dist, dtype=float), float(h))[2]
 
 
 def contact_filling(alpha_h):
@@ -510,47 +455,3 @@ def contact_filling(alpha_h):
 
     step = 0.05
     return filling(1.0), (filling(1.0 - step) - filling(1.0 + step)) / (2.0 * step)
-
-
-
-
-def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
-    """One constitutive step of a single point of a validated material dict.
-    `state` holds s (4,), p, eps_p, e, temp and optionally damage and mu_max
-    (history, 0 if absent); returns the new state and c."""
-    props, strength, eos = property_table([material])
-    s = np.array(state["s"], dtype=float)
-    p = np.array(state["p"], dtype=float)
-    eps_p = np.array(state["eps_p"], dtype=float)
-    e = np.array(state["e"], dtype=float)
-    temp = np.array(state["temp"], dtype=float)
-    hist = np.zeros(N_HIST)
-    hist[HIST_DAMAGE] = state.get("damage", 0.0)
-    hist[HIST_MU_MAX] = state.get("mu_max", 0.0)
-    c, ierr = _api.material_point(props[:, 0], int(strength[0]), int(eos[0]), dt,
-                                  np.asarray(d, float), spin, rho_old, rho_new, q,
-                                  s, p, eps_p, e, temp, hist)
-    return {"s": s, "p": float(p), "eps_p": float(eps_p), "e": float(e),
-            "temp": float(temp), "damage": float(hist[HIST_DAMAGE]),
-            "mu_max": float(hist[HIST_MU_MAX]), "c": float(c), "ierr": int(ierr)}
-
-
-def hjc_pressure(material, mu, damage=0.0, mu_max=0.0):
-    """HJC pressure of one point of a validated material dict at
-    volumetric strain mu with history (damage, mu_max): returns pressure
-    [Pa], dp/dmu [Pa], the new mu_max and the growth of the permanent
-    volumetric strain."""
-    props, _, _ = property_table([material])
-    mu_max = np.array(mu_max, dtype=float)
-    p, dpdmu, dmu_p, ierr = _api.hjc_point_pressure(props[:, 0], mu, damage, mu_max)
-    if ierr != STATUS_OK:
-        raise FsphError("hjc_pressure: layout mismatch, rebuild the package")
-    return {"p": float(p), "dpdmu": float(dpdmu), "mu_max": float(mu_max), "dmu_p": float(dmu_p)}
-
-
-def triangle_principal_strain(x, x0):
-    """Largest principal logarithmic strain [-] of one triangle from its
-    current and initial node positions (3, 2) (r, z) [m] (the erosion
-    measure of fsph_erosion)."""
-    return float(_api.triangle_principal_strain(np.asfortranarray(np.asarray(x, float).T),
-                                                np.asfortranarray(np.asarray(x0, float).T)))

@@ -1,5 +1,6 @@
-!> The only module exposed to Python (through numpy.f2py). Plain arrays and
-!> scalars in and out; the state stays inside Fortran. Every routine that can
+!> The module exposed to Python (through numpy.f2py; the tests' entry points
+!> are in fsph_verify). Plain arrays and scalars in and out; every layout the
+!> arrays follow is named in fsph_layouts (generated from fsph/layouts.py); the state stays inside Fortran. Every routine that can
 !> fail returns ierr (a fsph_status code) and, where useful, ifault (the
 !> 1-based index of the element or node at fault). Nothing here stops the
 !> process. A routine that reads or changes a run's state takes the run's
@@ -10,21 +11,13 @@ module fsph_api
   use fsph_runs, only: run_state
   implicit none
   private
-  public :: open_run, close_run, layout, threads, set_control, set_materials, set_mesh, add_rigid_plane
-  public :: initialise, advance, get_sizes, get_clock, get_nodes, get_elements
-  public :: get_element_fields, get_energies, set_node_velocities, set_particle_motion, set_element_energy
-  public :: get_strain_rates
-  public :: material_point, history_count, drain_history, set_sph_control, set_particles
-  public :: get_particle_count, get_particles, get_particle_fields, get_particle_rates
-  public :: get_neighbour_count, get_neighbours, kernel_values, set_continua, reserve_particles
-  public :: set_conversion, get_element_groups, get_conversion_stats, get_particle_ties
-  public :: convert_now, set_stress_state, get_forces
-  public :: checkpoint_layout, checkpoint_sizes, get_real_state, get_int_state, set_real_state
-  public :: set_int_state, get_scalar_state, restore_begin, restore_end
-  public :: set_contact, get_contact_stats, get_contact_penetration, contact_pair_values
-  public :: set_erosion, get_erosion_stats, get_material_history, get_plane_dissipation
-  public :: get_principal_strains, hjc_point_pressure, triangle_principal_strain, get_debris_count
-  public :: phase_count, get_phase_times, reset_phase_times, set_neighbour_width, get_list_rebuilds
+  public :: open_run, close_run, get_layout_digest, phase_count, get_phase_times, reset_phase_times
+  public :: threads, set_control, set_sph_control, set_particles, set_continua, reserve_particles
+  public :: set_conversion, set_contact, set_erosion, get_erosion_stats, get_debris_count
+  public :: get_contact_stats, get_conversion_stats, checkpoint_layout, checkpoint_sizes, get_real_state
+  public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
+  public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
+  public :: get_sizes, get_snapshot, get_clock, get_energy_budget, history_count, drain_history
 
 contains
 
@@ -43,29 +36,28 @@ contains
     call run_close(run)
   end subroutine close_run
 
-  !> Sizes of the tables Python must match: number of material properties
-  !> and of strength and EOS models.
-  subroutine layout(nprop, n_strength, n_eos)
-    use fsph_material, only: n_props, strength_johnson_cook, eos_mie_gruneisen
-    integer, intent(out) :: nprop, n_strength, n_eos
-    nprop = n_props
-    n_strength = strength_johnson_cook
-    n_eos = eos_mie_gruneisen
-  end subroutine layout
+  !> Digest of the layouts the solver was built with (fsph_layouts,
+  !> generated from fsph/layouts.py): Python compares it with its own, so
+  !> a stale build is refused rather than misread.
+  subroutine get_layout_digest(digest)
+    use fsph_layouts, only: layout_digest
+    integer, intent(out) :: digest
+    digest = layout_digest
+  end subroutine get_layout_digest
 
-  !> Number of timed phases of the cycle (fsph_timers).
+  !> Number of timed phases of the cycle (fsph_layouts).
   subroutine phase_count(n)
-    use fsph_timers, only: n_phases
+    use fsph_layouts, only: n_phases
     integer, intent(out) :: n
     n = n_phases
   end subroutine phase_count
 
   !> Wall time [s] spent in each phase of the cycle since the last reset,
-  !> in the order of fsph_timers (element forces, element update,
+  !> in the order of fsph_layouts (element forces, element update,
   !> neighbours, SPH sums, particle update, particle contact, coupling,
   !> contact, integration, conversion, time step).
   subroutine get_phase_times(run, n, times)
-    use fsph_timers, only: n_phases
+    use fsph_layouts, only: n_phases
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: n
@@ -159,97 +151,6 @@ contains
     ierr = status_ok
   end subroutine set_particles
 
-  subroutine get_particle_count(run, np)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(out) :: np
-    sim => run_state(run)
-    np = sim%particles%n
-  end subroutine get_particle_count
-
-  !> Particle positions, initial positions [m], velocities [m/s], masses
-  !> [kg], smoothing lengths [m], radii [m], material and body index.
-  subroutine get_particles(run, np, x, x0, v, mass, h, radius, mat, body)
-    use fsph_solver, only: update_particle_radius
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: np
-    real(wp), intent(out) :: x(2, np), x0(2, np), v(2, np), mass(np), h(np), radius(np)
-    integer, intent(out) :: mat(np), body(np)
-    sim => run_state(run)
-    if (np /= sim%particles%n .or. np == 0) return
-    associate (pt => sim%particles)
-      x = pt%x(:, 1:np); x0 = pt%x0(:, 1:np); v = pt%v(:, 1:np); mass = pt%mass(1:np)
-      h = pt%h(1:np)
-      call update_particle_radius(sim)
-      radius = pt%radius(1:np)
-      mat = pt%mat(1:np); body = pt%body(1:np)
-    end associate
-  end subroutine get_particles
-
-  !> Particle fields: deviator s (rr, zz, rz, tt) [Pa], pressure [Pa],
-  !> plastic strain [-], density [kg/m^3], specific internal energy [J/kg],
-  !> temperature [K], sound speed [m/s].
-  subroutine get_particle_fields(run, np, s, p, eps_p, rho, e, temp, c)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: np
-    real(wp), intent(out) :: s(4, np), p(np), eps_p(np), rho(np), e(np), temp(np), c(np)
-    sim => run_state(run)
-    if (np /= sim%particles%n .or. np == 0) return
-    associate (pt => sim%particles)
-      s = pt%s(:, 1:np); p = pt%p(1:np); eps_p = pt%eps_p(1:np); rho = pt%rho(1:np)
-      e = pt%e(1:np); temp = pt%temp(1:np); c = pt%c(1:np)
-    end associate
-  end subroutine get_particle_fields
-
-  !> SPH rates for the current positions and velocities (verification):
-  !> accelerations [m/s^2], density rate [kg/(m^3 s)], energy rate
-  !> [J/(kg s)], strain rates (rr, zz, rz, tt) and spin [1/s]. Builds the
-  !> neighbour lists; does not change the state.
-  subroutine get_particle_rates(run, np, acc, drho, de, d, spin, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch
-    use fsph_solver, only: prepare_particle_sums
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: np
-    real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
-    integer, intent(out) :: ierr
-    integer :: ntot
-    real(wp), allocatable :: grad_v(:, :), switch(:)
-    sim => run_state(run)
-    ierr = status_bad_input
-    acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
-    if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
-    call prepare_particle_sums(sim, ntot)
-    allocate (grad_v(4, np), switch(np))
-    associate (pt => sim%particles)
-      call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
-      ! the pairs of this state (pair_in), then its velocity gradient and
-      ! compression switch, then the accelerations with them
-      grad_v = 0.0_wp
-      switch = 0.0_wp
-      call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
-                             grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
-                             sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
-                             pt%pair_hg, pt%pair_in, pt%acc_imag)
-      call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
-                     pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, drho, d, &
-                     spin, grad_v)
-      call compression_switch(np, d, pt%c, pt%h, switch)
-      call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
-                             grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
-                             sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
-                             pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
-      ! the energy equation with the stress, viscosity and velocities of this state
-      call sph_energy_rate(np, ntot, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%nbr_ptr, &
-                           pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%pair_hg, &
-                           pt%pair_force, pt%nbr_grad, pt%pair_work, de)
-    end associate
-    ierr = status_ok
-  end subroutine get_particle_rates
-
   !> Continuum index of every body (bodies joined into one continuum share
   !> it: SPH sums and coupling join them, contact does not) and whether the
   !> body's elements act as imaginary particles (coupled modes).
@@ -303,18 +204,6 @@ contains
     sim%conversion%kappa = kappa
     sim%conversion%alpha_h = alpha_h
   end subroutine set_conversion
-
-  !> Conversion group of every element (0: not in a coupled body).
-  subroutine get_element_groups(run, ne, group)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    integer, intent(out) :: group(ne)
-    sim => run_state(run)
-    group = 0
-    if (ne /= sim%elements%n .or. ne == 0) return
-    group = sim%elements%group(1:ne)
-  end subroutine get_element_groups
 
   !> Contact between bodies: on/off, correction passes per cycle, Coulomb
   !> friction coefficient [-], untied particles also against their own
@@ -370,24 +259,6 @@ contains
     momentum = sim%erosion%momentum
   end subroutine get_erosion_stats
 
-  !> Largest principal logarithmic strain of every element [-] (the erosion
-  !> measure).
-  subroutine get_principal_strains(run, ne, strain, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    use fsph_erosion, only: principal_strains
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    real(wp), intent(out) :: strain(ne)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    strain = 0.0_wp
-    ierr = status_bad_input
-    if (ne /= sim%elements%n .or. ne == 0) return
-    call principal_strains(ne, sim%nodes%n, sim%elements%conn, sim%nodes%x, sim%nodes%x0, strain)
-    ierr = status_ok
-  end subroutine get_principal_strains
-
   !> Debris particles (density held at the debris bound, no stress) after
   !> the last cycle.
   subroutine get_debris_count(run, n_debris)
@@ -397,67 +268,6 @@ contains
     sim => run_state(run)
     n_debris = sim%particles%n_debris
   end subroutine get_debris_count
-
-  !> Largest principal logarithmic strain of one triangle from its initial
-  !> and current node positions (r, z) [m] (unit tests of the measure).
-  subroutine triangle_principal_strain(x, x0, strain)
-    use fsph_erosion, only: principal_log_strain
-    real(wp), intent(in) :: x(2, 3), x0(2, 3)
-    real(wp), intent(out) :: strain
-    strain = principal_log_strain(x, x0)
-  end subroutine triangle_principal_strain
-
-  !> Material history (n_hist rows: damage, largest volumetric strain;
-  !> fsph_material) of every element (kind 1) or particle (kind 2).
-  subroutine get_material_history(run, kind, nh, n, hist, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    use fsph_material, only: n_hist
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: kind, nh, n
-    real(wp), intent(out) :: hist(nh, n)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    hist = 0.0_wp
-    ierr = status_bad_input
-    if (nh /= n_hist .or. n == 0) return
-    if (kind == 1 .and. n == sim%elements%n) then
-      hist = sim%elements%hist
-    else if (kind == 2 .and. n == sim%particles%n) then
-      hist = sim%particles%hist(:, 1:n)
-    else
-      return
-    end if
-    ierr = status_ok
-  end subroutine get_material_history
-
-  !> HJC pressure of one point (unit tests of the branches): volumetric
-  !> strain, damage and largest strain so far in; pressure [Pa], dp/dmu [Pa]
-  !> and the growth of the permanent volumetric strain out.
-  subroutine hjc_point_pressure(nprop, props, mu, damage, mu_max, p, dpdmu, dmu_p, ierr)
-    use fsph_material, only: n_props, hjc_pressure
-    use fsph_status, only: status_ok, status_bad_input
-    integer, intent(in) :: nprop
-    real(wp), intent(in) :: props(nprop), mu, damage
-    real(wp), intent(inout) :: mu_max
-    real(wp), intent(out) :: p, dpdmu, dmu_p
-    integer, intent(out) :: ierr
-    p = 0.0_wp; dpdmu = 0.0_wp; dmu_p = 0.0_wp
-    ierr = status_bad_input
-    if (nprop /= n_props) return
-    call hjc_pressure(props, mu, damage, mu_max, p, dpdmu, dmu_p)
-    ierr = status_ok
-  end subroutine hjc_point_pressure
-
-  !> Kinetic energy removed by the rigid planes and the particles' axis wall
-  !> (perfectly inelastic on what strikes them) [J].
-  subroutine get_plane_dissipation(run, dissipated)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    real(wp), intent(out) :: dissipated
-    sim => run_state(run)
-    dissipated = sim%plane_dissipated
-  end subroutine get_plane_dissipation
 
   !> Contact books: kinetic energy removed by the corrections so far [J],
   !> pairs corrected in the last cycle, surface segments and nodes.
@@ -473,26 +283,6 @@ contains
     n_snode = sim%contact%n_snode
   end subroutine get_contact_stats
 
-  !> Deepest interpenetration at the current positions [m] and relative to
-  !> the penetrated segment's length [-].
-  subroutine get_contact_penetration(run, depth, relative)
-    use fsph_contact, only: contact_penetration
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    real(wp), intent(out) :: depth, relative
-    sim => run_state(run)
-    call contact_penetration(sim%contact, sim%nodes, sim%particles, depth, relative)
-  end subroutine get_contact_penetration
-
-  !> The correction of one contact pair (Hu et al. 2013 eqs 1-3), for
-  !> verification: normal velocity changes of slave and master nodes [m/s].
-  subroutine contact_pair_values(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
-    use fsph_contact, only: pair_correction
-    real(wp), intent(in) :: delta, dt, m_s, m_1, m_2, r_1, r_2
-    real(wp), intent(out) :: dv_s, dv_1, dv_2
-    call pair_correction(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
-  end subroutine contact_pair_values
-
   !> Elements converted, conversion events, kinetic energy turned into
   !> heat at conversion [J], coupling edges in use.
   subroutine get_conversion_stats(run, n_converted, n_events, heat, n_edges)
@@ -507,33 +297,10 @@ contains
     n_edges = sim%coupling%n_edges
   end subroutine get_conversion_stats
 
-  !> Ties and associations of the particles: tied edge nodes (0: free),
-  !> position along the edge, and the node pairs of up to two associated
-  !> coupling edges (0: none).
-  subroutine get_particle_ties(run, np, tie_a, tie_b, tie_xi, assoc_nodes)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: np
-    integer, intent(out) :: tie_a(np), tie_b(np), assoc_nodes(2, 2, np)
-    real(wp), intent(out) :: tie_xi(np)
-    integer :: i, slot
-    sim => run_state(run)
-    tie_a = 0; tie_b = 0; tie_xi = 0.0_wp; assoc_nodes = 0
-    if (np /= sim%particles%n .or. np == 0) return
-    associate (pt => sim%particles)
-      tie_a = pt%tie_a(1:np); tie_b = pt%tie_b(1:np); tie_xi = pt%tie_xi(1:np)
-      do i = 1, np
-        do slot = 1, 2
-          if (pt%assoc(slot, i) > 0) assoc_nodes(:, slot, i) = sim%coupling%edge(:, pt%assoc(slot, i))
-        end do
-      end do
-    end associate
-  end subroutine get_particle_ties
-
   !> Numbers of real and integer state arrays and scalars of a checkpoint.
   subroutine checkpoint_layout(run, n_real, n_int, n_rs, n_is)
-    use fsph_restart, only: n_real_arrays, n_int_arrays, n_real_scalars, n_int_scalars, &
-                            prepare_checkpoint
+    use fsph_restart, only: prepare_checkpoint
+    use fsph_layouts, only: n_real_arrays, n_int_arrays, n_real_scalars, n_int_scalars
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(out) :: n_real, n_int, n_rs, n_is
@@ -639,28 +406,44 @@ contains
     ierr = status_ok
   end subroutine set_int_state
 
-  !> Clock and conversion books (see fsph_restart get_scalars).
-  subroutine get_scalar_state(run, r, i)
+  !> Clock and books of a checkpoint (fsph_restart get_scalars; nr and ni
+  !> are fsph_layouts n_real_scalars and n_int_scalars).
+  subroutine get_scalar_state(run, nr, ni, r, i, ierr)
     use fsph_restart, only: get_scalars
+    use fsph_layouts, only: n_real_scalars, n_int_scalars
+    use fsph_status, only: status_ok, status_bad_input
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
-    real(wp), intent(out) :: r(13)   ! fsph_restart n_real_scalars
-    integer, intent(out) :: i(9)     ! fsph_restart n_int_scalars
+    integer, intent(in) :: nr, ni
+    real(wp), intent(out) :: r(nr)
+    integer, intent(out) :: i(ni), ierr
     sim => run_state(run)
+    r = 0.0_wp
+    i = 0
+    ierr = status_bad_input
+    if (nr /= n_real_scalars .or. ni /= n_int_scalars) return
     call get_scalars(sim, r, i)
+    ierr = status_ok
   end subroutine get_scalar_state
 
-  !> Start a restore: allocate for the checkpoint's sizes and set the clock.
-  subroutine restore_begin(run, nn, ne, np, capacity, n_edges, r, i)
+  !> Start a restore: allocate for the checkpoint's sizes and set the clock
+  !> and books (nr, ni: fsph_layouts n_real_scalars, n_int_scalars).
+  subroutine restore_begin(run, nn, ne, np, capacity, n_edges, nr, ni, r, i, ierr)
     use fsph_restart, only: allocate_for_restart, set_scalars
+    use fsph_layouts, only: n_real_scalars, n_int_scalars
+    use fsph_status, only: status_ok, status_bad_input
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
-    integer, intent(in) :: nn, ne, np, capacity, n_edges
-    real(wp), intent(in) :: r(13)
-    integer, intent(in) :: i(9)
+    integer, intent(in) :: nn, ne, np, capacity, n_edges, nr, ni
+    real(wp), intent(in) :: r(nr)
+    integer, intent(in) :: i(ni)
+    integer, intent(out) :: ierr
     sim => run_state(run)
+    ierr = status_bad_input
+    if (nr /= n_real_scalars .or. ni /= n_int_scalars) return
     call allocate_for_restart(sim, nn, ne, np, capacity, n_edges)
     call set_scalars(sim, r, i)
+    ierr = status_ok
   end subroutine restore_begin
 
   !> End a restore: derived maps rebuilt, state ready.
@@ -671,57 +454,6 @@ contains
     sim => run_state(run)
     call finish_restore(sim)
   end subroutine restore_end
-
-  !> Run the conversion check of the cycle now (verification): returns the
-  !> number of elements converted.
-  subroutine convert_now(run, n_new)
-    use fsph_convert, only: convert_elements
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(out) :: n_new
-    sim => run_state(run)
-    call convert_elements(sim%elements, sim%nodes, sim%particles, sim%coupling, sim%conversion, sim%contact, &
-                          sim%continuum_of_body, sim%body_coupled, n_new)
-  end subroutine convert_now
-
-  !> Give every element and real particle the deviator s (rr, zz, rz, tt)
-  !> [Pa] and pressure p [Pa] (verification of equilibrium states).
-  subroutine set_stress_state(run, s, p)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    real(wp), intent(in) :: s(4), p
-    integer :: i
-    sim => run_state(run)
-    do i = 1, sim%elements%n
-      sim%elements%s(:, i) = s
-      sim%elements%p(i) = p
-      sim%elements%q(i) = 0.0_wp
-    end do
-    do i = 1, sim%particles%n
-      sim%particles%s(:, i) = s
-      sim%particles%p(i) = p
-    end do
-  end subroutine set_stress_state
-
-  !> Forces of the current state as the cycle computes them (element nodal
-  !> forces with coupling tractions and tie forces [N], particle
-  !> accelerations [m/s^2]), without advancing (verification). dt [s] is
-  !> the step the particle contact penalty would use.
-  subroutine get_forces(run, nn, np, dt, f, acc)
-    use fsph_solver, only: solver_forces
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: nn, np
-    real(wp), intent(in) :: dt
-    real(wp), intent(out) :: f(2, nn), acc(2, np)
-    sim => run_state(run)
-    f = 0.0_wp
-    acc = 0.0_wp
-    if (nn /= sim%nodes%n .or. np /= sim%particles%n) return
-    call solver_forces(sim, dt)
-    if (nn > 0) f = sim%nodes%f(:, 1:nn)
-    if (np > 0) acc = sim%particles%acc(:, 1:np)
-  end subroutine get_forces
 
   !> The smoothing kernel, its radial derivative and the gradient factor
   !> (dW/d dist)/dist the pair sums use, at distances dist [m] for
@@ -746,73 +478,10 @@ contains
     n = sim%particles%n_rebuilds
   end subroutine get_list_rebuilds
 
-  !> Row width of the neighbour search's buffers (verification: the lists
-  !> must not depend on it; it grows by itself when a list is longer).
-  subroutine set_neighbour_width(run, width)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: width
-    sim => run_state(run)
-    sim%particles%search%width = max(width, 1)
-    sim%particles%lists_valid = .false.
-  end subroutine set_neighbour_width
-
-  !> Total number of neighbour entries (ghosts included) of the last search,
-  !> each pair of real particles counted in both particles' lists.
-  subroutine get_neighbour_count(run, nentries)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(out) :: nentries
-    integer :: n
-    sim => run_state(run)
-    nentries = 0
-    n = sim%particles%n
-    if (n > 0 .and. allocated(sim%particles%nbr_list)) &
-      nentries = sim%particles%nbr_ptr(n + 1) - 1 + sim%particles%low_ptr(n + 1) - 1
-  end subroutine get_neighbour_count
-
-  !> Full neighbour lists of the last search: CSR pointer (np+1) and entries
-  !> (+j neighbour, -j mirror of j across the axis): each particle's own
-  !> row (half and one-way entries) followed by its low partners.
-  !> consistent = 1 when every low entry points at the pair entry that
-  !> holds the particle in its partner's half row (verification).
-  subroutine get_neighbours(run, np, nentries, ptr, list, consistent)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: np, nentries
-    integer, intent(out) :: ptr(np + 1), list(nentries), consistent
-    integer :: i, n_own, n_low, m, k, j
-    sim => run_state(run)
-    ptr = 1
-    list = 0
-    consistent = 0
-    if (np /= sim%particles%n .or. np == 0) return
-    associate (pt => sim%particles)
-      if (nentries /= pt%nbr_ptr(np + 1) - 1 + pt%low_ptr(np + 1) - 1) return
-      consistent = 1
-      do i = 1, np
-        n_own = pt%nbr_ptr(i + 1) - pt%nbr_ptr(i)
-        n_low = pt%low_ptr(i + 1) - pt%low_ptr(i)
-        ptr(i + 1) = ptr(i) + n_own + n_low
-        list(ptr(i):ptr(i) + n_own - 1) = pt%nbr_list(pt%nbr_ptr(i):pt%nbr_ptr(i + 1) - 1)
-        list(ptr(i) + n_own:ptr(i + 1) - 1) = pt%low_other(pt%low_ptr(i):pt%low_ptr(i + 1) - 1)
-        do m = pt%low_ptr(i), pt%low_ptr(i + 1) - 1
-          j = pt%low_other(m)
-          k = pt%low_pair(m)
-          if (j >= i .or. k < pt%nbr_ptr(j) .or. k >= pt%half_end(j)) then
-            consistent = 0
-          else if (pt%nbr_list(k) /= i) then
-            consistent = 0
-          end if
-        end do
-      end do
-    end associate
-  end subroutine get_neighbours
-
-  !> Material table: props(nprop, nmat) in the fsph_material layout and the
+  !> Material table: props(nprop, nmat) in the fsph_layouts prop_* order and the
   !> strength and EOS model ids of each material.
   subroutine set_materials(run, nprop, nmat, props, istrength, ieos, ierr)
-    use fsph_material, only: n_props
+    use fsph_layouts, only: n_props
     use fsph_status, only: status_ok, status_bad_input
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
@@ -912,14 +581,47 @@ contains
     end if
   end subroutine advance
 
-  subroutine get_sizes(run, nn, ne)
+  !> Numbers of nodes, elements and (real) particles of run `run`.
+  subroutine get_sizes(run, nn, ne, np)
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
-    integer, intent(out) :: nn, ne
+    integer, intent(out) :: nn, ne, np
     sim => run_state(run)
     nn = sim%nodes%n
     ne = sim%elements%n
+    np = sim%particles%n
   end subroutine get_sizes
+
+  !> A snapshot of run `run` in the row layouts of fsph_layouts (built by
+  !> fsph_snapshot): node, element and particle field rows, connectivity
+  !> (1-based), material and body ids, and the snapshot scalars. Changes
+  !> nothing in the run. ierr = status_bad_input when a size does not
+  !> match the run (get_sizes) or the layout.
+  subroutine get_snapshot(run, nn, ne, np, nnf, nef, npf, nid, nss, node_fields, conn, element_ids, &
+                          element_fields, particle_ids, particle_fields, scalars, ierr)
+    use fsph_layouts, only: n_node_fields, n_element_fields, n_particle_fields, n_id_fields, &
+                            n_snapshot_scalars
+    use fsph_snapshot, only: node_rows, element_rows, particle_rows, snapshot_scalars
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: nn, ne, np, nnf, nef, npf, nid, nss
+    real(wp), intent(out) :: node_fields(nnf, nn), element_fields(nef, ne), particle_fields(npf, np)
+    real(wp), intent(out) :: scalars(nss)
+    integer, intent(out) :: conn(3, ne), element_ids(nid, ne), particle_ids(nid, np), ierr
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    node_fields = 0.0_wp; element_fields = 0.0_wp; particle_fields = 0.0_wp; scalars = 0.0_wp
+    conn = 0; element_ids = 0; particle_ids = 0
+    ierr = status_bad_input
+    if (nn /= sim%nodes%n .or. ne /= sim%elements%n .or. np /= sim%particles%n) return
+    if (nnf /= n_node_fields .or. nef /= n_element_fields .or. npf /= n_particle_fields .or. &
+        nid /= n_id_fields .or. nss /= n_snapshot_scalars) return
+    if (nn > 0) call node_rows(sim%nodes, node_fields)
+    if (ne > 0) call element_rows(sim%elements, conn, element_ids, element_fields)
+    if (np > 0) call particle_rows(sim%particles, sim%props, particle_ids, particle_fields)
+    call snapshot_scalars(sim, scalars)
+    ierr = status_ok
+  end subroutine get_snapshot
 
   !> Clock: time [s], stable step for the next cycle [s], last step [s],
   !> initial stable step [s], cycle count, element or particle controlling
@@ -939,55 +641,25 @@ contains
     dt_element = sim%dt_element
   end subroutine get_clock
 
-  !> Node positions, initial positions [m], velocities [m/s], masses [kg].
-  subroutine get_nodes(run, nn, x, x0, v, mass)
+  !> The energy budget [J] (fsph_solver energy_budget: kinetic, internal,
+  !> removed by contact, erosion and the rigid planes, total; n entries,
+  !> the history columns from fsph_layouts energy_first).
+  subroutine get_energy_budget(run, n, budget, ierr)
+    use fsph_solver, only: energy_budget
+    use fsph_layouts, only: history_columns, energy_first
+    use fsph_status, only: status_ok, status_bad_input
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: n
+    real(wp), intent(out) :: budget(n)
+    integer, intent(out) :: ierr
     type(simulation_t), pointer :: sim
-    integer, intent(in) :: nn
-    real(wp), intent(out) :: x(2, nn), x0(2, nn), v(2, nn), mass(nn)
     sim => run_state(run)
-    x = sim%nodes%x
-    x0 = sim%nodes%x0
-    v = sim%nodes%v
-    mass = sim%nodes%mass
-  end subroutine get_nodes
-
-  subroutine get_elements(run, ne, conn, mat, body)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    integer, intent(out) :: conn(3, ne), mat(ne), body(ne)
-    sim => run_state(run)
-    conn = sim%elements%conn
-    mat = sim%elements%mat
-    body = sim%elements%body
-  end subroutine get_elements
-
-  !> Element fields: deviator s (rr, zz, rz, tt) [Pa], pressure p and viscous
-  !> pressure q [Pa], plastic strain [-], density [kg/m^3], specific internal
-  !> energy [J/kg], temperature [K], sound speed [m/s], area [m^2], mass [kg].
-  subroutine get_element_fields(run, ne, s, p, q, eps_p, rho, e, temp, c, area, mass)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    real(wp), intent(out) :: s(4, ne), p(ne), q(ne), eps_p(ne), rho(ne), e(ne), temp(ne)
-    real(wp), intent(out) :: c(ne), area(ne), mass(ne)
-    sim => run_state(run)
-    associate (el => sim%elements)
-      s = el%s; p = el%p; q = el%q; eps_p = el%eps_p; rho = el%rho; e = el%e
-      temp = el%temp; c = el%c; area = el%area; mass = el%mass
-    end associate
-  end subroutine get_element_fields
-
-  !> Kinetic energy (half-step velocities) and internal energy [J].
-  subroutine get_energies(run, kinetic, internal)
-    use fsph_solver, only: solver_energies
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    real(wp), intent(out) :: kinetic, internal
-    sim => run_state(run)
-    call solver_energies(sim, kinetic, internal)
-  end subroutine get_energies
+    budget = 0.0_wp
+    ierr = status_bad_input
+    if (n /= history_columns - energy_first + 1) return
+    budget = energy_budget(sim)
+    ierr = status_ok
+  end subroutine get_energy_budget
 
   !> Number of time-history records waiting to be drained.
   subroutine history_count(run, n)
@@ -998,111 +670,25 @@ contains
     n = sim%n_history
   end subroutine history_count
 
-  !> Take the n waiting records (time [s], cycle, dt [s], kinetic [J],
-  !> internal [J], contact work [J], energy removed by erosion [J], work of
-  !> the rigid planes and the particles' axis wall [J]) and empty the buffer.
-  subroutine drain_history(run, n, records)
-    use fsph_state, only: history_columns
+  !> Take the n waiting time-history records (nc = history_columns rows,
+  !> fsph_layouts hcol_*) and empty the buffer.
+  subroutine drain_history(run, nc, n, records, ierr)
+    use fsph_layouts, only: history_columns
+    use fsph_status, only: status_ok, status_bad_input
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
-    integer, intent(in) :: n
-    ! literal 8 = history_columns: f2py cannot size arrays by module constants
-    real(wp), intent(out) :: records(8, n)
+    integer, intent(in) :: nc, n
+    real(wp), intent(out) :: records(nc, n)
+    integer, intent(out) :: ierr
     integer :: k
     sim => run_state(run)
-    k = min(n, sim%n_history)
-    if (history_columns /= size(records, 1)) k = 0
     records = 0.0_wp
+    ierr = status_bad_input
+    if (nc /= history_columns) return
+    k = min(n, sim%n_history)
     if (k > 0) records(:, 1:k) = sim%history(:, 1:k)
     sim%n_history = 0
+    ierr = status_ok
   end subroutine drain_history
-
-  !> Overwrite nodal velocities [m/s] (verification tests and restarts).
-  subroutine set_node_velocities(run, nn, v, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: nn
-    real(wp), intent(in) :: v(2, nn)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    ierr = status_bad_input
-    if (nn /= sim%nodes%n) return
-    sim%nodes%v = v
-    ierr = status_ok
-  end subroutine set_node_velocities
-
-  !> Overwrite the specific internal energy of every element [J/kg]
-  !> (verification tests: e.g. a NaN to exercise the element guard).
-  subroutine set_element_energy(run, ne, e, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    real(wp), intent(in) :: e(ne)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    ierr = status_bad_input
-    if (ne /= sim%elements%n) return
-    sim%elements%e(1:ne) = e
-    ierr = status_ok
-  end subroutine set_element_energy
-
-  !> Overwrite particle positions [m] and velocities [m/s] (verification
-  !> tests: e.g. put a particle across the axis to exercise its guard).
-  subroutine set_particle_motion(run, np, x, v, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: np
-    real(wp), intent(in) :: x(2, np), v(2, np)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    ierr = status_bad_input
-    if (np /= sim%particles%n) return
-    sim%particles%x(:, 1:np) = x
-    sim%particles%v(:, 1:np) = v
-    sim%particles%lists_valid = .false.
-    ierr = status_ok
-  end subroutine set_particle_motion
-
-  !> Strain rates (rr, zz, rz, tt) [1/s] and spin [1/s] of every element for
-  !> the current positions and velocities (the kernel the cycle uses).
-  subroutine get_strain_rates(run, ne, d, spin, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    use fsph_element, only: element_strain_rates
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    real(wp), intent(out) :: d(4, ne), spin(ne)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    d = 0.0_wp
-    spin = 0.0_wp
-    ierr = status_bad_input
-    if (ne /= sim%elements%n) return
-    call element_strain_rates(ne, sim%nodes%n, sim%elements%conn, sim%nodes%x, sim%nodes%v, d, spin)
-    ierr = status_ok
-  end subroutine get_strain_rates
-
-  !> One constitutive step of a single material point (unit tests of the
-  !> material models; see fsph_material material_update).
-  subroutine material_point(nprop, nh, props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
-                            s, p, eps_p, e, temp, hist, c, ierr)
-    use fsph_material, only: n_props, n_hist, material_update
-    use fsph_status, only: status_bad_input
-    integer, intent(in) :: nprop, nh
-    real(wp), intent(in) :: props(nprop)
-    integer, intent(in) :: istrength, ieos
-    real(wp), intent(in) :: dt, d(4), spin, rho_old, rho_new, q
-    real(wp), intent(inout) :: s(4), p, eps_p, e, temp, hist(nh)
-    real(wp), intent(out) :: c
-    integer, intent(out) :: ierr
-    c = 0.0_wp
-    ierr = status_bad_input
-    if (nprop /= n_props .or. nh /= n_hist) return
-    call material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
-                         s, p, eps_p, e, temp, hist, c, ierr)
-  end subroutine material_point
 
 end module fsph_api

@@ -493,26 +493,29 @@ contains
   !> Deepest interpenetration at the current positions: the largest
   !> penetration [m] of a surface node or particle (with the thickness the
   !> contact uses), and the same relative to the length of the segment
-  !> penetrated [-] (the local element size).
+  !> penetrated [-] (the local element size). Reads the contact state only:
+  !> the search grid for the current positions is built in a copy.
   subroutine contact_penetration(ct, nd, pt, depth, relative)
-    type(contact_t), intent(inout) :: ct
+    type(contact_t), intent(in) :: ct
     type(node_set_t), intent(in) :: nd
     type(particle_set_t), intent(in) :: pt
     real(wp), intent(out) :: depth, relative
     integer :: j, i
     type(contact_pair_t) :: pair
+    type(contact_t) :: probe
     depth = 0.0_wp
     relative = 0.0_wp
     if (ct%n_seg == 0) return
-    call build_buckets(ct, nd, pt, 0.0_wp)
-    do j = 1, ct%n_snode
-      call find_contact(ct, nd, nd%x(:, ct%snode(j)), nd%x(:, ct%snode(j)), 0.0_wp, &
-                        ct%snode_cont(j), .false., ct%snode(j), 0.0_wp, pair, whole=.true.)
+    probe = ct
+    call build_buckets(probe, nd, pt, 0.0_wp)
+    do j = 1, probe%n_snode
+      call find_contact(probe, nd, nd%x(:, probe%snode(j)), nd%x(:, probe%snode(j)), 0.0_wp, &
+                        probe%snode_cont(j), .false., probe%snode(j), 0.0_wp, pair, whole=.true.)
       if (pair%found) call keep_deepest(pair)
     end do
     do i = 1, pt%n
-      call find_contact(ct, nd, pt%x(:, i), pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                        ct%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair, whole=.true.)
+      call find_contact(probe, nd, pt%x(:, i), pt%x(:, i), pt%radius(i), pt%continuum(i), &
+                        probe%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair, whole=.true.)
       if (pair%found) call keep_deepest(pair)
     end do
   contains

@@ -8,6 +8,7 @@ module fsph_convert
   use fsph_kinds, only: wp, pi
   use fsph_state, only: node_set_t, element_set_t, particle_set_t, coupling_t, conversion_t, contact_t
   use fsph_arrays, only: reserve
+  use fsph_layouts, only: criterion_plastic_strain, criterion_equivalent_stress
   use fsph_material, only: equivalent_stress
   use fsph_coupling, only: coupled_body, update_tie_masses, element_mean, element_smoothing_length, &
                            associate_particles, tie_new_particles, association_reach
@@ -15,10 +16,6 @@ module fsph_convert
   use fsph_remesh, only: remove_elements, remove_unused_nodes, mesh_changed
   implicit none
   private
-
-  integer, parameter, public :: criterion_min_angle = 1
-  integer, parameter, public :: criterion_plastic_strain = 2
-  integer, parameter, public :: criterion_equivalent_stress = 3
 
   public :: assign_groups, convert_elements
   public :: minimum_angle, conversion_limits

@@ -9,7 +9,8 @@ module fsph_element
   use fsph_kinds, only: wp, two_pi, one_third
   use fsph_status, only: status_ok, status_inverted_element, status_nonfinite_element, &
                          status_eos_range
-  use fsph_material, only: n_props, n_hist, material_update
+  use fsph_layouts, only: n_props, n_hist
+  use fsph_material, only: material_update
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private

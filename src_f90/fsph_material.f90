@@ -11,65 +11,19 @@
 module fsph_material
   use fsph_kinds, only: wp, one_third
   use fsph_status, only: status_ok, status_eos_range
+  ! the property table, the material history and the model ids: fsph_layouts
+  ! (generated from fsph/layouts.py)
+  use fsph_layouts, only: eos_hjc, eos_linear, eos_mie_gruneisen, hist_damage, hist_mu_max, n_hist, &
+                          n_props, prop_bulk, prop_c0, prop_chi, prop_cv, prop_eps0, prop_gamma0, &
+                          prop_hard, prop_hjc_a, prop_hjc_b, prop_hjc_c, prop_hjc_d1, prop_hjc_d2, &
+                          prop_hjc_efmin, prop_hjc_fc, prop_hjc_k1, prop_hjc_k2, prop_hjc_k3, &
+                          prop_hjc_mucrush, prop_hjc_mulock, prop_hjc_muplock, prop_hjc_n, prop_hjc_pcrush, &
+                          prop_hjc_plock, prop_hjc_smax, prop_hjc_t, prop_jc_a, prop_jc_b, prop_jc_c, &
+                          prop_jc_m, prop_jc_n, prop_pmin, prop_rho0, prop_s, prop_shear, prop_t_melt, &
+                          prop_t_room, prop_yield, strength_bilinear, strength_elastic, strength_epp, &
+                          strength_hjc, strength_johnson_cook
   implicit none
   private
-
-  ! ---- property table layout: props(n_props) per material -------------
-  integer, parameter, public :: prop_rho0 = 1    !< reference density [kg/m^3]
-  integer, parameter, public :: prop_shear = 2   !< shear modulus G [Pa]
-  integer, parameter, public :: prop_bulk = 3    !< bulk modulus K, linear EOS [Pa]
-  integer, parameter, public :: prop_yield = 4   !< initial yield stress Y0 [Pa]
-  integer, parameter, public :: prop_hard = 5    !< plastic modulus H = E E_T/(E - E_T) [Pa]
-  integer, parameter, public :: prop_jc_a = 6    !< Johnson-Cook A [Pa]
-  integer, parameter, public :: prop_jc_b = 7    !< Johnson-Cook B [Pa]
-  integer, parameter, public :: prop_jc_n = 8    !< Johnson-Cook n [-]
-  integer, parameter, public :: prop_jc_c = 9    !< Johnson-Cook C [-]
-  integer, parameter, public :: prop_jc_m = 10   !< Johnson-Cook m [-]
-  integer, parameter, public :: prop_t_melt = 11 !< melting temperature [K]
-  integer, parameter, public :: prop_t_room = 12 !< room (initial) temperature [K]
-  integer, parameter, public :: prop_cv = 13     !< specific heat [J/(kg K)]
-  integer, parameter, public :: prop_chi = 14    !< Taylor-Quinney coefficient [-]
-  integer, parameter, public :: prop_eps0 = 15   !< Johnson-Cook reference strain rate [1/s]
-  integer, parameter, public :: prop_c0 = 16     !< Mie-Grueneisen bulk sound speed c0 [m/s]
-  integer, parameter, public :: prop_s = 17      !< Mie-Grueneisen Us-up slope s [-]
-  integer, parameter, public :: prop_gamma0 = 18 !< Grueneisen coefficient Gamma0 [-]
-  integer, parameter, public :: prop_pmin = 19   !< pressure cut-off p_min (<= 0) [Pa]
-  ! Holmquist-Johnson-Cook concrete (Holmquist, Johnson & Cook 1993, 14th
-  ! Int. Symp. Ballistics 591-600); strengths normalised by f_c
-  integer, parameter, public :: prop_hjc_a = 20       !< normalised cohesive strength A [-]
-  integer, parameter, public :: prop_hjc_b = 21       !< normalised pressure hardening B [-]
-  integer, parameter, public :: prop_hjc_n = 22       !< pressure hardening exponent N [-]
-  integer, parameter, public :: prop_hjc_c = 23       !< strain-rate coefficient C [-]
-  integer, parameter, public :: prop_hjc_fc = 24      !< quasi-static compressive strength f_c [Pa]
-  integer, parameter, public :: prop_hjc_t = 25       !< maximum tensile hydrostatic pressure T [Pa]
-  integer, parameter, public :: prop_hjc_smax = 26    !< normalised maximum strength S_max [-]
-  integer, parameter, public :: prop_hjc_efmin = 27   !< smallest plastic strain to fracture EF_min [-]
-  integer, parameter, public :: prop_hjc_d1 = 28      !< damage constant D1 [-]
-  integer, parameter, public :: prop_hjc_d2 = 29      !< damage exponent D2 [-]
-  integer, parameter, public :: prop_hjc_pcrush = 30  !< crushing pressure P_crush [Pa]
-  integer, parameter, public :: prop_hjc_mucrush = 31 !< volumetric strain at P_crush [-]
-  integer, parameter, public :: prop_hjc_plock = 32   !< locking pressure P_lock [Pa]
-  integer, parameter, public :: prop_hjc_mulock = 33  !< locking strain mu_lock = rho_grain/rho0 - 1 [-]
-  integer, parameter, public :: prop_hjc_k1 = 34      !< fully dense EOS K1 [Pa]
-  integer, parameter, public :: prop_hjc_k2 = 35      !< fully dense EOS K2 [Pa]
-  integer, parameter, public :: prop_hjc_k3 = 36      !< fully dense EOS K3 [Pa]
-  integer, parameter, public :: prop_hjc_muplock = 37 !< strain where the fully dense curve reaches P_lock [-]
-  integer, parameter, public :: n_props = 37
-
-  ! ---- history variables of a material point: hist(n_hist) ------------
-  integer, parameter, public :: hist_damage = 1  !< damage D in [0, 1] (HJC) [-]
-  integer, parameter, public :: hist_mu_max = 2  !< largest volumetric strain reached (HJC) [-]
-  integer, parameter, public :: n_hist = 2
-
-  ! ---- model identifiers ----------------------------------------------
-  integer, parameter, public :: strength_elastic = 1
-  integer, parameter, public :: strength_epp = 2          !< elastic-perfectly-plastic
-  integer, parameter, public :: strength_bilinear = 3     !< linear isotropic hardening
-  integer, parameter, public :: strength_johnson_cook = 4
-  integer, parameter, public :: strength_hjc = 5          !< Holmquist-Johnson-Cook (with eos_hjc)
-  integer, parameter, public :: eos_linear = 1
-  integer, parameter, public :: eos_mie_gruneisen = 2
-  integer, parameter, public :: eos_hjc = 3               !< HJC three-phase p(mu) with unloading
 
   !> Smallest admissible value of the Mie-Grueneisen denominator
   !> 1 - (s - 1) mu before the state is declared out of range [-].

@@ -5,8 +5,8 @@ module fsph_particles
   use fsph_kinds, only: wp, two_pi
   use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
                          status_particle_axis
-  use fsph_material, only: n_props, n_hist, material_update, eos_pressure, sound_speed, &
-                           prop_pmin, prop_shear, prop_rho0, eos_hjc
+  use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc
+  use fsph_material, only: material_update, eos_pressure, sound_speed
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use fsph_kernel, only: kernel_w, kernel_dwdr, in_support
   implicit none

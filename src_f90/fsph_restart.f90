@@ -1,23 +1,17 @@
 !> Checkpoint and restart: every state array that the next cycle reads is
-!> reachable by a number, as a (rows, cols) view, so the API can copy the
+!> reachable by its id (named in fsph_layouts), as a (rows, cols) view, so the API can copy the
 !> whole state out and back in without one routine per array. Arrays the
 !> cycle recomputes before use (forces, neighbour lists, work arrays) are
 !> not part of it.
 module fsph_restart
   use fsph_kinds, only: wp
   use fsph_state, only: simulation_t, state_allocate, state_allocate_particles
+  use fsph_layouts
   implicit none
   private
 
-  !> Real arrays: 1-20 nodes and elements, 21-34 particles, 35-37 eroded
-  !> node mass and element and particle material history, 38-39 the
-  !> particles' strain rates and velocity gradients of the last step (the
-  !> viscosity's compression switch and the hourglass term read them).
-  integer, parameter, public :: n_real_arrays = 39
-  !> Integer arrays: 1-5 nodes and elements, 6-12 particles and coupling.
-  integer, parameter, public :: n_int_arrays = 12
-  !> Real and integer scalars of the clock and the conversion books.
-  integer, parameter, public :: n_real_scalars = 13, n_int_scalars = 9
+  ! the arrays and scalars by name (ckr_*, cki_*, csr_*, csi_*) and their
+  ! numbers: fsph_layouts (generated from fsph/layouts.py)
 
   public :: real_view, int_view, get_scalars, set_scalars, allocate_for_restart
   public :: prepare_checkpoint, finish_restore
@@ -29,48 +23,52 @@ contains
     type(simulation_t), intent(in), target :: sim
     integer, intent(in) :: id
     real(wp), pointer :: p(:, :)
+    integer :: nn, ne, np
+    nn = sim%nodes%n
+    ne = sim%elements%n
+    np = sim%particles%n
     p => null()
-      select case (id)
-      case (1); if (allocated(sim%nodes%x)) p => sim%nodes%x
-      case (2); if (allocated(sim%nodes%x0)) p => sim%nodes%x0
-      case (3); if (allocated(sim%nodes%v)) p => sim%nodes%v
-      case (4); if (allocated(sim%nodes%mass)) p(1:1, 1:sim%nodes%n) => sim%nodes%mass
-      case (5); if (allocated(sim%nodes%mass_tie)) p(1:1, 1:sim%nodes%n) => sim%nodes%mass_tie
-      case (6); if (allocated(sim%elements%mass)) p(1:1, 1:sim%elements%n) => sim%elements%mass
-      case (7); if (allocated(sim%elements%rho)) p(1:1, 1:sim%elements%n) => sim%elements%rho
-      case (8); if (allocated(sim%elements%s)) p => sim%elements%s
-      case (9); if (allocated(sim%elements%p)) p(1:1, 1:sim%elements%n) => sim%elements%p
-      case (10); if (allocated(sim%elements%q)) p(1:1, 1:sim%elements%n) => sim%elements%q
-      case (11); if (allocated(sim%elements%eps_p)) p(1:1, 1:sim%elements%n) => sim%elements%eps_p
-      case (12); if (allocated(sim%elements%e)) p(1:1, 1:sim%elements%n) => sim%elements%e
-      case (13); if (allocated(sim%elements%temp)) p(1:1, 1:sim%elements%n) => sim%elements%temp
-      case (14); if (allocated(sim%elements%c)) p(1:1, 1:sim%elements%n) => sim%elements%c
-      case (15); if (allocated(sim%elements%area)) p(1:1, 1:sim%elements%n) => sim%elements%area
-      case (16); if (allocated(sim%elements%rbar)) p(1:1, 1:sim%elements%n) => sim%elements%rbar
-      case (17); if (allocated(sim%elements%volume)) p(1:1, 1:sim%elements%n) => sim%elements%volume
-      case (18); if (allocated(sim%elements%lmin)) p(1:1, 1:sim%elements%n) => sim%elements%lmin
-      case (19); if (allocated(sim%elements%d)) p => sim%elements%d
-      case (20); if (allocated(sim%elements%spin)) p(1:1, 1:sim%elements%n) => sim%elements%spin
-      case (21); if (allocated(sim%particles%x)) p => sim%particles%x(:, 1:sim%particles%n)
-      case (22); if (allocated(sim%particles%x0)) p => sim%particles%x0(:, 1:sim%particles%n)
-      case (23); if (allocated(sim%particles%v)) p => sim%particles%v(:, 1:sim%particles%n)
-      case (24); if (allocated(sim%particles%mass)) p(1:1, 1:sim%particles%n) => sim%particles%mass(1:sim%particles%n)
-      case (25); if (allocated(sim%particles%h)) p(1:1, 1:sim%particles%n) => sim%particles%h(1:sim%particles%n)
-      case (26); if (allocated(sim%particles%radius)) p(1:1, 1:sim%particles%n) => sim%particles%radius(1:sim%particles%n)
-      case (27); if (allocated(sim%particles%rho)) p(1:1, 1:sim%particles%n) => sim%particles%rho(1:sim%particles%n)
-      case (28); if (allocated(sim%particles%s)) p => sim%particles%s(:, 1:sim%particles%n)
-      case (29); if (allocated(sim%particles%p)) p(1:1, 1:sim%particles%n) => sim%particles%p(1:sim%particles%n)
-      case (30); if (allocated(sim%particles%eps_p)) p(1:1, 1:sim%particles%n) => sim%particles%eps_p(1:sim%particles%n)
-      case (31); if (allocated(sim%particles%e)) p(1:1, 1:sim%particles%n) => sim%particles%e(1:sim%particles%n)
-      case (32); if (allocated(sim%particles%temp)) p(1:1, 1:sim%particles%n) => sim%particles%temp(1:sim%particles%n)
-      case (33); if (allocated(sim%particles%c)) p(1:1, 1:sim%particles%n) => sim%particles%c(1:sim%particles%n)
-      case (34); if (allocated(sim%particles%tie_xi)) p(1:1, 1:sim%particles%n) => sim%particles%tie_xi(1:sim%particles%n)
-      case (35); if (allocated(sim%nodes%mass_eroded)) p(1:1, 1:sim%nodes%n) => sim%nodes%mass_eroded
-      case (36); if (allocated(sim%elements%hist)) p => sim%elements%hist
-      case (37); if (allocated(sim%particles%hist)) p => sim%particles%hist(:, 1:sim%particles%n)
-      case (38); if (allocated(sim%particles%d)) p => sim%particles%d(:, 1:sim%particles%n)
-      case (39); if (allocated(sim%particles%grad_v)) p => sim%particles%grad_v(:, 1:sim%particles%n)
-      end select
+    select case (id)
+    case (ckr_nodes_x); if (allocated(sim%nodes%x)) p => sim%nodes%x
+    case (ckr_nodes_x0); if (allocated(sim%nodes%x0)) p => sim%nodes%x0
+    case (ckr_nodes_v); if (allocated(sim%nodes%v)) p => sim%nodes%v
+    case (ckr_nodes_mass); if (allocated(sim%nodes%mass)) p => real_row(sim%nodes%mass, nn)
+    case (ckr_nodes_mass_tie); if (allocated(sim%nodes%mass_tie)) p => real_row(sim%nodes%mass_tie, nn)
+    case (ckr_elements_mass); if (allocated(sim%elements%mass)) p => real_row(sim%elements%mass, ne)
+    case (ckr_elements_rho); if (allocated(sim%elements%rho)) p => real_row(sim%elements%rho, ne)
+    case (ckr_elements_s); if (allocated(sim%elements%s)) p => sim%elements%s
+    case (ckr_elements_p); if (allocated(sim%elements%p)) p => real_row(sim%elements%p, ne)
+    case (ckr_elements_q); if (allocated(sim%elements%q)) p => real_row(sim%elements%q, ne)
+    case (ckr_elements_eps_p); if (allocated(sim%elements%eps_p)) p => real_row(sim%elements%eps_p, ne)
+    case (ckr_elements_e); if (allocated(sim%elements%e)) p => real_row(sim%elements%e, ne)
+    case (ckr_elements_temp); if (allocated(sim%elements%temp)) p => real_row(sim%elements%temp, ne)
+    case (ckr_elements_c); if (allocated(sim%elements%c)) p => real_row(sim%elements%c, ne)
+    case (ckr_elements_area); if (allocated(sim%elements%area)) p => real_row(sim%elements%area, ne)
+    case (ckr_elements_rbar); if (allocated(sim%elements%rbar)) p => real_row(sim%elements%rbar, ne)
+    case (ckr_elements_volume); if (allocated(sim%elements%volume)) p => real_row(sim%elements%volume, ne)
+    case (ckr_elements_lmin); if (allocated(sim%elements%lmin)) p => real_row(sim%elements%lmin, ne)
+    case (ckr_elements_d); if (allocated(sim%elements%d)) p => sim%elements%d
+    case (ckr_elements_spin); if (allocated(sim%elements%spin)) p => real_row(sim%elements%spin, ne)
+    case (ckr_particles_x); if (allocated(sim%particles%x)) p => sim%particles%x(:, 1:np)
+    case (ckr_particles_x0); if (allocated(sim%particles%x0)) p => sim%particles%x0(:, 1:np)
+    case (ckr_particles_v); if (allocated(sim%particles%v)) p => sim%particles%v(:, 1:np)
+    case (ckr_particles_mass); if (allocated(sim%particles%mass)) p => real_row(sim%particles%mass, np)
+    case (ckr_particles_h); if (allocated(sim%particles%h)) p => real_row(sim%particles%h, np)
+    case (ckr_particles_radius); if (allocated(sim%particles%radius)) p => real_row(sim%particles%radius, np)
+    case (ckr_particles_rho); if (allocated(sim%particles%rho)) p => real_row(sim%particles%rho, np)
+    case (ckr_particles_s); if (allocated(sim%particles%s)) p => sim%particles%s(:, 1:np)
+    case (ckr_particles_p); if (allocated(sim%particles%p)) p => real_row(sim%particles%p, np)
+    case (ckr_particles_eps_p); if (allocated(sim%particles%eps_p)) p => real_row(sim%particles%eps_p, np)
+    case (ckr_particles_e); if (allocated(sim%particles%e)) p => real_row(sim%particles%e, np)
+    case (ckr_particles_temp); if (allocated(sim%particles%temp)) p => real_row(sim%particles%temp, np)
+    case (ckr_particles_c); if (allocated(sim%particles%c)) p => real_row(sim%particles%c, np)
+    case (ckr_particles_tie_xi); if (allocated(sim%particles%tie_xi)) p => real_row(sim%particles%tie_xi, np)
+    case (ckr_nodes_mass_eroded); if (allocated(sim%nodes%mass_eroded)) p => real_row(sim%nodes%mass_eroded, nn)
+    case (ckr_elements_hist); if (allocated(sim%elements%hist)) p => sim%elements%hist
+    case (ckr_particles_hist); if (allocated(sim%particles%hist)) p => sim%particles%hist(:, 1:np)
+    case (ckr_particles_d); if (allocated(sim%particles%d)) p => sim%particles%d(:, 1:np)
+    case (ckr_particles_grad_v); if (allocated(sim%particles%grad_v)) p => sim%particles%grad_v(:, 1:np)
+    end select
   end function real_view
 
   !> Rank-2 view (rows, cols) of integer array `id` (null if not allocated).
@@ -78,55 +76,102 @@ contains
     type(simulation_t), intent(in), target :: sim
     integer, intent(in) :: id
     integer, pointer :: p(:, :)
+    integer :: nn, ne, np
+    nn = sim%nodes%n
+    ne = sim%elements%n
+    np = sim%particles%n
     p => null()
-      select case (id)
-      case (1); if (allocated(sim%elements%conn)) p => sim%elements%conn
-      case (2); if (allocated(sim%elements%mat)) p(1:1, 1:sim%elements%n) => sim%elements%mat
-      case (3); if (allocated(sim%elements%body)) p(1:1, 1:sim%elements%n) => sim%elements%body
-      case (4); if (allocated(sim%elements%group)) p(1:1, 1:sim%elements%n) => sim%elements%group
-      case (5); if (allocated(sim%nodes%on_axis_int)) p(1:1, 1:sim%nodes%n) => sim%nodes%on_axis_int
-      case (6); if (allocated(sim%particles%mat)) p(1:1, 1:sim%particles%n) => sim%particles%mat(1:sim%particles%n)
-      case (7); if (allocated(sim%particles%body)) p(1:1, 1:sim%particles%n) => sim%particles%body(1:sim%particles%n)
-      case (8); if (allocated(sim%particles%continuum)) p(1:1, 1:sim%particles%n) => sim%particles%continuum(1:sim%particles%n)
-      case (9); if (allocated(sim%particles%tie_a)) p(1:1, 1:sim%particles%n) => sim%particles%tie_a(1:sim%particles%n)
-      case (10); if (allocated(sim%particles%tie_b)) p(1:1, 1:sim%particles%n) => sim%particles%tie_b(1:sim%particles%n)
-      case (11); if (allocated(sim%particles%assoc)) p => sim%particles%assoc(:, 1:sim%particles%n)
-      case (12); if (allocated(sim%coupling%edge)) p => sim%coupling%edge(:, 1:sim%coupling%n_edges)
-      end select
+    select case (id)
+    case (cki_elements_conn); if (allocated(sim%elements%conn)) p => sim%elements%conn
+    case (cki_elements_mat); if (allocated(sim%elements%mat)) p => int_row(sim%elements%mat, ne)
+    case (cki_elements_body); if (allocated(sim%elements%body)) p => int_row(sim%elements%body, ne)
+    case (cki_elements_group); if (allocated(sim%elements%group)) p => int_row(sim%elements%group, ne)
+    case (cki_nodes_on_axis); if (allocated(sim%nodes%on_axis_int)) p => int_row(sim%nodes%on_axis_int, nn)
+    case (cki_particles_mat); if (allocated(sim%particles%mat)) p => int_row(sim%particles%mat, np)
+    case (cki_particles_body); if (allocated(sim%particles%body)) p => int_row(sim%particles%body, np)
+    case (cki_particles_continuum); if (allocated(sim%particles%continuum)) p => int_row(sim%particles%continuum, np)
+    case (cki_particles_tie_a); if (allocated(sim%particles%tie_a)) p => int_row(sim%particles%tie_a, np)
+    case (cki_particles_tie_b); if (allocated(sim%particles%tie_b)) p => int_row(sim%particles%tie_b, np)
+    case (cki_particles_assoc); if (allocated(sim%particles%assoc)) p => sim%particles%assoc(:, 1:np)
+    case (cki_coupling_edge); if (allocated(sim%coupling%edge)) p => sim%coupling%edge(:, 1:sim%coupling%n_edges)
+    end select
   end function int_view
 
-  !> Clock and books: reals (time, dt, dt_last, dt_initial, conversion heat,
-  !> contact dissipation, erosion: element mass, internal energy, node mass,
-  !> kinetic energy, momentum r and z, work of the planes) and integers (cycle, dt_element,
-  !> dt_particle, n_converted, n_events, n_groups, n_edges, n_imag, n_eroded).
+  !> A (1, n) view of the first n entries of a rank-1 state array.
+  function real_row(a, n) result(p)
+    real(wp), intent(in), target :: a(:)
+    integer, intent(in) :: n
+    real(wp), pointer :: p(:, :)
+    p(1:1, 1:n) => a(1:n)
+  end function real_row
+
+  function int_row(a, n) result(p)
+    integer, intent(in), target :: a(:)
+    integer, intent(in) :: n
+    integer, pointer :: p(:, :)
+    p(1:1, 1:n) => a(1:n)
+  end function int_row
+
+  !> Clock and books (fsph_layouts csr_* and csi_*): time and steps, the
+  !> conversion heat, the contact and plane dissipation, the erosion books;
+  !> cycle, the element or particle setting the step, conversion counts,
+  !> coupling edges, imaginary particles, eroded elements.
   subroutine get_scalars(sim, r, i)
     type(simulation_t), intent(in) :: sim
     real(wp), intent(out) :: r(n_real_scalars)
     integer, intent(out) :: i(n_int_scalars)
-    associate (er => sim%erosion)
-      r = [sim%time, sim%dt, sim%dt_last, sim%dt_initial, sim%conversion%heat, sim%contact%dissipated, &
-           er%element_mass, er%internal, er%node_mass, er%kinetic, er%momentum(1), er%momentum(2), &
-           sim%plane_dissipated]
-      i = [sim%cycle, sim%dt_element, sim%dt_particle, sim%conversion%n_converted, &
-           sim%conversion%n_events, sim%conversion%n_groups, sim%coupling%n_edges, sim%particles%n_imag, &
-           er%n_eroded]
-    end associate
+    r(csr_time) = sim%time
+    r(csr_dt) = sim%dt
+    r(csr_dt_last) = sim%dt_last
+    r(csr_dt_initial) = sim%dt_initial
+    r(csr_conversion_heat) = sim%conversion%heat
+    r(csr_contact_dissipated) = sim%contact%dissipated
+    r(csr_eroded_element_mass) = sim%erosion%element_mass
+    r(csr_eroded_internal) = sim%erosion%internal
+    r(csr_eroded_node_mass) = sim%erosion%node_mass
+    r(csr_eroded_kinetic) = sim%erosion%kinetic
+    r(csr_eroded_momentum_r) = sim%erosion%momentum(1)
+    r(csr_eroded_momentum_z) = sim%erosion%momentum(2)
+    r(csr_plane_dissipated) = sim%plane_dissipated
+    i(csi_cycle) = sim%cycle
+    i(csi_dt_element) = sim%dt_element
+    i(csi_dt_particle) = sim%dt_particle
+    i(csi_n_converted) = sim%conversion%n_converted
+    i(csi_n_events) = sim%conversion%n_events
+    i(csi_n_groups) = sim%conversion%n_groups
+    i(csi_n_edges) = sim%coupling%n_edges
+    i(csi_n_imag) = sim%particles%n_imag
+    i(csi_n_eroded) = sim%erosion%n_eroded
   end subroutine get_scalars
 
+  !> The inverse of get_scalars; the imaginary particles and the history
+  !> buffer start empty.
   subroutine set_scalars(sim, r, i)
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: r(n_real_scalars)
     integer, intent(in) :: i(n_int_scalars)
-    sim%time = r(1); sim%dt = r(2); sim%dt_last = r(3); sim%dt_initial = r(4)
-    sim%conversion%heat = r(5)
-    sim%contact%dissipated = r(6)
-    sim%erosion%element_mass = r(7); sim%erosion%internal = r(8); sim%erosion%node_mass = r(9)
-    sim%erosion%kinetic = r(10); sim%erosion%momentum = r(11:12)
-    sim%plane_dissipated = r(13)
-    sim%erosion%n_eroded = i(9)
-    sim%cycle = i(1); sim%dt_element = i(2); sim%dt_particle = i(3)
-    sim%conversion%n_converted = i(4); sim%conversion%n_events = i(5)
-    sim%conversion%n_groups = i(6); sim%coupling%n_edges = i(7); sim%particles%n_imag = 0; sim%particles%n_mirror = 0
+    sim%time = r(csr_time)
+    sim%dt = r(csr_dt)
+    sim%dt_last = r(csr_dt_last)
+    sim%dt_initial = r(csr_dt_initial)
+    sim%conversion%heat = r(csr_conversion_heat)
+    sim%contact%dissipated = r(csr_contact_dissipated)
+    sim%erosion%element_mass = r(csr_eroded_element_mass)
+    sim%erosion%internal = r(csr_eroded_internal)
+    sim%erosion%node_mass = r(csr_eroded_node_mass)
+    sim%erosion%kinetic = r(csr_eroded_kinetic)
+    sim%erosion%momentum = [r(csr_eroded_momentum_r), r(csr_eroded_momentum_z)]
+    sim%plane_dissipated = r(csr_plane_dissipated)
+    sim%cycle = i(csi_cycle)
+    sim%dt_element = i(csi_dt_element)
+    sim%dt_particle = i(csi_dt_particle)
+    sim%conversion%n_converted = i(csi_n_converted)
+    sim%conversion%n_events = i(csi_n_events)
+    sim%conversion%n_groups = i(csi_n_groups)
+    sim%coupling%n_edges = i(csi_n_edges)
+    sim%erosion%n_eroded = i(csi_n_eroded)
+    sim%particles%n_imag = 0
+    sim%particles%n_mirror = 0
     sim%history_cycle = sim%cycle
     sim%n_history = 0
   end subroutine set_scalars
@@ -151,7 +196,7 @@ contains
     allocate (sim%nodes%on_axis_int(max(nn, 1)))
   end subroutine allocate_for_restart
 
-  !> Before reading integer array 5: the axis flags as integers.
+  !> Before reading nodes/on_axis: the axis flags as integers.
   subroutine prepare_checkpoint(sim)
     type(simulation_t), intent(inout) :: sim
     if (allocated(sim%nodes%on_axis_int)) deallocate (sim%nodes%on_axis_int)

@@ -5,10 +5,14 @@ module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
-  use fsph_state, only: simulation_t, history_columns, state_grow_particles
+  use fsph_state, only: simulation_t, state_grow_particles
   use fsph_arrays, only: reserve
-  use fsph_material, only: prop_rho0, prop_shear, prop_t_room, eos_pressure, sound_speed, &
-                           strength_elastic, strength_hjc, eos_linear, eos_hjc
+  use fsph_layouts, only: prop_rho0, prop_shear, prop_t_room, strength_elastic, strength_hjc, eos_linear, &
+                          eos_hjc, history_columns, hcol_time, hcol_cycle, hcol_dt, energy_first, &
+                          phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
+                          phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
+                          phase_integrate, phase_conversion, phase_time_step
+  use fsph_material, only: eos_pressure, sound_speed
   use fsph_element, only: element_geometry, element_corner_forces, gather_corner_forces, &
                           element_update, element_time_step
   use fsph_boundary, only: apply_axis, apply_rigid_plane
@@ -28,14 +32,11 @@ module fsph_solver
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct
   use fsph_erosion, only: erode_elements
-  use fsph_timers, only: timer_start, timer_stop, phase_element_forces, phase_element_update, &
-                         phase_neighbours, phase_sph_sums, phase_particle_update, &
-                         phase_particle_contact, phase_coupling, phase_contact, phase_integrate, &
-                         phase_conversion, phase_step
+  use fsph_timers, only: timer_start, timer_stop
   implicit none
   private
 
-  public :: solver_initialise, solver_advance, solver_energies, solver_stable_step, solver_forces
+  public :: solver_initialise, solver_advance, energy_budget, solver_stable_step, solver_forces
   public :: prepare_particle_sums, update_particle_radius
 
   !> Particles may come no closer to the axis than this fraction of their
@@ -352,11 +353,11 @@ contains
                           sim%continuum_of_body, sim%body_coupled, n_new)
     call timer_stop(sim%timers, phase_conversion)
     ! 8. next stable step
-    call timer_start(sim%timers, phase_step)
+    call timer_start(sim%timers, phase_time_step)
     sim%dt_previous = sim%dt
     call solver_stable_step(sim)
     if (mod(sim%cycle, sim%control%history_every) == 0) call record_history(sim)
-    call timer_stop(sim%timers, phase_step)
+    call timer_stop(sim%timers, phase_time_step)
     if (sim%dt < sim%control%dt_floor_ratio*sim%dt_initial) then
       ierr = status_dt_floor
       ifault = sim%dt_element - sim%dt_particle   ! particle faults are negative
@@ -675,14 +676,12 @@ contains
     end associate
   end subroutine update_particles
 
-  !> Append (time, cycle, dt, kinetic, internal, contact work, energy removed
-  !> by erosion, work of the rigid planes and the axis wall) to the history
-  !> buffer,
-  !> doubling its capacity when full (rare: the API drains it).
+  !> Append a record (fsph_layouts hcol_*: time, cycle, dt, then the energy
+  !> budget) to the history buffer, doubling its capacity when full (rare:
+  !> the API drains it).
   subroutine record_history(sim)
     type(simulation_t), intent(inout) :: sim
     real(wp), allocatable :: grown(:, :)
-    real(wp) :: kinetic, internal
     integer, parameter :: initial_capacity = 256
     if (.not. allocated(sim%history)) allocate (sim%history(history_columns, initial_capacity))
     if (sim%n_history == size(sim%history, 2)) then
@@ -690,19 +689,25 @@ contains
       grown(:, 1:sim%n_history) = sim%history(:, 1:sim%n_history)
       call move_alloc(grown, sim%history)
     end if
-    call solver_energies(sim, kinetic, internal)
     sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
-    sim%history(:, sim%n_history) = [sim%time, real(sim%cycle, wp), sim%dt_last, kinetic, internal, &
-                                     sim%contact%dissipated, sim%erosion%internal + sim%erosion%kinetic, &
-                                     sim%plane_dissipated]
+    associate (record => sim%history(:, sim%n_history))
+      record(hcol_time) = sim%time
+      record(hcol_cycle) = real(sim%cycle, wp)
+      record(hcol_dt) = sim%dt_last
+      record(energy_first:) = energy_budget(sim)
+    end associate
   end subroutine record_history
 
-  !> Kinetic energy (half-step velocities) and internal energy [J] of
-  !> nodes, elements and particles.
-  subroutine solver_energies(sim, kinetic, internal)
+  !> The energy budget [J] in the order of the history columns from
+  !> energy_first (fsph_layouts): kinetic (half-step velocities), internal,
+  !> removed by the contact corrections, removed by erosion, removed by the
+  !> rigid planes and the particles' axis wall, and their total, which the
+  !> method conserves. The one place the total is summed.
+  function energy_budget(sim) result(budget)
     type(simulation_t), intent(in) :: sim
-    real(wp), intent(out) :: kinetic, internal
+    real(wp) :: budget(history_columns - energy_first + 1)
+    real(wp) :: kinetic, internal, eroded
     kinetic = 0.0_wp
     internal = 0.0_wp
     associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
@@ -713,6 +718,9 @@ contains
         internal = internal + sum(pt%mass(1:pt%n)*pt%e(1:pt%n))
       end if
     end associate
-  end subroutine solver_energies
+    eroded = sim%erosion%internal + sim%erosion%kinetic
+    budget = [kinetic, internal, sim%contact%dissipated, eroded, sim%plane_dissipated, &
+              kinetic + internal + sim%contact%dissipated + eroded + sim%plane_dissipated]
+  end function energy_budget
 
 end module fsph_solver

@@ -6,7 +6,7 @@
 !> fsph_api copies plain arrays in and out.
 module fsph_state
   use fsph_kinds, only: wp
-  use fsph_material, only: n_hist
+  use fsph_layouts, only: n_hist
   use fsph_neighbours, only: neighbour_work_t
   use fsph_arrays, only: grow
   use fsph_timers, only: phase_timers_t
@@ -219,11 +219,6 @@ module fsph_state
     real(wp) :: debris_ratio = 0.1_wp    !< particles below this fraction of the reference density are debris [-]
     real(wp) :: neighbour_skin = 0.1_wp  !< skin of the neighbour lists, fraction of the smallest support [-]
   end type control_t
-
-  !> Columns of a time-history record.
-  !> time [s], cycle, dt [s], kinetic [J], internal [J], work of the contact corrections [J],
-  !> energy removed by erosion [J], work of the rigid planes and the particles' axis wall [J]
-  integer, parameter, public :: history_columns = 8
 
   type, public :: simulation_t
     type(node_set_t) :: nodes

@@ -5,23 +5,12 @@
 !> the timers, never a parallel region.
 module fsph_timers
   use fsph_kinds, only: wp
+  use fsph_layouts, only: n_phases
   !$ use omp_lib, only: omp_get_wtime
   implicit none
   private
 
-  !> Phases of the cycle (fsph_solver).
-  integer, parameter, public :: phase_element_forces = 1   !< corner forces and their gather
-  integer, parameter, public :: phase_element_update = 2   !< strain rates, geometry, stress update
-  integer, parameter, public :: phase_neighbours = 3       !< imaginary particles, cell list, neighbour lists
-  integer, parameter, public :: phase_sph_sums = 4         !< accelerations, rates and energy sums
-  integer, parameter, public :: phase_particle_update = 5  !< particle stress and energy update
-  integer, parameter, public :: phase_particle_contact = 6 !< particle-particle contact between bodies
-  integer, parameter, public :: phase_coupling = 7         !< edge reactions, ties, imaginary refill
-  integer, parameter, public :: phase_contact = 8          !< slide lines and particle-element contact
-  integer, parameter, public :: phase_integrate = 9        !< kick, boundaries, drift
-  integer, parameter, public :: phase_conversion = 10      !< erosion, conversion, surfaces and ties
-  integer, parameter, public :: phase_step = 11            !< stable step, history
-  integer, parameter, public :: n_phases = 11
+  ! the phases and their number: fsph_layouts (generated from fsph/layouts.py)
 
   !> The phase timers of one run.
   type, public :: phase_timers_t

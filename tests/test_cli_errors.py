@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import fsph
+from fsph import verify
 from conftest import rod_deck
 
 
@@ -262,7 +263,7 @@ def test_particle_on_axis_stops_cleanly(tmp_path, monkeypatch, capsys):
         inner = np.flatnonzero(x[:, 0] < 1.5 * x[:, 0].min())
         k = int(inner[len(inner) // 2])           # an inner particle half-way up
         x[k, 0] = -x[k, 0]
-        sim.set_particle_motion(x, v)
+        verify.set_particle_motion(sim, x, v)
         return k
 
     text = rod_deck(control="mode = 'sph'", body="n_radial = 4\n n_axial = 16",
@@ -289,7 +290,7 @@ def test_axis_stops_a_particle_driven_across_it(write_deck):
     x, v = part["x"], part["velocity"].copy()
     k = int(np.argmin(x[:, 0] + 1e-9 * x[:, 1]))
     v[k, 0] = -4.0 * x[k, 0] / sim.dt
-    sim.set_particle_motion(x, v)
+    verify.set_particle_motion(sim, x, v)
     for _ in range(20):
         sim.advance(sim.time + 0.5 * sim.dt, land=False)
         after = sim.snapshot()["particles"]
@@ -307,7 +308,7 @@ def test_non_finite_element_state_stops_cleanly(tmp_path, monkeypatch, capsys):
         e = sim.snapshot()["internal_energy"].copy()
         k = sim.n_elements // 2
         e[k] = np.nan
-        sim.set_element_energy(e)
+        verify.set_element_energy(sim, e)
         return k
 
     text = rod_deck(output="n_snapshots = 4")
@@ -333,7 +334,7 @@ def test_non_finite_particle_stops_cleanly(tmp_path, monkeypatch, capsys):
         v = part["velocity"].copy()
         k = len(v) // 2
         v[k, 1] = np.nan
-        sim.set_particle_motion(part["x"], v)
+        verify.set_particle_motion(sim, part["x"], v)
         return k
 
     text = rod_deck(control="mode = 'sph'", body="n_radial = 4\n n_axial = 16",
@@ -358,7 +359,7 @@ def test_non_finite_velocity_stops_cleanly(tmp_path, monkeypatch, capsys):
         v = sim.snapshot()["velocity"].copy()
         k = sim.n_nodes // 2
         v[k, 1] = np.nan
-        sim.set_velocities(v)
+        verify.set_velocities(sim, v)
         return k
 
     text = rod_deck(output="n_snapshots = 4")

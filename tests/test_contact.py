@@ -7,6 +7,7 @@ import pytest
 
 import fsph
 from fsph.simulation import _api
+from fsph import verify
 
 STEEL = "&material\n name = 'steel'\n library = 'steel_elastic_bar'\n/\n"
 
@@ -50,7 +51,7 @@ def test_pair_correction_conserves_momentum_and_removes_penetration(weights):
     for _ in range(20):
         ms, m1, m2 = rng.uniform(1e-6, 1e-3, 3)
         delta, dt = rng.uniform(1e-7, 1e-5), rng.uniform(1e-9, 1e-7)
-        dvs, dv1, dv2 = _api.contact_pair_values(delta, dt, ms, m1, m2, r1, r2)
+        dvs, dv1, dv2 = verify.contact_pair(delta, dt, ms, m1, m2, r1, r2)
         assert ms * dvs + m1 * dv1 + m2 * dv2 == pytest.approx(0.0, abs=1e-14 * ms * abs(dvs))
         relative = dvs - (r1 * dv1 + r2 * dv2)
         assert relative * dt == pytest.approx(delta, rel=1e-12)

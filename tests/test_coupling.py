@@ -7,6 +7,7 @@ import pytest
 
 import fsph
 from fsph import deck as deck_module
+from fsph import verify
 from conftest import rod_deck
 
 ADAPTIVE = "mode = 'adaptive'\n "
@@ -49,7 +50,7 @@ def test_group_assignment_follows_eqs_9_to_13(write_deck):
     i_r = np.minimum((centroid[:, 0] / dr).astype(int), n_r - 1)
     i_z = np.minimum((centroid[:, 1] / dz).astype(int), n_z - 1)
     expected = i_z * n_r + i_r
-    groups = sim.element_groups()
+    groups = verify.element_groups(sim)
     assert np.array_equal(groups, expected)
     assert np.bincount(groups).tolist() == [16, 16, 16]
 
@@ -61,14 +62,14 @@ def test_conversion_conserves_mass_and_momentum(write_deck):
     nodes' relative motion becomes heat (kinetic + internal unchanged)."""
     sim = adaptive_rod(write_deck, boundary=False,
                        convert="criterion = 'equivalent_stress'\n sigma_c = 1.0")
-    sim.set_stress_state([1.0e6, -1.0e6, 0.0, 0.0], 0.0)   # every element above sigma_c
+    verify.set_stress_state(sim, [1.0e6, -1.0e6, 0.0, 0.0], 0.0)   # every element above sigma_c
     snap = sim.snapshot()
     x = snap["x"]
     rng = np.random.default_rng(3)
-    sim.set_velocities(np.column_stack([20.0 * x[:, 0] / 1e-3, -50.0 + rng.normal(0, 5.0, len(x))]))
+    verify.set_velocities(sim, np.column_stack([20.0 * x[:, 0] / 1e-3, -50.0 + rng.normal(0, 5.0, len(x))]))
     m0, p0 = total_mass(sim), momentum_z(sim)
     e0 = sim.energies()
-    n_conv = sim.convert_now()
+    n_conv = verify.convert_now(sim)
     assert n_conv == snap["conn"].shape[0]
     assert sim.n_elements == 0 and sim.n_particles == n_conv
     assert total_mass(sim) == pytest.approx(m0, rel=1e-14)
@@ -98,7 +99,7 @@ def test_partial_conversion_bookkeeping_and_ties(write_deck):
     assert total_mass(sim) == pytest.approx(m0, rel=1e-13)
 
     def offsets():
-        ties = sim.ties()
+        ties = verify.ties(sim)
         snap = sim.snapshot()
         tied = np.nonzero(ties["tie_a"] >= 0)[0]
         xa, xb = snap["x"][ties["tie_a"][tied]], snap["x"][ties["tie_b"][tied]]
@@ -146,8 +147,8 @@ def test_uniform_pressure_across_interface_is_in_equilibrium(write_deck):
                     body="inner_radius = 2.0e-3\n radius = 3.0e-3\n length = 2.0e-3\n"
                          " n_radial = 5\n n_axial = 10\n velocity_z = 0.0") + TUBE
     sim = fsph.Simulation(deck_module.load(write_deck(text)))
-    sim.set_stress_state([0.0, 0.0, 0.0, 0.0], 1.0e9)
-    f, acc = sim.forces()
+    verify.set_stress_state(sim, [0.0, 0.0, 0.0, 0.0], 1.0e9)
+    f, acc = verify.forces(sim)
     snap = sim.snapshot()
     acc_nodes = f / snap["node_mass"][:, None]
     xn, xp = snap["x"], snap["particles"]["x"]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fsph.materials import hjc_lock_strain
-from fsph.simulation import hjc_pressure, material_point_update, triangle_principal_strain
+from fsph.verify import hjc_pressure, material_point_update, triangle_principal_strain
 from test_materials import material
 
 # 48 MPa concrete (library entry concrete_48mpa_hjc)

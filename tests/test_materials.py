@@ -7,7 +7,7 @@ import pytest
 
 from fsph.deck import SCHEMA, REQUIRED
 from fsph.materials import LIBRARY
-from fsph.simulation import material_point_update
+from fsph.verify import material_point_update
 
 
 def material(library, **overrides):

@@ -121,7 +121,7 @@ def test_wall_clock_checkpoints(tmp_path):
     assert summary["status"] == "completed"
     assert len(seen) >= 2 and seen[0] < summary["cycles"]
     with h5py.File(tmp_path / "out" / "checkpoint.h5") as h5:
-        assert h5.attrs["format"] == 2
+        assert h5.attrs["format"] == 3
 
 
 def _short_taylor(tmp_path, name, output=""):

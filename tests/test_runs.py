@@ -86,3 +86,20 @@ def test_a_new_run_leaves_a_live_one_alone(write_deck):
     for step in range(2, STEPS + 1):
         first.advance(end * step / STEPS)
     assert state_digest(first) == run_alone(first_deck)[0]
+
+
+def test_snapshots_change_no_state(write_deck):
+    """A snapshot reads the run and writes nothing back (particle radii and
+    the contact search grid included): the digest is the same before and
+    after one, and runs that take a snapshot after every call end in the
+    state they reach without any."""
+    for deck in small_decks(write_deck):
+        sim = fsph.Simulation(deck)
+        for step in range(1, STEPS + 1):
+            sim.advance(deck["control"]["end_time"] * step / STEPS)
+            before = state_digest(sim)
+            snap = sim.snapshot()
+            sim.penetration()
+            assert state_digest(sim) == before
+        assert snap["cycle"] == sim.cycle
+        assert state_digest(sim) == run_alone(deck)[0]

@@ -6,7 +6,9 @@ import pytest
 
 import fsph
 from fsph import deck as deck_module
-from fsph.simulation import kernel, kernel_gradient_factor
+from fsph.simulation import kernel
+from fsph.verify import kernel_gradient_factor
+from fsph import verify
 from conftest import rod_deck
 
 
@@ -77,8 +79,8 @@ def test_neighbour_lists_match_brute_force(rod):
     """The cell-list search lists every pair (and axis mirror) within
     2 h_ij that an all-pairs check finds, and none beyond 2 h_ij plus the
     skin (&sph neighbour_skin times the smallest 2h)."""
-    rod.particle_rates()                     # builds the lists
-    ptr, lst = rod.neighbours()
+    verify.particle_rates(rod)                     # builds the lists
+    ptr, lst = verify.neighbours(rod)
     part = rod.snapshot()["particles"]
     x, h = part["x"], part["h"]
     skin = rod.deck["sph"]["neighbour_skin"] * 2.0 * h.min()
@@ -112,7 +114,7 @@ def jittered_rod(write_deck, seed, smoothing_lengths):
 
 
 def assert_lists_exact(rod, x, h, label):
-    ptr, lst = rod.neighbours()
+    ptr, lst = verify.neighbours(rod)
     for i in range(len(x)):
         entries = lst[ptr[i] - 1:ptr[i + 1] - 1].tolist()
         assert len(entries) == len(set(entries)), (label, i)
@@ -127,15 +129,15 @@ def test_neighbour_lists_of_any_length_match_brute_force(write_deck):
     bookkeeping (the entry its partner reads) consistent."""
     from fsph.simulation import _api
     rod, x, h = jittered_rod(write_deck, 7, lambda rng, n: rng.uniform(1.2, 3.0, n) * 0.1e-3)
-    rod.particle_rates()
-    counts = np.diff(rod.neighbours()[0])
+    verify.particle_rates(rod)
+    counts = np.diff(verify.neighbours(rod)[0])
     assert counts.min() < 32 < counts.max()
     # buffer rows (half, low and one-way parts of the lists) of every width
     # from narrower than most parts (rows overflow and grow) to as wide as
     # the longest (full rows)
     for width in range(4, counts.max() + 2):
-        _api.set_neighbour_width(rod._run, int(width))
-        rod.particle_rates()
+        verify.set_neighbour_width(rod, width)
+        verify.particle_rates(rod)
         assert_lists_exact(rod, x, h, width)
 
 
@@ -146,7 +148,7 @@ def test_neighbour_lists_across_size_levels_match_brute_force(write_deck):
     images across the axis included."""
     rod, x, h = jittered_rod(write_deck, 11,
                              lambda rng, n: 0.1e-3 * np.exp(rng.uniform(np.log(0.5), np.log(8.0), n)))
-    rod.particle_rates()
+    verify.particle_rates(rod)
     assert_lists_exact(rod, x, h, "levels")
 
 
@@ -172,7 +174,7 @@ def test_linear_velocity_gradient_exact_in_interior(rod):
     a, c, e, b = 300.0, -150.0, 80.0, 500.0
     v = np.column_stack([2.0 + a * x[:, 0] + c * x[:, 1], -1.0 + e * x[:, 0] + b * x[:, 1]])
     set_particle_velocity(rod, v)
-    rates = rod.particle_rates()
+    rates = verify.particle_rates(rod)
     d = rates["d"]
     interior = x[:, 0] > 2.0 * part["h"].max()
     assert interior.sum() > 100
@@ -192,7 +194,7 @@ def test_expanding_ring_with_axis_ghosts(rod):
     x = part["x"]
     a, b = 400.0, -250.0
     set_particle_velocity(rod, np.column_stack([a * x[:, 0], b * x[:, 1]]))
-    rates = rod.particle_rates()
+    rates = verify.particle_rates(rod)
     d = rates["d"]
     assert np.allclose(d[:, 3], a, rtol=1e-12)
     near_axis = x[:, 0] < 2.0 * part["h"].max()
@@ -222,7 +224,7 @@ def test_axial_momentum_of_sums_conserved(write_deck):
     m = part["mass"]
     p0 = np.sum(m * v[:, 1])
     sim.advance(2e-7)
-    rates = sim.particle_rates()
+    rates = verify.particle_rates(sim)
     force = m * rates["acc"][:, 1]
     assert abs(force.sum()) < 1e-12 * np.abs(force).sum()
     p1 = np.sum(m * sim.snapshot()["particles"]["velocity"][:, 1])
@@ -240,7 +242,7 @@ def test_axis_axial_force_is_small(write_deck):
     rng = np.random.default_rng(7)
     set_particle_velocity(sim, rng.normal(0.0, 20.0, part["x"].shape))
     sim.advance(2e-7)
-    force = part["mass"] * sim.particle_rates()["acc"][:, 1]
+    force = part["mass"] * verify.particle_rates(sim)["acc"][:, 1]
     assert abs(force.sum()) < 0.02 * np.abs(force).sum()
 
 
@@ -328,7 +330,7 @@ def test_particle_moving_off_the_axis_keeps_its_density(rod):
     v = np.zeros_like(x)
     v[i, 0] = 1.0
     set_particle_velocity(rod, v)
-    rate = rod.particle_rates()["drho"][i]
+    rate = verify.particle_rates(rod)["drho"][i]
     hoop = part["density"][i] * 1.0 / x[i, 0]
     assert abs(rate) < 0.2 * hoop
 
@@ -349,7 +351,7 @@ def test_hourglass_term_vanishes_for_a_linear_velocity_field(write_deck):
         x = sim.snapshot()["particles"]["x"]
         v = np.column_stack([2.0 + 300.0 * x[:, 0] - 150.0 * x[:, 1], -1.0 + 80.0 * x[:, 0] + 500.0 * x[:, 1]])
         set_particle_velocity(sim, v)
-        accs.append(sim.particle_rates()["acc"])
+        accs.append(verify.particle_rates(sim)["acc"])
     # away from the axis (whose mirror images are not the linear extension
     # of a field with v_r != 0 at r = 0); the corrected gradient is exact
     # for a linear field at the free surfaces too
@@ -372,7 +374,7 @@ def test_hourglass_term_resists_columns_sliding_past_each_other(write_deck):
         column = np.rint(x[:, 0] / 0.1e-3 - 0.5).astype(int)
         v = np.column_stack([np.zeros(len(x)), np.where(column % 2 == 0, 1.0, -1.0)])
         set_particle_velocity(sim, v)
-        accs.append(sim.particle_rates()["acc"])
+        accs.append(verify.particle_rates(sim)["acc"])
     interior = (column > 2) & (column < 7) & (x[:, 1] > 0.5e-3) & (x[:, 1] < 3.5e-3)
     extra = accs[1][interior, 1] - accs[0][interior, 1]
     assert np.all(extra * v[interior, 1] < 0.0)

@@ -1,0 +1,284 @@
+"""Layouts shared by the Fortran solver and the Python package, in one place.
+
+Everything the two languages must agree on is listed here once: status
+codes and their texts, the timed phases of the cycle, the columns of a
+time-history record, the checkpoint's arrays and scalars by name, the
+material property table, the material history and the model ids, the
+conversion criteria and the rows of a snapshot. Python imports this
+module; at build time meson runs it as a script to write
+``fsph_layouts.f90`` (modules ``fsph_status`` and ``fsph_layouts``), so the
+Fortran constants are generated from the same lists. The digest of the
+whole layout is compiled in too: ``Simulation`` refuses a solver built from
+another layout (a stale build) instead of misreading its arrays.
+
+This file imports nothing from the package: the build runs it alone.
+"""
+
+import hashlib
+import json
+import sys
+
+# ---- status codes: (code, name, where the index points, text) -------------
+# Index kinds: "element" (> 0 element, < 0 particle), "node", "none".
+# Code 12 is raised by the driver (fsph.driver), never by the solver.
+STATUS = (
+    (0, "ok", "none", "ok"),
+    (1, "inverted_element", "element", "inverted element (area <= 0): the mesh has tangled"),
+    (2, "nonfinite_element", "element", "non-finite stress or energy (NaN/Inf) in an element"),
+    (3, "nonfinite_node", "node", "non-finite position or velocity (NaN/Inf) at a node"),
+    (4, "dt_floor", "element",
+     "time step collapsed below the floor (dt_floor_ratio x initial step)"),
+    (5, "eos_range", "element", "compression beyond the range of the equation of state"),
+    (6, "bad_input", "none", "invalid set-up input"),
+    (7, "not_ready", "none", "state not initialised"),
+    (8, "max_cycles", "none", "cycle limit (max_cycles) reached"),
+    (9, "nonfinite_particle", "element",
+     "non-finite state (NaN/Inf) or non-positive density in a particle"),
+    (10, "particle_axis", "element", "a particle reached the axis (r <= 0)"),
+    (11, "dt_drop", "element",
+     "time step fell by more than the allowed factor in one cycle (dt_drop_ratio)"),
+    (12, "energy_limit", "none", "energy error above the limit (energy_error_limit)"),
+)
+
+# ---- timed phases of the cycle (fsph_timers, fsph_solver) ------------------
+PHASES = (
+    ("element_forces", "corner forces and their gather"),
+    ("element_update", "strain rates, geometry, stress update"),
+    ("neighbours", "imaginary particles, cell list, neighbour lists"),
+    ("sph_sums", "accelerations, rates and energy sums"),
+    ("particle_update", "particle stress and energy update"),
+    ("particle_contact", "particle-particle contact between bodies"),
+    ("coupling", "edge reactions, ties, imaginary refill"),
+    ("contact", "slide lines and particle-element contact"),
+    ("integrate", "kick, boundaries, drift"),
+    ("conversion", "erosion, conversion, surfaces and ties"),
+    ("time_step", "stable step, history"),
+)
+
+# ---- a time-history record (fsph_solver record_history) --------------------
+# The energy columns, kinetic to total, are also the energy budget
+# (fsph_solver energy_budget): the total is summed there and nowhere else.
+HISTORY_COLUMNS = (
+    ("time", "s", "time"),
+    ("cycle", "-", "cycle count"),
+    ("dt", "s", "last step"),
+    ("kinetic", "J", "kinetic energy (half-step velocities)"),
+    ("internal", "J", "internal energy"),
+    ("contact", "J", "kinetic energy removed by the contact corrections"),
+    ("eroded", "J", "internal and kinetic energy removed by erosion"),
+    ("plane", "J", "kinetic energy removed by the rigid planes and the particles' axis wall"),
+    ("total", "J", "kinetic + internal + contact + eroded + plane"),
+)
+ENERGY_COLUMNS = tuple(name for name, _, _ in HISTORY_COLUMNS[3:])
+
+# ---- checkpoint: state arrays by name (fsph_restart) ----------------------
+# Each is a (rows, cols) view of one state array; the order is the order
+# of the state digest (fsph.checkpoint.state_digest).
+CHECKPOINT_REAL = (
+    "nodes/x", "nodes/x0", "nodes/v", "nodes/mass", "nodes/mass_tie",
+    "elements/mass", "elements/rho", "elements/s", "elements/p", "elements/q",
+    "elements/eps_p", "elements/e", "elements/temp", "elements/c", "elements/area",
+    "elements/rbar", "elements/volume", "elements/lmin", "elements/d", "elements/spin",
+    "particles/x", "particles/x0", "particles/v", "particles/mass", "particles/h",
+    "particles/radius", "particles/rho", "particles/s", "particles/p", "particles/eps_p",
+    "particles/e", "particles/temp", "particles/c", "particles/tie_xi",
+    "nodes/mass_eroded", "elements/hist", "particles/hist", "particles/d", "particles/grad_v",
+)
+CHECKPOINT_INT = (
+    "elements/conn", "elements/mat", "elements/body", "elements/group", "nodes/on_axis",
+    "particles/mat", "particles/body", "particles/continuum", "particles/tie_a",
+    "particles/tie_b", "particles/assoc", "coupling/edge",
+)
+# the clock and the books
+CHECKPOINT_REAL_SCALARS = (
+    "time", "dt", "dt_last", "dt_initial", "conversion_heat", "contact_dissipated",
+    "eroded_element_mass", "eroded_internal", "eroded_node_mass", "eroded_kinetic",
+    "eroded_momentum_r", "eroded_momentum_z", "plane_dissipated",
+)
+CHECKPOINT_INT_SCALARS = (
+    "cycle", "dt_element", "dt_particle", "n_converted", "n_events", "n_groups", "n_edges",
+    "n_imag", "n_eroded",
+)
+
+# ---- material property table props(n_props) (fsph_material) --------------
+# (name, unit, meaning); Holmquist-Johnson-Cook concrete after Holmquist,
+# Johnson & Cook 1993 (14th Int. Symp. Ballistics 591-600), strengths
+# normalised by f_c.
+PROPERTIES = (
+    ("rho0", "kg/m^3", "reference density"),
+    ("shear", "Pa", "shear modulus G"),
+    ("bulk", "Pa", "bulk modulus K, linear EOS"),
+    ("yield", "Pa", "initial yield stress Y0"),
+    ("hard", "Pa", "plastic modulus H = E E_T/(E - E_T)"),
+    ("jc_a", "Pa", "Johnson-Cook A"),
+    ("jc_b", "Pa", "Johnson-Cook B"),
+    ("jc_n", "-", "Johnson-Cook n"),
+    ("jc_c", "-", "Johnson-Cook C"),
+    ("jc_m", "-", "Johnson-Cook m"),
+    ("t_melt", "K", "melting temperature"),
+    ("t_room", "K", "room (initial) temperature"),
+    ("cv", "J/(kg K)", "specific heat"),
+    ("chi", "-", "Taylor-Quinney coefficient"),
+    ("eps0", "1/s", "Johnson-Cook reference strain rate"),
+    ("c0", "m/s", "Mie-Grueneisen bulk sound speed c0"),
+    ("s", "-", "Mie-Grueneisen Us-up slope s"),
+    ("gamma0", "-", "Grueneisen coefficient Gamma0"),
+    ("pmin", "Pa", "pressure cut-off p_min (<= 0)"),
+    ("hjc_a", "-", "HJC normalised cohesive strength A"),
+    ("hjc_b", "-", "HJC normalised pressure hardening B"),
+    ("hjc_n", "-", "HJC pressure hardening exponent N"),
+    ("hjc_c", "-", "HJC strain-rate coefficient C"),
+    ("hjc_fc", "Pa", "HJC quasi-static compressive strength f_c"),
+    ("hjc_t", "Pa", "HJC maximum tensile hydrostatic pressure T"),
+    ("hjc_smax", "-", "HJC normalised maximum strength S_max"),
+    ("hjc_efmin", "-", "HJC smallest plastic strain to fracture EF_min"),
+    ("hjc_d1", "-", "HJC damage constant D1"),
+    ("hjc_d2", "-", "HJC damage exponent D2"),
+    ("hjc_pcrush", "Pa", "HJC crushing pressure P_crush"),
+    ("hjc_mucrush", "-", "HJC volumetric strain at P_crush"),
+    ("hjc_plock", "Pa", "HJC locking pressure P_lock"),
+    ("hjc_mulock", "-", "HJC locking strain mu_lock = rho_grain/rho0 - 1"),
+    ("hjc_k1", "Pa", "HJC fully dense EOS K1"),
+    ("hjc_k2", "Pa", "HJC fully dense EOS K2"),
+    ("hjc_k3", "Pa", "HJC fully dense EOS K3"),
+    ("hjc_muplock", "-", "HJC strain where the fully dense curve reaches P_lock"),
+)
+PROPERTY_NAMES = tuple(name for name, _, _ in PROPERTIES)
+# history variables of a material point hist(n_hist)
+MATERIAL_HISTORY = (
+    ("damage", "-", "damage D in [0, 1] (HJC)"),
+    ("mu_max", "-", "largest volumetric strain reached (HJC)"),
+)
+STRENGTH_MODELS = (
+    ("elastic", "elastic"),
+    ("epp", "elastic-perfectly-plastic"),
+    ("bilinear", "linear isotropic hardening"),
+    ("johnson_cook", "Johnson-Cook"),
+    ("hjc", "Holmquist-Johnson-Cook (with eos hjc)"),
+)
+EOS_MODELS = (
+    ("linear", "linear in the volumetric strain"),
+    ("mie_gruneisen", "Mie-Grueneisen"),
+    ("hjc", "HJC three-phase p(mu) with unloading"),
+)
+# element-to-particle conversion criteria (fsph_convert)
+CONVERSION_CRITERIA = (
+    ("min_angle", "smallest interior angle"),
+    ("plastic_strain", "equivalent plastic strain"),
+    ("equivalent_stress", "equivalent stress"),
+)
+
+# ---- rows of a snapshot (fsph_api get_snapshot) ---------------------------
+NODE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass")
+ELEMENT_FIELDS = ("s_rr", "s_zz", "s_rz", "s_tt", "p", "q", "eps_p", "rho", "e", "temp", "c",
+                  "area", "mass", "damage")
+PARTICLE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass", "h", "radius",
+                   "s_rr", "s_zz", "s_rz", "s_tt", "p", "eps_p", "rho", "e", "temp", "c",
+                   "damage")
+# material and body of an element or particle
+ID_FIELDS = ("material", "body")
+SNAPSHOT_SCALARS = ("time", "cycle", "contact_penetration", "contact_penetration_relative",
+                    "eroded_momentum_z")
+
+
+def status_text(code):
+    """Text of a status code ('status N' for an unknown one)."""
+    for c, _, _, text in STATUS:
+        if c == code:
+            return text
+    return f"status {code}"
+
+
+def status_code(name):
+    """Code of the status called `name`."""
+    return next(c for c, n, _, _ in STATUS if n == name)
+
+
+def index_of(names, name):
+    """1-based position of `name` in a layout (the Fortran id)."""
+    return names.index(name) + 1
+
+
+def _everything():
+    return {key: value for key, value in globals().items()
+            if key.isupper() and isinstance(value, tuple)}
+
+
+def digest():
+    """32-bit digest of every layout above (compiled into the solver)."""
+    text = json.dumps(_everything(), sort_keys=True)
+    return int(hashlib.sha256(text.encode()).hexdigest()[:7], 16)
+
+
+# ---- Fortran source -------------------------------------------------------
+def _constants(prefix, names, docs=None, first=1, count=None):
+    """`integer, parameter, public :: prefix_name = k` lines."""
+    width = max(len(prefix + n) for n in names)
+    lines = []
+    for k, name in enumerate(names, first):
+        line = f"  integer, parameter, public :: {(prefix + name).ljust(width)} = {k}"
+        if docs:
+            line += f"  !< {docs[k - first]}"
+        lines.append(line)
+    if count:
+        lines.append(f"  integer, parameter, public :: {count} = {len(names)}")
+    return lines
+
+
+def _ident(name):
+    return name.replace("/", "_")
+
+
+def fortran_source():
+    """The text of fsph_layouts.f90."""
+    out = ["!> GENERATED at build time from fsph/layouts.py: edit that file, not this one.",
+           "!> Status codes returned by kernels and by the API. Nothing in the library",
+           "!> stops the process: every failure travels back as one of these codes plus",
+           "!> the index of the element (> 0), particle (< 0) or node at fault.",
+           "module fsph_status", "  implicit none", "  private"]
+    for code, name, index, text in STATUS:
+        out.append(f"  !> {text} (index: {index})")
+        out.append(f"  integer, parameter, public :: status_{name} = {code}")
+    out += ["end module fsph_status", "",
+            "!> Layouts shared with Python (fsph/layouts.py): phases, history columns,",
+            "!> checkpoint arrays and scalars, material properties, history and",
+            "!> model ids, conversion criteria, snapshot rows.",
+            "module fsph_layouts", "  implicit none", "  private",
+            f"  !> digest of the layouts (fsph.layouts.digest), checked by Python at set-up",
+            f"  integer, parameter, public :: layout_digest = {digest()}",
+            "  ! timed phases of the cycle"]
+    out += _constants("phase_", [n for n, _ in PHASES], [d for _, d in PHASES], count="n_phases")
+    out.append("  ! columns of a time-history record; energy_first..history_columns: the budget")
+    out += _constants("hcol_", [n for n, _, _ in HISTORY_COLUMNS],
+                      [f"{d} [{u}]" for _, u, d in HISTORY_COLUMNS], count="history_columns")
+    out.append(f"  integer, parameter, public :: energy_first = {len(HISTORY_COLUMNS) - len(ENERGY_COLUMNS) + 1}")
+    out.append("  ! checkpoint: real and integer state arrays, real and integer scalars")
+    out += _constants("ckr_", [_ident(n) for n in CHECKPOINT_REAL], count="n_real_arrays")
+    out += _constants("cki_", [_ident(n) for n in CHECKPOINT_INT], count="n_int_arrays")
+    out += _constants("csr_", CHECKPOINT_REAL_SCALARS, count="n_real_scalars")
+    out += _constants("csi_", CHECKPOINT_INT_SCALARS, count="n_int_scalars")
+    out.append("  ! material property table props(n_props)")
+    out += _constants("prop_", PROPERTY_NAMES, [f"{d} [{u}]" for _, u, d in PROPERTIES], count="n_props")
+    out.append("  ! history variables of a material point hist(n_hist)")
+    out += _constants("hist_", [n for n, _, _ in MATERIAL_HISTORY],
+                      [f"{d} [{u}]" for _, u, d in MATERIAL_HISTORY], count="n_hist")
+    out.append("  ! strength and EOS model ids, conversion criteria")
+    out += _constants("strength_", [n for n, _ in STRENGTH_MODELS], [d for _, d in STRENGTH_MODELS],
+                      count="n_strength_models")
+    out += _constants("eos_", [n for n, _ in EOS_MODELS], [d for _, d in EOS_MODELS],
+                      count="n_eos_models")
+    out += _constants("criterion_", [n for n, _ in CONVERSION_CRITERIA],
+                      [d for _, d in CONVERSION_CRITERIA])
+    out.append("  ! rows of a snapshot")
+    out += _constants("nf_", NODE_FIELDS, count="n_node_fields")
+    out += _constants("ef_", ELEMENT_FIELDS, count="n_element_fields")
+    out += _constants("pf_", PARTICLE_FIELDS, count="n_particle_fields")
+    out += _constants("id_", ID_FIELDS, count="n_id_fields")
+    out += _constants("ss_", SNAPSHOT_SCALARS, count="n_snapshot_scalars")
+    out.append("end module fsph_layouts")
+    return "\n".join(out) + "\n"
+
+
+if __name__ == "__main__":
+    with open(sys.argv[1], "w", encoding="utf-8") as f:
+        f.write(fortran_source())

@@ -1,0 +1,172 @@
+"""Verification entry points, used by the tests only (the driver never
+calls them): set states no deck can reach, run one kernel on given input,
+or expose intermediate products of the cycle. They reach the solver
+through ``fsph._core.fsph_verify``; each takes the `Simulation` it acts on
+first. Indices are 0-based (-1: none) as everywhere in Python."""
+
+import numpy as np
+
+from . import layouts
+from .errors import FsphError
+from .materials import property_table
+from .simulation import STATUS_OK, _api, python_index
+
+from ._core import fsph_verify as _verify
+
+_HISTORY = {name: k for k, (name, _, _) in enumerate(layouts.MATERIAL_HISTORY)}
+
+
+def _check(ierr, what):
+    if ierr != STATUS_OK:
+        raise FsphError(f"{what}: {layouts.status_text(int(ierr))}")
+
+
+# ---- states no deck can reach ---------------------------------------------
+def set_velocities(sim, v):
+    """Overwrite nodal velocities (n, 2) [m/s] (elements)."""
+    _check(_verify.set_node_velocities(sim._run, np.asfortranarray(np.asarray(v, float).T)),
+           "set_velocities: wrong number of nodes")
+
+
+def set_element_energy(sim, e):
+    """Overwrite the specific internal energy (m,) [J/kg] of every element."""
+    _check(_verify.set_element_energy(sim._run, np.asarray(e, float)),
+           "set_element_energy: wrong number of elements")
+
+
+def set_particle_motion(sim, x, v):
+    """Overwrite particle positions (n, 2) [m] and velocities (n, 2) [m/s]."""
+    _check(_verify.set_particle_motion(sim._run, np.asfortranarray(np.asarray(x, float).T),
+                                       np.asfortranarray(np.asarray(v, float).T)),
+           "set_particle_motion: wrong number of particles")
+
+
+def set_stress_state(sim, deviator, pressure):
+    """Uniform stress in every element and particle: deviator (rr, zz, rz,
+    tt) and pressure [Pa]."""
+    _verify.set_stress_state(sim._run, np.asarray(deviator, dtype=float), float(pressure))
+
+
+def set_neighbour_width(sim, width):
+    """Row width of the neighbour search's buffers (the lists must not
+    depend on it)."""
+    _verify.set_neighbour_width(sim._run, int(width))
+
+
+def convert_now(sim):
+    """Run the conversion check immediately; returns elements converted."""
+    return int(_verify.convert_now(sim._run))
+
+
+# ---- intermediate products of the cycle -----------------------------------
+def strain_rates(sim):
+    """Element strain rates (m, 4) (rr, zz, rz, tt) and spin (m,) for the
+    current positions and velocities [1/s]."""
+    d, spin, ierr = _verify.get_strain_rates(sim._run, sim.n_elements)
+    _check(ierr, "strain_rates: state not set up")
+    return d.T.copy(), spin.copy()
+
+
+def principal_strains(sim):
+    """Largest principal logarithmic strain of every element (the erosion
+    measure) [-]."""
+    strain, ierr = _verify.get_principal_strains(sim._run, sim.n_elements)
+    _check(ierr, "principal_strains: no elements")
+    return strain.copy()
+
+
+def forces(sim, dt=None):
+    """Nodal forces (n, 2) [N] (with coupling tractions and ties) and
+    particle accelerations (m, 2) [m/s^2] of the current state."""
+    f, acc = _verify.get_forces(sim._run, sim.n_nodes, sim.n_particles, float(dt or sim.dt))
+    return f.T.copy(), acc.T.copy()
+
+
+def particle_rates(sim):
+    """SPH rates for the current state: accelerations (n, 2), density
+    rate, energy rate, strain rates (n, 4), spin."""
+    acc, drho, de, d, spin, ierr = _verify.get_particle_rates(sim._run, sim.n_particles)
+    _check(ierr, "particle_rates: no particles set up")
+    return {"acc": acc.T.copy(), "drho": drho.copy(), "de": de.copy(), "d": d.T.copy(),
+            "spin": spin.copy()}
+
+
+def neighbours(sim):
+    """Neighbour lists of the last search: CSR pointer (n+1,) and entries
+    (+j neighbour, -j mirror of j across the axis), 1-based as the solver
+    stores them (the sign carries the meaning); a pair of real particles
+    is in both lists. Raises if the search's pair bookkeeping is
+    inconsistent."""
+    n_entries = int(_verify.get_neighbour_count(sim._run))
+    ptr, lst, consistent = _verify.get_neighbours(sim._run, sim.n_particles, n_entries)
+    if not consistent:
+        raise FsphError("neighbour lists: a low entry does not point at its pair")
+    return ptr.copy(), lst.copy()
+
+
+def element_groups(sim):
+    """Conversion group of every element (0-based, -1 none)."""
+    return python_index(_verify.get_element_groups(sim._run, sim.n_elements))
+
+
+def ties(sim):
+    """Particle ties: tied edge nodes (0-based, -1 free), position along
+    the edge, associated edges (n, 2, 2) node pairs (-1 none)."""
+    a, b, xi, assoc = _verify.get_particle_ties(sim._run, sim.n_particles)
+    return {"tie_a": python_index(a), "tie_b": python_index(b), "tie_xi": xi.copy(),
+            "assoc": python_index(assoc.transpose(2, 1, 0))}
+
+
+# ---- one kernel on given input --------------------------------------------
+def kernel_gradient_factor(dist, h):
+    """(dW/dr)/dist [1/m^4] at distances dist [m], as the pair sums take it
+    (grad_i W = factor (x_i - x_j))."""
+    return _api.kernel_values(np.asarray(dist, dtype=float), float(h))[2]
+
+
+def contact_pair(delta, dt, m_s, m_1, m_2, r_1, r_2):
+    """Normal velocity changes [m/s] of the slave and the two master nodes
+    of one contact pair (Hu et al. 2013 eqs 1-3)."""
+    return _verify.contact_pair_values(delta, dt, m_s, m_1, m_2, r_1, r_2)
+
+
+def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
+    """One constitutive step of a single point of a validated material dict.
+    `state` holds s (4,), p, eps_p, e, temp and optionally damage and mu_max
+    (history, 0 if absent); returns the new state and c."""
+    props, strength, eos = property_table([material])
+    s = np.array(state["s"], dtype=float)
+    p = np.array(state["p"], dtype=float)
+    eps_p = np.array(state["eps_p"], dtype=float)
+    e = np.array(state["e"], dtype=float)
+    temp = np.array(state["temp"], dtype=float)
+    hist = np.zeros(len(_HISTORY))
+    for name, k in _HISTORY.items():
+        hist[k] = state.get(name, 0.0)
+    c, ierr = _verify.material_point(props[:, 0], int(strength[0]), int(eos[0]), dt,
+                                     np.asarray(d, float), spin, rho_old, rho_new, q,
+                                     s, p, eps_p, e, temp, hist)
+    out = {"s": s, "p": float(p), "eps_p": float(eps_p), "e": float(e),
+           "temp": float(temp), "c": float(c), "ierr": int(ierr)}
+    out.update({name: float(hist[k]) for name, k in _HISTORY.items()})
+    return out
+
+
+def hjc_pressure(material, mu, damage=0.0, mu_max=0.0):
+    """HJC pressure of one point of a validated material dict at
+    volumetric strain mu with history (damage, mu_max): returns pressure
+    [Pa], dp/dmu [Pa], the new mu_max and the growth of the permanent
+    volumetric strain."""
+    props, _, _ = property_table([material])
+    mu_max = np.array(mu_max, dtype=float)
+    p, dpdmu, dmu_p, ierr = _verify.hjc_point_pressure(props[:, 0], mu, damage, mu_max)
+    _check(ierr, "hjc_pressure: layout mismatch, rebuild the package")
+    return {"p": float(p), "dpdmu": float(dpdmu), "mu_max": float(mu_max), "dmu_p": float(dmu_p)}
+
+
+def triangle_principal_strain(x, x0):
+    """Largest principal logarithmic strain [-] of one triangle from its
+    current and initial node positions (3, 2) (r, z) [m] (the erosion
+    measure of fsph_erosion)."""
+    return float(_verify.triangle_principal_strain(np.asfortranarray(np.asarray(x, float).T),
+                                                   np.asfortranarray(np.asarray(x0, float).T)))

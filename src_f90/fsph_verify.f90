@@ -1,0 +1,360 @@
+!> Verification entry points, exposed to Python beside fsph_api (as
+!> fsph._core.fsph_verify) and used by the tests only: they set states no
+!> deck can reach (stresses, velocities, NaNs), run one kernel on given
+!> input (a material point, an HJC pressure, a contact pair, a triangle's
+!> strain) or expose intermediate products of the cycle (forces, SPH
+!> rates, neighbour lists, ties, groups). The driver never calls them.
+module fsph_verify
+  use fsph_kinds, only: wp
+  use fsph_state, only: simulation_t
+  use fsph_runs, only: run_state
+  implicit none
+  private
+  public :: get_particle_rates, get_element_groups, get_principal_strains, triangle_principal_strain
+  public :: hjc_point_pressure, contact_pair_values, get_particle_ties, convert_now, set_stress_state
+  public :: get_forces, set_neighbour_width, get_neighbour_count, get_neighbours, set_node_velocities
+  public :: set_element_energy, set_particle_motion, get_strain_rates, material_point
+
+contains
+
+  !> SPH rates for the current positions and velocities (verification):
+  !> accelerations [m/s^2], density rate [kg/(m^3 s)], energy rate
+  !> [J/(kg s)], strain rates (rr, zz, rz, tt) and spin [1/s]. Builds the
+  !> neighbour lists; does not change the state.
+  subroutine get_particle_rates(run, np, acc, drho, de, d, spin, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch
+    use fsph_solver, only: prepare_particle_sums
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: np
+    real(wp), intent(out) :: acc(2, np), drho(np), de(np), d(4, np), spin(np)
+    integer, intent(out) :: ierr
+    integer :: ntot
+    real(wp), allocatable :: grad_v(:, :), switch(:)
+    sim => run_state(run)
+    ierr = status_bad_input
+    acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
+    if (np /= sim%particles%n .or. np == 0 .or. .not. sim%ready) return
+    call prepare_particle_sums(sim, ntot)
+    allocate (grad_v(4, np), switch(np))
+    associate (pt => sim%particles)
+      call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
+      ! the pairs of this state (pair_in), then its velocity gradient and
+      ! compression switch, then the accelerations with them
+      grad_v = 0.0_wp
+      switch = 0.0_wp
+      call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
+                             grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
+                             pt%pair_hg, pt%pair_in, pt%acc_imag)
+      call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
+                     pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, drho, d, &
+                     spin, grad_v)
+      call compression_switch(np, d, pt%c, pt%h, switch)
+      call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
+                             grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
+                             pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
+      ! the energy equation with the stress, viscosity and velocities of this state
+      call sph_energy_rate(np, ntot, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%nbr_ptr, &
+                           pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%pair_hg, &
+                           pt%pair_force, pt%nbr_grad, pt%pair_work, de)
+    end associate
+    ierr = status_ok
+  end subroutine get_particle_rates
+
+  !> Conversion group of every element (0: not in a coupled body).
+  subroutine get_element_groups(run, ne, group)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: ne
+    integer, intent(out) :: group(ne)
+    sim => run_state(run)
+    group = 0
+    if (ne /= sim%elements%n .or. ne == 0) return
+    group = sim%elements%group(1:ne)
+  end subroutine get_element_groups
+
+  !> Largest principal logarithmic strain of every element [-] (the erosion
+  !> measure).
+  subroutine get_principal_strains(run, ne, strain, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_erosion, only: principal_strains
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: ne
+    real(wp), intent(out) :: strain(ne)
+    integer, intent(out) :: ierr
+    sim => run_state(run)
+    strain = 0.0_wp
+    ierr = status_bad_input
+    if (ne /= sim%elements%n .or. ne == 0) return
+    call principal_strains(ne, sim%nodes%n, sim%elements%conn, sim%nodes%x, sim%nodes%x0, strain)
+    ierr = status_ok
+  end subroutine get_principal_strains
+
+  !> Largest principal logarithmic strain of one triangle from its initial
+  !> and current node positions (r, z) [m] (unit tests of the measure).
+  subroutine triangle_principal_strain(x, x0, strain)
+    use fsph_erosion, only: principal_log_strain
+    real(wp), intent(in) :: x(2, 3), x0(2, 3)
+    real(wp), intent(out) :: strain
+    strain = principal_log_strain(x, x0)
+  end subroutine triangle_principal_strain
+
+  !> HJC pressure of one point (unit tests of the branches): volumetric
+  !> strain, damage and largest strain so far in; pressure [Pa], dp/dmu [Pa]
+  !> and the growth of the permanent volumetric strain out.
+  subroutine hjc_point_pressure(nprop, props, mu, damage, mu_max, p, dpdmu, dmu_p, ierr)
+    use fsph_layouts, only: n_props
+    use fsph_material, only: hjc_pressure
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: nprop
+    real(wp), intent(in) :: props(nprop), mu, damage
+    real(wp), intent(inout) :: mu_max
+    real(wp), intent(out) :: p, dpdmu, dmu_p
+    integer, intent(out) :: ierr
+    p = 0.0_wp; dpdmu = 0.0_wp; dmu_p = 0.0_wp
+    ierr = status_bad_input
+    if (nprop /= n_props) return
+    call hjc_pressure(props, mu, damage, mu_max, p, dpdmu, dmu_p)
+    ierr = status_ok
+  end subroutine hjc_point_pressure
+
+  !> The correction of one contact pair (Hu et al. 2013 eqs 1-3), for
+  !> verification: normal velocity changes of slave and master nodes [m/s].
+  subroutine contact_pair_values(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
+    use fsph_contact, only: pair_correction
+    real(wp), intent(in) :: delta, dt, m_s, m_1, m_2, r_1, r_2
+    real(wp), intent(out) :: dv_s, dv_1, dv_2
+    call pair_correction(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
+  end subroutine contact_pair_values
+
+  !> Ties and associations of the particles: tied edge nodes (0: free),
+  !> position along the edge, and the node pairs of up to two associated
+  !> coupling edges (0: none).
+  subroutine get_particle_ties(run, np, tie_a, tie_b, tie_xi, assoc_nodes)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: np
+    integer, intent(out) :: tie_a(np), tie_b(np), assoc_nodes(2, 2, np)
+    real(wp), intent(out) :: tie_xi(np)
+    integer :: i, slot
+    sim => run_state(run)
+    tie_a = 0; tie_b = 0; tie_xi = 0.0_wp; assoc_nodes = 0
+    if (np /= sim%particles%n .or. np == 0) return
+    associate (pt => sim%particles)
+      tie_a = pt%tie_a(1:np); tie_b = pt%tie_b(1:np); tie_xi = pt%tie_xi(1:np)
+      do i = 1, np
+        do slot = 1, 2
+          if (pt%assoc(slot, i) > 0) assoc_nodes(:, slot, i) = sim%coupling%edge(:, pt%assoc(slot, i))
+        end do
+      end do
+    end associate
+  end subroutine get_particle_ties
+
+  !> Run the conversion check of the cycle now (verification): returns the
+  !> number of elements converted.
+  subroutine convert_now(run, n_new)
+    use fsph_convert, only: convert_elements
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(out) :: n_new
+    sim => run_state(run)
+    call convert_elements(sim%elements, sim%nodes, sim%particles, sim%coupling, sim%conversion, sim%contact, &
+                          sim%continuum_of_body, sim%body_coupled, n_new)
+  end subroutine convert_now
+
+  !> Give every element and real particle the deviator s (rr, zz, rz, tt)
+  !> [Pa] and pressure p [Pa] (verification of equilibrium states).
+  subroutine set_stress_state(run, s, p)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    real(wp), intent(in) :: s(4), p
+    integer :: i
+    sim => run_state(run)
+    do i = 1, sim%elements%n
+      sim%elements%s(:, i) = s
+      sim%elements%p(i) = p
+      sim%elements%q(i) = 0.0_wp
+    end do
+    do i = 1, sim%particles%n
+      sim%particles%s(:, i) = s
+      sim%particles%p(i) = p
+    end do
+  end subroutine set_stress_state
+
+  !> Forces of the current state as the cycle computes them (element nodal
+  !> forces with coupling tractions and tie forces [N], particle
+  !> accelerations [m/s^2]), without advancing (verification). dt [s] is
+  !> the step the particle contact penalty would use.
+  subroutine get_forces(run, nn, np, dt, f, acc)
+    use fsph_solver, only: solver_forces
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: nn, np
+    real(wp), intent(in) :: dt
+    real(wp), intent(out) :: f(2, nn), acc(2, np)
+    sim => run_state(run)
+    f = 0.0_wp
+    acc = 0.0_wp
+    if (nn /= sim%nodes%n .or. np /= sim%particles%n) return
+    call solver_forces(sim, dt)
+    if (nn > 0) f = sim%nodes%f(:, 1:nn)
+    if (np > 0) acc = sim%particles%acc(:, 1:np)
+  end subroutine get_forces
+
+  !> Row width of the neighbour search's buffers (verification: the lists
+  !> must not depend on it; it grows by itself when a list is longer).
+  subroutine set_neighbour_width(run, width)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: width
+    sim => run_state(run)
+    sim%particles%search%width = max(width, 1)
+    sim%particles%lists_valid = .false.
+  end subroutine set_neighbour_width
+
+  !> Total number of neighbour entries (ghosts included) of the last search,
+  !> each pair of real particles counted in both particles' lists.
+  subroutine get_neighbour_count(run, nentries)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(out) :: nentries
+    integer :: n
+    sim => run_state(run)
+    nentries = 0
+    n = sim%particles%n
+    if (n > 0 .and. allocated(sim%particles%nbr_list)) &
+      nentries = sim%particles%nbr_ptr(n + 1) - 1 + sim%particles%low_ptr(n + 1) - 1
+  end subroutine get_neighbour_count
+
+  !> Full neighbour lists of the last search: CSR pointer (np+1) and entries
+  !> (+j neighbour, -j mirror of j across the axis): each particle's own
+  !> row (half and one-way entries) followed by its low partners.
+  !> consistent = 1 when every low entry points at the pair entry that
+  !> holds the particle in its partner's half row (verification).
+  subroutine get_neighbours(run, np, nentries, ptr, list, consistent)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: np, nentries
+    integer, intent(out) :: ptr(np + 1), list(nentries), consistent
+    integer :: i, n_own, n_low, m, k, j
+    sim => run_state(run)
+    ptr = 1
+    list = 0
+    consistent = 0
+    if (np /= sim%particles%n .or. np == 0) return
+    associate (pt => sim%particles)
+      if (nentries /= pt%nbr_ptr(np + 1) - 1 + pt%low_ptr(np + 1) - 1) return
+      consistent = 1
+      do i = 1, np
+        n_own = pt%nbr_ptr(i + 1) - pt%nbr_ptr(i)
+        n_low = pt%low_ptr(i + 1) - pt%low_ptr(i)
+        ptr(i + 1) = ptr(i) + n_own + n_low
+        list(ptr(i):ptr(i) + n_own - 1) = pt%nbr_list(pt%nbr_ptr(i):pt%nbr_ptr(i + 1) - 1)
+        list(ptr(i) + n_own:ptr(i + 1) - 1) = pt%low_other(pt%low_ptr(i):pt%low_ptr(i + 1) - 1)
+        do m = pt%low_ptr(i), pt%low_ptr(i + 1) - 1
+          j = pt%low_other(m)
+          k = pt%low_pair(m)
+          if (j >= i .or. k < pt%nbr_ptr(j) .or. k >= pt%half_end(j)) then
+            consistent = 0
+          else if (pt%nbr_list(k) /= i) then
+            consistent = 0
+          end if
+        end do
+      end do
+    end associate
+  end subroutine get_neighbours
+
+  !> Overwrite nodal velocities [m/s] (verification tests and restarts).
+  subroutine set_node_velocities(run, nn, v, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: nn
+    real(wp), intent(in) :: v(2, nn)
+    integer, intent(out) :: ierr
+    sim => run_state(run)
+    ierr = status_bad_input
+    if (nn /= sim%nodes%n) return
+    sim%nodes%v = v
+    ierr = status_ok
+  end subroutine set_node_velocities
+
+  !> Overwrite the specific internal energy of every element [J/kg]
+  !> (verification tests: e.g. a NaN to exercise the element guard).
+  subroutine set_element_energy(run, ne, e, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: ne
+    real(wp), intent(in) :: e(ne)
+    integer, intent(out) :: ierr
+    sim => run_state(run)
+    ierr = status_bad_input
+    if (ne /= sim%elements%n) return
+    sim%elements%e(1:ne) = e
+    ierr = status_ok
+  end subroutine set_element_energy
+
+  !> Overwrite particle positions [m] and velocities [m/s] (verification
+  !> tests: e.g. put a particle across the axis to exercise its guard).
+  subroutine set_particle_motion(run, np, x, v, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: np
+    real(wp), intent(in) :: x(2, np), v(2, np)
+    integer, intent(out) :: ierr
+    sim => run_state(run)
+    ierr = status_bad_input
+    if (np /= sim%particles%n) return
+    sim%particles%x(:, 1:np) = x
+    sim%particles%v(:, 1:np) = v
+    sim%particles%lists_valid = .false.
+    ierr = status_ok
+  end subroutine set_particle_motion
+
+  !> Strain rates (rr, zz, rz, tt) [1/s] and spin [1/s] of every element for
+  !> the current positions and velocities (the kernel the cycle uses).
+  subroutine get_strain_rates(run, ne, d, spin, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_element, only: element_strain_rates
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: ne
+    real(wp), intent(out) :: d(4, ne), spin(ne)
+    integer, intent(out) :: ierr
+    sim => run_state(run)
+    d = 0.0_wp
+    spin = 0.0_wp
+    ierr = status_bad_input
+    if (ne /= sim%elements%n) return
+    call element_strain_rates(ne, sim%nodes%n, sim%elements%conn, sim%nodes%x, sim%nodes%v, d, spin)
+    ierr = status_ok
+  end subroutine get_strain_rates
+
+  !> One constitutive step of a single material point (unit tests of the
+  !> material models; see fsph_material material_update).
+  subroutine material_point(nprop, nh, props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
+                            s, p, eps_p, e, temp, hist, c, ierr)
+    use fsph_layouts, only: n_props, n_hist
+    use fsph_material, only: material_update
+    use fsph_status, only: status_bad_input
+    integer, intent(in) :: nprop, nh
+    real(wp), intent(in) :: props(nprop)
+    integer, intent(in) :: istrength, ieos
+    real(wp), intent(in) :: dt, d(4), spin, rho_old, rho_new, q
+    real(wp), intent(inout) :: s(4), p, eps_p, e, temp, hist(nh)
+    real(wp), intent(out) :: c
+    integer, intent(out) :: ierr
+    c = 0.0_wp
+    ierr = status_bad_input
+    if (nprop /= n_props .or. nh /= n_hist) return
+    call material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
+                         s, p, eps_p, e, temp, hist, c, ierr)
+  end subroutine material_point
+
+end module fsph_verify
