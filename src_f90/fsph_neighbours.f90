@@ -350,17 +350,8 @@ contains
               end if
             end if
           end do
-          ! ghosts: mirrors (-r_j, z_j) of same-body points within reach of
-          ! the axis side, for points whose reach crosses it
-          if (big > ri) then
-            do kk = work%cell_start(row), work%cell_start(row + min(floor((big - ri)/cell), &
-                                                                     work%level_nr(l) - 1) + 1) - 1
-              d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
-              reach = reach_i + work%reach_s(kk)
-              work%one_row(min(n_one + 1, width + 1), ii) = -work%item(kk)
-              n_one = n_one + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
-            end do
-          end if
+          ! ghosts, for points whose reach crosses the axis
+          if (big > ri) call scan_mirrors(work, l, row, ii, ri, zi, reach_i, big, bi, width, n_one)
         end do
       end do
       work%n_half(ii) = n_half
@@ -370,6 +361,26 @@ contains
     end do
     !$omp end parallel do
   end subroutine scan_points
+
+  !> Mirror images (-r_j, z_j) across the axis in grid row `row` of level
+  !> l for query point ii at (ri, zi) (reach reach_i, level reach big, body
+  !> bi): the same-body points within reach of the axis side, written to
+  !> ii's one-way row as -j and counted in n_one (row width as scan_points).
+  subroutine scan_mirrors(work, l, row, ii, ri, zi, reach_i, big, bi, width, n_one)
+    type(neighbour_work_t), intent(inout) :: work
+    integer, intent(in) :: l, row, ii, bi, width
+    real(wp), intent(in) :: ri, zi, reach_i, big
+    integer, intent(inout) :: n_one
+    integer :: kk, last
+    real(wp) :: d2, reach
+    last = work%cell_start(row + min(floor((big - ri)/work%level_cell(l)), work%level_nr(l) - 1) + 1) - 1
+    do kk = work%cell_start(row), last
+      d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
+      reach = reach_i + work%reach_s(kk)
+      work%one_row(min(n_one + 1, width + 1), ii) = -work%item(kk)
+      n_one = n_one + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
+    end do
+  end subroutine scan_mirrors
 
   !> Grow an allocatable list to hold at least m entries (by 25 % headroom,
   !> so growth is rare).

@@ -223,13 +223,13 @@ contains
     real(wp), intent(out) :: pair_hg(2, *) !< hourglass term P of each entry [kg/(m^4 s^2)]
     logical, intent(out) :: pair_in(*)   !< the entry lies within the kernel support at these positions
     real(wp), intent(out) :: acc_imag(2, n) !< the part of acc from imaginary neighbours [m/s^2]
-    integer :: i, k, j, m
+    integer :: i, k, j
     real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2)
     real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2)
     !$omp parallel default(none) &
     !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, grad_v, switch, nbr_ptr, nbr_list, low_ptr) &
     !$omp shared(low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in, acc_imag) &
-    !$omp private(i, k, j, m, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi)
+    !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       wi = wgt(i)
@@ -240,8 +240,7 @@ contains
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         j = abs(nbr_list(k))
         sg = entry_sign(nbr_list(k))
-        dx(1) = x(1, i) - sg*x(1, j)
-        dx(2) = x(2, i) - x(2, j)
+        dx = [x(1, i) - sg*x(1, j), x(2, i) - x(2, j)]
         dist2 = dx(1)**2 + dx(2)**2
         ! the pairs of this cycle: those within the support now, by the
         ! search's own test (a listed pair beyond it, from the lists' skin,
@@ -254,8 +253,7 @@ contains
         hij = 0.5_wp*(h(i) + h(j))
         factor = kernel_gradient_factor(dist2, 1.0_wp/hij)
         grad = factor*dx
-        dv(1) = v(1, i) - sg*v(1, j)
-        dv(2) = v(2, i) - v(2, j)
+        dv = [v(1, i) - sg*v(1, j), v(2, i) - v(2, j)]
         q = pair_viscosity(dx, dv, dist2, hij, 0.5_wp*(rho(i) + rho(j)), 0.5_wp*(c(i) + c(j)), c_q, c_l)
         if (j <= n) then
           ! particles and their ghosts: the compression switch, and the
@@ -282,7 +280,20 @@ contains
       acc_imag(:, i) = a_imag
     end do
     !$omp end do
-    ! the partners' side of the half entries
+    call add_partner_forces(n, mass, low_ptr, low_pair, low_other, pair_force, acc)
+    !$omp end parallel
+  end subroutine sph_accelerations
+
+  !> The partners' side of the half entries: each particle takes minus the
+  !> force its lower-index partners computed for their pair, in list order.
+  !> Called inside the parallel region of sph_accelerations (an orphaned
+  !> worksharing loop: its threads share the rows).
+  subroutine add_partner_forces(n, mass, low_ptr, low_pair, low_other, pair_force, acc)
+    integer, intent(in) :: n, low_ptr(n + 1), low_pair(*), low_other(*)
+    real(wp), intent(in) :: mass(*), pair_force(2, *)
+    real(wp), intent(inout) :: acc(2, n)
+    integer :: i, m
+    real(wp) :: a(2)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       a = acc(:, i)
@@ -292,8 +303,7 @@ contains
       acc(:, i) = a
     end do
     !$omp end do
-    !$omp end parallel
-  end subroutine sph_accelerations
+  end subroutine add_partner_forces
 
   !> The terms of one neighbour in the rate sums of a particle: planar
   !> density (eta-continuity, signed ring mass m_j), velocity gradient and
