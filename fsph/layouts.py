@@ -18,27 +18,26 @@ import hashlib
 import json
 import sys
 
-# ---- status codes: (code, name, where the index points, text) -------------
-# Index kinds: "element" (> 0 element, < 0 particle), "node", "none".
-# Code 12 is raised by the driver (fsph.driver), never by the solver.
-STATUS = (
-    (0, "ok", "none", "ok"),
-    (1, "inverted_element", "element", "inverted element (area <= 0): the mesh has tangled"),
-    (2, "nonfinite_element", "element", "non-finite stress or energy (NaN/Inf) in an element"),
-    (3, "nonfinite_node", "node", "non-finite position or velocity (NaN/Inf) at a node"),
-    (4, "dt_floor", "element",
-     "time step collapsed below the floor (dt_floor_ratio x initial step)"),
-    (5, "eos_range", "element", "compression beyond the range of the equation of state"),
-    (6, "bad_input", "none", "invalid set-up input"),
-    (7, "not_ready", "none", "state not initialised"),
-    (8, "max_cycles", "none", "cycle limit (max_cycles) reached"),
-    (9, "nonfinite_particle", "element",
-     "non-finite state (NaN/Inf) or non-positive density in a particle"),
-    (10, "particle_axis", "element", "a particle reached the axis (r <= 0)"),
-    (11, "dt_drop", "element",
-     "time step fell by more than the allowed factor in one cycle (dt_drop_ratio)"),
-    (12, "energy_limit", "none", "energy error above the limit (energy_error_limit)"),
+# ---- status codes: (name, where the index points, text); the code is the
+# position (0: ok). Index kinds: "element" (> 0 element, < 0 particle),
+# "node", "none". energy_limit is raised by the driver (fsph.driver),
+# never by the solver.
+STATUS_CODES = (
+    ("ok", "none", "ok"),
+    ("inverted_element", "element", "inverted element (area <= 0): the mesh has tangled"),
+    ("nonfinite_element", "element", "non-finite stress or energy (NaN/Inf) in an element"),
+    ("nonfinite_node", "node", "non-finite position or velocity (NaN/Inf) at a node"),
+    ("dt_floor", "element", "time step collapsed below the floor (dt_floor_ratio x initial step)"),
+    ("eos_range", "element", "compression beyond the range of the equation of state"),
+    ("bad_input", "none", "invalid set-up input"),
+    ("not_ready", "none", "state not initialised"),
+    ("max_cycles", "none", "cycle limit (max_cycles) reached"),
+    ("nonfinite_particle", "element", "non-finite state (NaN/Inf) or non-positive density in a particle"),
+    ("particle_axis", "element", "a particle reached the axis (r <= 0)"),
+    ("dt_drop", "element", "time step fell by more than the allowed factor in one cycle (dt_drop_ratio)"),
+    ("energy_limit", "none", "energy error above the limit (energy_error_limit)"),
 )
+STATUS = tuple((code, name, index, text) for code, (name, index, text) in enumerate(STATUS_CODES))
 
 # ---- timed phases of the cycle (fsph_timers, fsph_solver) ------------------
 PHASES = (
@@ -170,11 +169,11 @@ CONVERSION_CRITERIA = (
 
 # ---- rows of a snapshot (fsph_api get_snapshot) ---------------------------
 NODE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass")
-ELEMENT_FIELDS = ("s_rr", "s_zz", "s_rz", "s_tt", "p", "q", "eps_p", "rho", "e", "temp", "c",
-                  "area", "mass", "damage")
-PARTICLE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass", "h", "radius",
-                   "s_rr", "s_zz", "s_rz", "s_tt", "p", "eps_p", "rho", "e", "temp", "c",
-                   "damage")
+# the material state elements and particles share, in both in this order
+MATERIAL_STATE_FIELDS = ("s_rr", "s_zz", "s_rz", "s_tt", "p", "eps_p", "rho", "e", "temp", "c",
+                         "damage")
+ELEMENT_FIELDS = MATERIAL_STATE_FIELDS + ("q", "area", "mass")
+PARTICLE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass", "h", "radius") + MATERIAL_STATE_FIELDS
 # material and body of an element or particle
 ID_FIELDS = ("material", "body")
 SNAPSHOT_SCALARS = ("time", "cycle", "contact_penetration", "contact_penetration_relative",
@@ -271,6 +270,7 @@ def fortran_source():
                       [d for _, d in CONVERSION_CRITERIA])
     out.append("  ! rows of a snapshot")
     out += _constants("nf_", NODE_FIELDS, count="n_node_fields")
+    out += _constants("ms_", MATERIAL_STATE_FIELDS, count="n_material_state_fields")
     out += _constants("ef_", ELEMENT_FIELDS, count="n_element_fields")
     out += _constants("pf_", PARTICLE_FIELDS, count="n_particle_fields")
     out += _constants("id_", ID_FIELDS, count="n_id_fields")

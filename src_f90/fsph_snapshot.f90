@@ -6,12 +6,11 @@
 module fsph_snapshot
   use fsph_kinds, only: wp
   use fsph_state, only: simulation_t, node_set_t, element_set_t, particle_set_t
-  use fsph_layouts, only: nf_x_r, nf_x0_r, nf_v_r, nf_mass, &
-                          ef_s_rr, ef_s_tt, ef_p, ef_q, ef_eps_p, ef_rho, ef_e, ef_temp, ef_c, ef_area, &
-                          ef_mass, ef_damage, pf_x_r, pf_x0_r, pf_v_r, pf_mass, pf_h, pf_radius, &
-                          pf_s_rr, pf_s_tt, pf_p, pf_eps_p, pf_rho, pf_e, pf_temp, pf_c, pf_damage, &
-                          id_material, id_body, ss_time, ss_cycle, ss_contact_penetration, &
-                          ss_contact_penetration_relative, ss_eroded_momentum_z, hist_damage, prop_rho0
+  use fsph_layouts, only: nf_x_r, nf_x0_r, nf_v_r, nf_mass, ms_s_rr, ms_s_tt, ms_p, ms_eps_p, ms_rho, ms_e, &
+                          ms_temp, ms_c, ms_damage, ef_s_rr, ef_damage, ef_q, ef_area, ef_mass, pf_x_r, &
+                          pf_x0_r, pf_v_r, pf_mass, pf_h, pf_radius, pf_s_rr, pf_damage, id_material, id_body, &
+                          ss_time, ss_cycle, ss_contact_penetration, ss_contact_penetration_relative, &
+                          ss_eroded_momentum_z, hist_damage, prop_rho0
   implicit none
   private
 
@@ -32,11 +31,9 @@ contains
     fields(nf_mass, :) = nd%mass(1:n)
   end subroutine node_rows
 
-  !> Element rows (fsph_layouts ef_*): deviator (rr, zz, rz, tt) [Pa],
-  !> pressure and viscous pressure [Pa], plastic strain [-], density
-  !> [kg/m^3], specific internal energy [J/kg], temperature [K], sound
-  !> speed [m/s], area [m^2], mass [kg], damage [-]; connectivity (1-based)
-  !> and the material and body of each element (id_*).
+  !> Element rows (fsph_layouts ef_*): the material state (below), viscous
+  !> pressure [Pa], area [m^2], mass [kg]; connectivity (1-based) and the
+  !> material and body of each element (id_*).
   subroutine element_rows(el, conn, ids, fields)
     type(element_set_t), intent(in) :: el
     integer, intent(out) :: conn(:, :), ids(:, :)
@@ -46,25 +43,18 @@ contains
     conn = el%conn(:, 1:n)
     ids(id_material, :) = el%mat(1:n)
     ids(id_body, :) = el%body(1:n)
-    fields(ef_s_rr:ef_s_tt, :) = el%s(:, 1:n)
-    fields(ef_p, :) = el%p(1:n)
+    call material_state_rows(n, el%s, el%p, el%eps_p, el%rho, el%e, el%temp, el%c, el%hist, &
+                             fields(ef_s_rr:ef_damage, :))
     fields(ef_q, :) = el%q(1:n)
-    fields(ef_eps_p, :) = el%eps_p(1:n)
-    fields(ef_rho, :) = el%rho(1:n)
-    fields(ef_e, :) = el%e(1:n)
-    fields(ef_temp, :) = el%temp(1:n)
-    fields(ef_c, :) = el%c(1:n)
     fields(ef_area, :) = el%area(1:n)
     fields(ef_mass, :) = el%mass(1:n)
-    fields(ef_damage, :) = el%hist(hist_damage, 1:n)
   end subroutine element_rows
 
   !> Particle rows (fsph_layouts pf_*): position, initial position [m],
   !> velocity [m/s], mass [kg], smoothing length [m], radius at the current
   !> position and density (not below the reference density, as the
-  !> particle contact takes it) [m], deviator [Pa], pressure [Pa], plastic
-  !> strain [-], density [kg/m^3], specific internal energy [J/kg],
-  !> temperature [K], sound speed [m/s], damage [-]; material and body.
+  !> particle contact takes it) [m], then the material state (below);
+  !> material and body.
   subroutine particle_rows(pt, props, ids, fields)
     use fsph_sph, only: particle_radius
     type(particle_set_t), intent(in) :: pt
@@ -83,15 +73,27 @@ contains
     do i = 1, n
       fields(pf_radius, i) = particle_radius(pt%mass(i), pt%x(1, i), max(pt%rho(i), props(prop_rho0, pt%mat(i))))
     end do
-    fields(pf_s_rr:pf_s_tt, :) = pt%s(:, 1:n)
-    fields(pf_p, :) = pt%p(1:n)
-    fields(pf_eps_p, :) = pt%eps_p(1:n)
-    fields(pf_rho, :) = pt%rho(1:n)
-    fields(pf_e, :) = pt%e(1:n)
-    fields(pf_temp, :) = pt%temp(1:n)
-    fields(pf_c, :) = pt%c(1:n)
-    fields(pf_damage, :) = pt%hist(hist_damage, 1:n)
+    call material_state_rows(n, pt%s, pt%p, pt%eps_p, pt%rho, pt%e, pt%temp, pt%c, pt%hist, &
+                             fields(pf_s_rr:pf_damage, :))
   end subroutine particle_rows
+
+  !> The material state rows (fsph_layouts ms_*) of n points, shared by
+  !> elements and particles: deviator (rr, zz, rz, tt) [Pa], pressure [Pa],
+  !> plastic strain [-], density [kg/m^3], specific internal energy [J/kg],
+  !> temperature [K], sound speed [m/s], damage [-].
+  subroutine material_state_rows(n, s, p, eps_p, rho, e, temp, c, hist, rows)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: s(:, :), p(:), eps_p(:), rho(:), e(:), temp(:), c(:), hist(:, :)
+    real(wp), intent(out) :: rows(:, :)
+    rows(ms_s_rr:ms_s_tt, :) = s(:, 1:n)
+    rows(ms_p, :) = p(1:n)
+    rows(ms_eps_p, :) = eps_p(1:n)
+    rows(ms_rho, :) = rho(1:n)
+    rows(ms_e, :) = e(1:n)
+    rows(ms_temp, :) = temp(1:n)
+    rows(ms_c, :) = c(1:n)
+    rows(ms_damage, :) = hist(hist_damage, 1:n)
+  end subroutine material_state_rows
 
   !> Snapshot scalars (fsph_layouts ss_*): time [s], cycle, deepest
   !> interpenetration of bodies [m] and relative to the penetrated
