@@ -615,7 +615,9 @@ def _parse(path):
 
 
 # --------------------------------------------------------------------------
-def _validate_material(path, label, m):
+def _check_material_keys(path, label, m):
+    """The keys the material's strength model and EOS need are all given,
+    and strength and EOS are both 'hjc' or neither."""
     need = {
         "epp": ("yield_stress",),
         "bilinear": ("yield_stress", "tangent_modulus"),
@@ -637,6 +639,12 @@ def _validate_material(path, label, m):
             raise DeckError(path, label, k,
                             f"a value (needed by strength '{m['strength']}' / eos '{m['eos']}')",
                             "missing key")
+
+
+def _check_elastic_constants(path, label, m):
+    """Either youngs_modulus + poisson_ratio or shear_modulus (+
+    bulk_modulus for the linear EOS); no bulk_modulus where something else
+    fixes the bulk modulus."""
     has_e = m.get("youngs_modulus") is not None or m.get("poisson_ratio") is not None
     has_g = m.get("shear_modulus") is not None
     if has_e and has_g:
@@ -666,29 +674,43 @@ def _validate_material(path, label, m):
                         f"no value for eos '{m['eos']}' (its bulk modulus is "
                         + ("rho0 c0^2" if m["eos"] == "mie_gruneisen" else "hjc_pcrush/hjc_mucrush")
                         + ")", m["bulk_modulus"])
+
+
+def _check_hjc(path, label, m):
+    """An HJC material: shear_modulus, not youngs_modulus; P_lock above
+    P_crush; a fully dense curve that rises to P_lock beyond mu_crush."""
+    if m.get("youngs_modulus") is not None:
+        raise DeckError(path, label, "youngs_modulus", "no value for eos 'hjc' (give "
+                        "shear_modulus; the bulk modulus is hjc_pcrush/hjc_mucrush)",
+                        m["youngs_modulus"])
+    if not m["hjc_plock"] > m["hjc_pcrush"]:
+        raise DeckError(path, label, "hjc_plock",
+                        f"a value above hjc_pcrush = {m['hjc_pcrush']} Pa", m["hjc_plock"])
+    try:
+        mu_plock = hjc_lock_strain(m)
+    except ValueError as err:
+        raise DeckError(path, label, "hjc_k2", "K1, K2, K3 with a fully dense curve "
+                        "rising to hjc_plock", str(err)) from None
+    if not mu_plock > m["hjc_mucrush"]:
+        raise DeckError(path, label, "hjc_mulock",
+                        f"a locking strain whose fully dense curve reaches hjc_plock beyond "
+                        f"hjc_mucrush = {m['hjc_mucrush']} (it does at {mu_plock:.4g})",
+                        m["hjc_mulock"])
+
+
+def _validate_material(path, label, m):
+    """The material's models have the keys they need, consistent elastic
+    constants and admissible values across keys (label names it in
+    errors, e.g. 'material #1')."""
+    _check_material_keys(path, label, m)
+    _check_elastic_constants(path, label, m)
     if m["strength"] == "bilinear":
         _, _, e = elastic_moduli(m)
         if not m["tangent_modulus"] < e:
             raise DeckError(path, label, "tangent_modulus",
                             f"a value below Young's modulus E = {e:.4g} Pa", m["tangent_modulus"])
     if m["eos"] == "hjc":
-        if m.get("youngs_modulus") is not None:
-            raise DeckError(path, label, "youngs_modulus", "no value for eos 'hjc' (give "
-                            "shear_modulus; the bulk modulus is hjc_pcrush/hjc_mucrush)",
-                            m["youngs_modulus"])
-        if not m["hjc_plock"] > m["hjc_pcrush"]:
-            raise DeckError(path, label, "hjc_plock",
-                            f"a value above hjc_pcrush = {m['hjc_pcrush']} Pa", m["hjc_plock"])
-        try:
-            mu_plock = hjc_lock_strain(m)
-        except ValueError as err:
-            raise DeckError(path, label, "hjc_k2", "K1, K2, K3 with a fully dense curve "
-                            "rising to hjc_plock", str(err)) from None
-        if not mu_plock > m["hjc_mucrush"]:
-            raise DeckError(path, label, "hjc_mulock",
-                            f"a locking strain whose fully dense curve reaches hjc_plock beyond "
-                            f"hjc_mucrush = {m['hjc_mucrush']} (it does at {mu_plock:.4g})",
-                            m["hjc_mulock"])
+        _check_hjc(path, label, m)
     if m["strength"] == "johnson_cook":
         if m["specific_heat"] is None:
             raise DeckError(path, label, "specific_heat",
