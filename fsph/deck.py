@@ -615,7 +615,9 @@ def _parse(path):
 
 
 # --------------------------------------------------------------------------
-def _validate_material(path, label, m):
+def _check_material_keys(path, label, m):
+    """The keys the material's strength model and EOS need are all given,
+    and strength and EOS are both 'hjc' or neither."""
     need = {
         "epp": ("yield_stress",),
         "bilinear": ("yield_stress", "tangent_modulus"),
@@ -637,6 +639,12 @@ def _validate_material(path, label, m):
             raise DeckError(path, label, k,
                             f"a value (needed by strength '{m['strength']}' / eos '{m['eos']}')",
                             "missing key")
+
+
+def _check_elastic_constants(path, label, m):
+    """Either youngs_modulus + poisson_ratio or shear_modulus (+
+    bulk_modulus for the linear EOS); no bulk_modulus where something else
+    fixes the bulk modulus."""
     has_e = m.get("youngs_modulus") is not None or m.get("poisson_ratio") is not None
     has_g = m.get("shear_modulus") is not None
     if has_e and has_g:
@@ -666,29 +674,43 @@ def _validate_material(path, label, m):
                         f"no value for eos '{m['eos']}' (its bulk modulus is "
                         + ("rho0 c0^2" if m["eos"] == "mie_gruneisen" else "hjc_pcrush/hjc_mucrush")
                         + ")", m["bulk_modulus"])
+
+
+def _check_hjc(path, label, m):
+    """An HJC material: shear_modulus, not youngs_modulus; P_lock above
+    P_crush; a fully dense curve that rises to P_lock beyond mu_crush."""
+    if m.get("youngs_modulus") is not None:
+        raise DeckError(path, label, "youngs_modulus", "no value for eos 'hjc' (give "
+                        "shear_modulus; the bulk modulus is hjc_pcrush/hjc_mucrush)",
+                        m["youngs_modulus"])
+    if not m["hjc_plock"] > m["hjc_pcrush"]:
+        raise DeckError(path, label, "hjc_plock",
+                        f"a value above hjc_pcrush = {m['hjc_pcrush']} Pa", m["hjc_plock"])
+    try:
+        mu_plock = hjc_lock_strain(m)
+    except ValueError as err:
+        raise DeckError(path, label, "hjc_k2", "K1, K2, K3 with a fully dense curve "
+                        "rising to hjc_plock", str(err)) from None
+    if not mu_plock > m["hjc_mucrush"]:
+        raise DeckError(path, label, "hjc_mulock",
+                        f"a locking strain whose fully dense curve reaches hjc_plock beyond "
+                        f"hjc_mucrush = {m['hjc_mucrush']} (it does at {mu_plock:.4g})",
+                        m["hjc_mulock"])
+
+
+def _validate_material(path, label, m):
+    """The material's models have the keys they need, consistent elastic
+    constants and admissible values across keys (label names it in
+    errors, e.g. 'material #1')."""
+    _check_material_keys(path, label, m)
+    _check_elastic_constants(path, label, m)
     if m["strength"] == "bilinear":
         _, _, e = elastic_moduli(m)
         if not m["tangent_modulus"] < e:
             raise DeckError(path, label, "tangent_modulus",
                             f"a value below Young's modulus E = {e:.4g} Pa", m["tangent_modulus"])
     if m["eos"] == "hjc":
-        if m.get("youngs_modulus") is not None:
-            raise DeckError(path, label, "youngs_modulus", "no value for eos 'hjc' (give "
-                            "shear_modulus; the bulk modulus is hjc_pcrush/hjc_mucrush)",
-                            m["youngs_modulus"])
-        if not m["hjc_plock"] > m["hjc_pcrush"]:
-            raise DeckError(path, label, "hjc_plock",
-                            f"a value above hjc_pcrush = {m['hjc_pcrush']} Pa", m["hjc_plock"])
-        try:
-            mu_plock = hjc_lock_strain(m)
-        except ValueError as err:
-            raise DeckError(path, label, "hjc_k2", "K1, K2, K3 with a fully dense curve "
-                            "rising to hjc_plock", str(err)) from None
-        if not mu_plock > m["hjc_mucrush"]:
-            raise DeckError(path, label, "hjc_mulock",
-                            f"a locking strain whose fully dense curve reaches hjc_plock beyond "
-                            f"hjc_mucrush = {m['hjc_mucrush']} (it does at {mu_plock:.4g})",
-                            m["hjc_mulock"])
+        _check_hjc(path, label, m)
     if m["strength"] == "johnson_cook":
         if m["specific_heat"] is None:
             raise DeckError(path, label, "specific_heat",
@@ -819,28 +841,35 @@ def _cell_estimate(b):
     return b["n_radial"] * b["n_axial"]
 
 
-def _cross_check(path, deck):
-    mode = deck["control"]["mode"]
+def _check_discretisation(path, bodies, mode):
+    """Fill in each body's default discretisation; modes fem and sph take
+    only elements, only particles."""
     default_disc = "particles" if mode == "sph" else "elements"
-    for i, b in enumerate(deck["body"]):
+    for i, b in enumerate(bodies):
         if b["discretisation"] is None:
             b["discretisation"] = default_disc
         elif mode in ("fem", "sph") and b["discretisation"] != default_disc:
             raise DeckError(path, f"body #{i + 1}", "discretisation",
                             f"'{default_disc}' in mode '{mode}' (mixed bodies need mode 'fixed' "
                             "or 'adaptive')", b["discretisation"])
-    for i, b in enumerate(deck["body"]):
-        _check_geometry(path, f"body #{i + 1}", b)
+
+
+def _check_size(path, bodies):
+    """At most MAX_ENTITIES elements and particles in all bodies."""
     entities = 0
-    for i, b in enumerate(deck["body"]):
+    for i, b in enumerate(bodies):
         entities += _cell_estimate(b) * (4 if b["discretisation"] == "elements" else 1)
         if entities > MAX_ENTITIES:
             raise DeckError(path, f"body #{i + 1}", "n_axial",
                             f"a resolution with at most {MAX_ENTITIES} elements and particles "
                             "in all bodies (each quadrilateral is 4 elements)",
                             f"n_radial x n_axial = {b['n_radial']} x {b['n_axial']}")
-    names = [b["name"] for b in deck["body"]]
-    for i, b in enumerate(deck["body"]):
+
+
+def _check_joins(path, bodies, mode):
+    """joined_to only in modes fixed and adaptive, naming another body."""
+    names = [b["name"] for b in bodies]
+    for i, b in enumerate(bodies):
         if b["joined_to"] is None:
             continue
         if mode not in ("fixed", "adaptive"):
@@ -849,20 +878,11 @@ def _cross_check(path, deck):
         if b["joined_to"] not in names or b["joined_to"] == b["name"]:
             raise DeckError(path, f"body #{i + 1}", "joined_to",
                             "the name of another &body: " + ", ".join(names), b["joined_to"])
-    if deck["erosion"]["enabled"] and mode != "fem":
-        raise DeckError(path, "erosion", "enabled", ".false. outside mode 'fem' (erosion is the "
-                        "FEM baseline; modes fixed and adaptive turn distorted elements into "
-                        "particles instead)", True)
-    conv = deck["convert"]
-    if conv["criterion"] == "equivalent_stress" and conv["sigma_c"] is None:
-        raise DeckError(path, "convert", "sigma_c",
-                        "a value (needed by criterion 'equivalent_stress')", "missing key")
-    for i, b in enumerate(deck["body"]):
-        if b["geometry"] == "rod" and not b["inner_radius"] < b["radius"]:
-            raise DeckError(path, f"body #{i + 1}", "inner_radius",
-                            f"a value below radius = {b['radius']} m", b["inner_radius"])
-    _unique_names(path, "material", deck["material"])
-    _unique_names(path, "body", deck["body"])
+
+
+def _check_materials(path, deck):
+    """Each material valid (its warnings added to the deck's), each body's
+    material one of them."""
     for i, m in enumerate(deck["material"]):
         _validate_material(path, f"material #{i + 1}", m)
         deck["warnings"].extend(_material_warnings(f"&material #{i + 1}", m))
@@ -871,12 +891,11 @@ def _cross_check(path, deck):
         if b["material"] not in names:
             raise DeckError(path, f"body #{i + 1}", "material",
                             "the name of a &material: " + ", ".join(names), b["material"])
-    for i, bc in enumerate(deck["boundary"]):
-        if bc["normal"][0] == 0.0 and bc["normal"][1] == 0.0:
-            raise DeckError(path, f"boundary #{i + 1}", "normal", "a non-zero vector",
-                            list(bc["normal"]))
-    met = deck["metrics"]
-    bodies = [b["name"] for b in deck["body"]]
+
+
+def _check_metrics(path, met, bodies):
+    """&metrics names existing bodies (the target another than the body)
+    and has what its kind needs (bodies: the body names)."""
     if met["target"] is not None and (met["target"] not in bodies
                                       or met["target"] == met["body"]):
         raise DeckError(path, "metrics", "target", "the name of another &body: "
@@ -896,6 +915,10 @@ def _cross_check(path, deck):
             raise DeckError(path, "metrics", "plateau_to",
                             f"a value above plateau_from = {met['plateau_from']} m",
                             met["plateau_to"])
+
+
+def _check_output(path, deck):
+    """No checkpoint timing without checkpoints; the reference file exists."""
     out = deck["output"]
     if not out["checkpoint"]:
         for key, off in (("checkpoint_minutes", 0.0), ("checkpoint_cycles", 0)):
@@ -906,6 +929,40 @@ def _cross_check(path, deck):
     if ref is not None and not (Path(deck["dir"]) / ref).is_file():
         raise DeckError(path, "output", "reference", "an existing JSON file relative to the "
                         "deck's folder", ref)
+
+
+def _cross_check(path, deck):
+    """Checks across keys and groups, in this order: bodies
+    (discretisation, geometry, size, joins), erosion and conversion, rod
+    radii, unique names, materials, boundaries, metrics, output. Fills in
+    the bodies' default discretisation and the deck's material warnings."""
+    mode = deck["control"]["mode"]
+    _check_discretisation(path, deck["body"], mode)
+    for i, b in enumerate(deck["body"]):
+        _check_geometry(path, f"body #{i + 1}", b)
+    _check_size(path, deck["body"])
+    _check_joins(path, deck["body"], mode)
+    if deck["erosion"]["enabled"] and mode != "fem":
+        raise DeckError(path, "erosion", "enabled", ".false. outside mode 'fem' (erosion is the "
+                        "FEM baseline; modes fixed and adaptive turn distorted elements into "
+                        "particles instead)", True)
+    conv = deck["convert"]
+    if conv["criterion"] == "equivalent_stress" and conv["sigma_c"] is None:
+        raise DeckError(path, "convert", "sigma_c",
+                        "a value (needed by criterion 'equivalent_stress')", "missing key")
+    for i, b in enumerate(deck["body"]):
+        if b["geometry"] == "rod" and not b["inner_radius"] < b["radius"]:
+            raise DeckError(path, f"body #{i + 1}", "inner_radius",
+                            f"a value below radius = {b['radius']} m", b["inner_radius"])
+    _unique_names(path, "material", deck["material"])
+    _unique_names(path, "body", deck["body"])
+    _check_materials(path, deck)
+    for i, bc in enumerate(deck["boundary"]):
+        if bc["normal"][0] == 0.0 and bc["normal"][1] == 0.0:
+            raise DeckError(path, f"boundary #{i + 1}", "normal", "a non-zero vector",
+                            list(bc["normal"]))
+    _check_metrics(path, deck["metrics"], [b["name"] for b in deck["body"]])
+    _check_output(path, deck)
 
 
 # --------------------------------------------------------------------------

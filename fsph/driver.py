@@ -7,6 +7,7 @@ import signal
 import sys
 import time as wallclock
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -179,20 +180,23 @@ def _interrupt_flag():
             signal.signal(sig, old)
 
 
-def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress="auto"):
-    """Run one deck; returns the summary dict (its 'status' says whether the
-    run completed, failed or was interrupted). Raises DeckError for a bad
-    deck. With restart, the state is read from that checkpoint first.
-    progress: 'bar' (a tqdm bar), 'lines' (n_progress plain lines) or
-    'auto' (the bar when `stream` is a terminal); quiet: neither."""
-    stream = stream or sys.stdout
-    kind = _progress_kind(progress, quiet, stream)
+@dataclass
+class _Setup:
+    """A run ready to start: the deck path and its validated dict, the
+    reference values (None without), the output folder, the simulation (at
+    the checkpoint's state on a restart) and its writer."""
 
-    def say(text):
-        if not quiet:
-            print(text, file=stream, flush=True)
+    deck_path: Path
+    deck: dict
+    reference: dict
+    outdir: Path
+    sim: Simulation
+    writer: RunWriter
 
-    t_wall0 = wallclock.perf_counter()
+
+def _set_up(deck_path, outdir, restart):
+    """Load the deck and its reference, set up the simulation (restored
+    from the checkpoint `restart` unless None) and open the writer."""
     deck_path = Path(deck_path)
     deck = deck_module.load(deck_path)
     reference = _load_reference(deck)
@@ -200,28 +204,146 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
     sim = Simulation(deck)
     if restart is not None:
         checkpoint_module.restore(sim, restart)
-    ctrl, out = deck["control"], deck["output"]
-    writer = RunWriter(outdir, deck_path.read_text(), ctrl["title"], vtu=out["vtu"])
-    checkpoint_path = outdir / "checkpoint.h5"
+    writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
+                       vtu=deck["output"]["vtu"])
+    return _Setup(deck_path, deck, reference, outdir, sim, writer)
+
+
+#: Column heads of the progress lines.
+_PROGRESS_HEADER = (f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} "
+                    f"{'wall [s]':>9s} {'elements':>9s} {'particles':>9s}")
+
+
+def _print_banner(say, setup, restart, lines):
+    """The opening lines: case, mode, counts, threads and end time; where a
+    restart begins; the deck's warnings; the progress lines' heads."""
+    sim, deck_path, ctrl = setup.sim, setup.deck_path, setup.deck["control"]
     say(f"fsph: {ctrl['title'] or deck_path.stem}: mode {ctrl['mode']}, {sim.n_elements} elements, "
         f"{sim.n_nodes} nodes, {sim.n_particles} particles, {threads()} thread(s), "
         f"end time {ctrl['end_time'] * 1e6:g} us")
     if restart is not None:
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
-    for text in deck.get("warnings", []):
+    for text in setup.deck.get("warnings", []):
         say(f"fsph: warning: {text}")
-    if kind == "lines":
-        say(f"{'cycle':>9s} {'t [us]':>10s} {'dt [ns]':>9s} {'energy err':>11s} {'wall [s]':>9s} "
-            f"{'elements':>9s} {'particles':>9s}")
-    last_good = sim.snapshot()
-    writer.write_snapshot(last_good)
-    series = [r for r in [metrics_module.snapshot_series(last_good, deck)] if r]
-    writer.energy0 = sim.initial_energy
+    if lines:
+        say(_PROGRESS_HEADER)
+
+
+def _progress_line(sim, t_wall0):
+    """One progress line: cycle, time [us], step [ns], energy error, wall
+    time since t_wall0 [s], element and particle counts."""
+    return (f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
+            f"{sim.energies()['relative_error']:+11.3e} "
+            f"{wallclock.perf_counter() - t_wall0:9.2f} {sim.n_elements:9d} "
+            f"{sim.n_particles:9d}")
+
+
+@dataclass
+class _Books:
+    """What the run keeps from its outputs: the last snapshot written (the
+    one the metrics use), the per-snapshot metric records (perforation
+    series), and how the advance ended: the SimulationError of a failure,
+    the signal name of an interruption (both None: completed)."""
+
+    last_good: dict = None
+    series: list = field(default_factory=list)
+    failure: SimulationError = None
+    interrupted: str = None
+
+    def record(self, sim, deck, writer):
+        """Take a snapshot of `sim`, write it and keep its metric record."""
+        self.last_good = sim.snapshot()
+        writer.write_snapshot(self.last_good)
+        record = metrics_module.snapshot_series(self.last_good, deck)
+        if record:
+            self.series.append(record)
+
+    @property
+    def status(self):
+        return "failed" if self.failure else ("interrupted" if self.interrupted else "completed")
+
+
+@dataclass
+class _Checkpoints:
+    """Where and when the run writes its checkpoint: path, on or off
+    (&output checkpoint), every `cycles` cycles (0: off) and every
+    `minutes` of wall time (0: off); `last` the wall clock of the last one
+    (or of the start) [s]."""
+
+    path: Path
+    enabled: bool
+    cycles: int
+    minutes: float
+    last: float
+
+    @classmethod
+    def from_output(cls, path, out):
+        """From the deck's &output, the clock started now."""
+        return cls(path, out["checkpoint"], out["checkpoint_cycles"] if out["checkpoint"] else 0,
+                   out["checkpoint_minutes"], wallclock.perf_counter())
+
+    def due(self, cycle0, cycle):
+        """Whether a call that went from cycle0 to cycle ends on a multiple
+        of `cycles`, or `minutes` have passed since the last checkpoint."""
+        return bool((self.cycles and cycle != cycle0 and cycle % self.cycles == 0)
+                    or (self.enabled and self.minutes > 0.0
+                        and wallclock.perf_counter() - self.last >= 60.0 * self.minutes))
+
+    def save(self, sim):
+        checkpoint_module.save(sim, self.path)
+        self.last = wallclock.perf_counter()
+
+
+def _advance_to(sim, t, land, flag, energy_limit, checkpoints, bar):
+    """Advance `sim` to time t [s] call by call (land: end the last step on
+    t) until t or a signal (flag), checking the energy error and writing the
+    checkpoints that fall due after each call."""
+    while sim.time < t and not flag["signal"]:
+        # a call never crosses a multiple of checkpoint_cycles; where a
+        # call ends does not alter the trajectory (land=False)
+        n_cycles = _cycles_this_call(sim.cycle, checkpoints.cycles)
+        cycle0 = sim.cycle
+        sim.advance(t, land=land, max_cycles=n_cycles, partial=True)
+        _check_energy(sim, energy_limit)
+        if checkpoints.due(cycle0, sim.cycle):
+            checkpoints.save(sim)
+        if bar:
+            bar.update(sim)
+
+
+def _stop_on_signal(say, sim, signum, checkpoints, bar):
+    """Close the bar, write the checkpoint (when the deck keeps one) and say
+    where the run stopped; returns the signal's name."""
+    name = signal.Signals(signum).name
+    if bar:
+        bar.close()
+    if checkpoints.enabled:
+        checkpoints.save(sim)
+    say(f"fsph: {name} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: "
+        f"stopped; restart with --restart {checkpoints.path}")
+    return name
+
+
+def _record_failure(say, err, sim, writer, books, bar):
+    """Book a failed run: its error, the history up to it and the failure
+    mark in the outputs; say where the last good snapshot is."""
+    if bar:
+        bar.close()
+    books.failure = err
     writer.append_history(sim.drain_history())
-    failure = interrupted = None
-    last_checkpoint = wallclock.perf_counter()
-    every = out["checkpoint_cycles"] if out["checkpoint"] else 0
-    bar = _ProgressBar(stream, sim, ctrl["end_time"]) if kind == "bar" else None
+    writer.mark_failure(str(err))
+    say(f"fsph: run failed: {err}")
+    say(f"fsph: last good snapshot t = {books.last_good['time'] * 1e6:.4g} us kept in "
+        f"{writer.h5_path}")
+
+
+def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
+    """Advance the run through its output times to &control end_time: the
+    history after each, a snapshot (and checkpoint) and a progress line
+    (lines: True) where due. A SimulationError ends it as a failure,
+    SIGINT or SIGTERM as an interruption (books.failure, .interrupted)."""
+    sim, deck, writer = setup.sim, setup.deck, setup.writer
+    ctrl, out = deck["control"], deck["output"]
     try:
         with _interrupt_flag() as flag:
             for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
@@ -229,84 +351,83 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
                 if t <= sim.time:
                     continue            # a restart begins after these
                 # intermediate outputs never shorten a step; the run ends on end_time
-                land = t >= ctrl["end_time"]
-                while sim.time < t and not flag["signal"]:
-                    # a call never crosses a multiple of checkpoint_cycles; where a
-                    # call ends does not alter the trajectory (land=False)
-                    n_cycles = _cycles_this_call(sim.cycle, every)
-                    cycle0 = sim.cycle
-                    sim.advance(t, land=land, max_cycles=n_cycles, partial=True)
-                    _check_energy(sim, ctrl["energy_error_limit"])
-                    if ((every and sim.cycle != cycle0 and sim.cycle % every == 0)
-                            or (out["checkpoint"] and out["checkpoint_minutes"] > 0.0
-                                and wallclock.perf_counter() - last_checkpoint
-                                >= 60.0 * out["checkpoint_minutes"])):
-                        checkpoint_module.save(sim, checkpoint_path)
-                        last_checkpoint = wallclock.perf_counter()
-                    if bar:
-                        bar.update(sim)
+                _advance_to(sim, t, t >= ctrl["end_time"], flag, ctrl["energy_error_limit"],
+                            checkpoints, bar)
                 writer.append_history(sim.drain_history())
                 if flag["signal"]:
-                    interrupted = signal.Signals(flag["signal"]).name
-                    if bar:
-                        bar.close()
-                    if out["checkpoint"]:
-                        checkpoint_module.save(sim, checkpoint_path)
-                    say(f"fsph: {interrupted} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: "
-                        f"stopped; restart with --restart {checkpoint_path}")
+                    books.interrupted = _stop_on_signal(say, sim, flag["signal"], checkpoints, bar)
                     break
                 if snap_due:
-                    last_good = sim.snapshot()
-                    writer.write_snapshot(last_good)
-                    record = metrics_module.snapshot_series(last_good, deck)
-                    if record:
-                        series.append(record)
-                    if out["checkpoint"]:
-                        checkpoint_module.save(sim, checkpoint_path)
-                        last_checkpoint = wallclock.perf_counter()
-                if progress_due and kind == "lines":
-                    say(f"{sim.cycle:9d} {sim.time * 1e6:10.4f} {sim.dt * 1e9:9.4f} "
-                        f"{sim.energies()['relative_error']:+11.3e} "
-                        f"{wallclock.perf_counter() - t_wall0:9.2f} {sim.n_elements:9d} "
-                        f"{sim.n_particles:9d}")
+                    books.record(sim, deck, writer)
+                    if checkpoints.enabled:
+                        checkpoints.save(sim)
+                if progress_due and lines:
+                    say(_progress_line(sim, t_wall0))
     except SimulationError as err:
-        if bar:
-            bar.close()
-        failure = err
-        writer.append_history(sim.drain_history())
-        writer.mark_failure(str(err))
-        say(f"fsph: run failed: {err}")
-        say(f"fsph: last good snapshot t = {last_good['time'] * 1e6:.4g} us kept in {writer.h5_path}")
+        _record_failure(say, err, sim, writer, books, bar)
     finally:
         if bar:
             bar.close()
-    writer.close()
 
-    energies = sim.energies()
-    case_metrics = metrics_module.case_metrics(last_good, deck)
+
+def _final_metrics(books, deck, reference):
+    """Case metrics of the last good snapshot, with the snapshot series
+    (and a perforation's settling) where there is one, and their comparison
+    with the reference ({} without)."""
+    case_metrics = metrics_module.case_metrics(books.last_good, deck)
+    series = books.series
     if series:
         case_metrics["series"] = {key: [r[key] for r in series] for key in series[0]}
         if "perforation" in case_metrics:
             case_metrics["perforation"].update(metrics_module.perforation_settling(
                 case_metrics["series"]["time_us"], case_metrics["series"]["velocity_z_m_s"]))
     comparison = metrics_module.compare(case_metrics, reference) if reference else {}
+    return case_metrics, comparison
+
+
+def _peaks(last_good, deck):
+    """Peak plastic strain, and temperature where Johnson-Cook heats, of
+    the last good snapshot (metrics.field_peaks)."""
     # temperature only changes where Johnson-Cook heats adiabatically; a run
     # without it reports no temperature peak rather than room temperature
     heated = {m["name"] for m in deck["material"] if m["strength"] == "johnson_cook"}
     peak_fields = ["plastic_strain"]
     if any(b["material"] in heated for b in deck["body"]):
         peak_fields.append("temperature")
-    peaks = metrics_module.field_peaks(last_good, peak_fields)
+    return metrics_module.field_peaks(last_good, peak_fields)
+
+
+def _energy_summary(sim, energies, writer):
+    """The energy books of summary.json [J], relative errors [-] and the
+    time of the largest [s]."""
+    return {"initial_J": sim.initial_energy, "final_J": energies["total"],
+            "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
+            "conversion_heat_J": sim.conversion()["heat_J"],
+            "contact_dissipation_J": energies["contact"],
+            "plane_dissipation_J": energies["plane"],
+            "eroded_J": energies["eroded"],
+            "relative_error": energies["relative_error"],
+            "max_relative_error": writer.max_energy_error,
+            "max_relative_error_time_s": writer.max_energy_error_time}
+
+
+def _summary(setup, books, t_wall0):
+    """The summary dict of a run that has ended (summary.json)."""
+    sim, deck, writer, reference = setup.sim, setup.deck, setup.writer, setup.reference
+    ctrl = deck["control"]
+    energies = sim.energies()
+    case_metrics, comparison = _final_metrics(books, deck, reference)
+    peaks = _peaks(books.last_good, deck)
     warnings = [{"kind": "deck", "message": text} for text in deck.get("warnings", [])]
     warnings += _warnings(ctrl, energies, writer)
     summary = {
-        "case": deck_path.stem,
+        "case": setup.deck_path.stem,
         "title": ctrl["title"],
         "mode": ctrl["mode"],
-        "status": "failed" if failure else ("interrupted" if interrupted else "completed"),
+        "status": books.status,
         "end_time_s": sim.time,
         "requested_end_time_s": ctrl["end_time"],
-        "metrics_time_s": last_good["time"],
+        "metrics_time_s": books.last_good["time"],
         "cycles": sim.cycle,
         "wall_time_s": wallclock.perf_counter() - t_wall0,
         "threads": threads(),
@@ -321,38 +442,73 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
         "conversion": sim.conversion(),
         "erosion": sim.erosion(),
         "n_debris_particles": sim.debris_count(),
-        "energy": {"initial_J": sim.initial_energy, "final_J": energies["total"],
-                   "kinetic_J": energies["kinetic"], "internal_J": energies["internal"],
-                   "conversion_heat_J": sim.conversion()["heat_J"],
-                   "contact_dissipation_J": energies["contact"],
-                   "plane_dissipation_J": energies["plane"],
-                   "eroded_J": energies["eroded"],
-                   "relative_error": energies["relative_error"],
-                   "max_relative_error": writer.max_energy_error,
-                   "max_relative_error_time_s": writer.max_energy_error_time},
+        "energy": _energy_summary(sim, energies, writer),
         "metrics": case_metrics,
         "peaks": peaks,
         "warnings": warnings,
     }
     if reference:
         summary["reference"] = {"source": reference.get("source", ""), "comparison": comparison}
+    failure = books.failure
     if failure:
         summary["failure"] = {"message": str(failure), "code": failure.code,
                               "index": failure.index, "time_s": failure.time,
                               "cycle": failure.cycle}
-    write_summary(outdir, summary)
+    return summary
 
+
+def _print_summary(say, summary, outdir):
+    """The closing lines: status, time, cycles, wall time and energy error;
+    the warnings; the metrics against their references; the peaks; where
+    the outputs are."""
+    warnings, energy = summary["warnings"], summary["energy"]
     status = summary["status"]
     if warnings:
         status += f" with {len(warnings)} warning{'s' if len(warnings) > 1 else ''}"
-    say(f"fsph: {status} at t = {sim.time * 1e6:.4g} us after {sim.cycle} cycles, "
-        f"{summary['wall_time_s']:.2f} s wall; energy error {energies['relative_error']:+.3e} "
-        f"(largest {writer.max_energy_error:+.3e} at {writer.max_energy_error_time * 1e6:.4g} us)")
+    say(f"fsph: {status} at t = {summary['end_time_s'] * 1e6:.4g} us after {summary['cycles']} "
+        f"cycles, {summary['wall_time_s']:.2f} s wall; energy error "
+        f"{energy['relative_error']:+.3e} (largest {energy['max_relative_error']:+.3e} at "
+        f"{energy['max_relative_error_time_s'] * 1e6:.4g} us)")
     for warning in warnings:
         say(f"fsph: warning: {warning['message']}")
-    for line in _format_metrics(comparison, case_metrics):
+    comparison = summary.get("reference", {}).get("comparison", {})
+    for line in _format_metrics(comparison, summary["metrics"]):
         say(line)
-    for line in _format_peaks(peaks):
+    for line in _format_peaks(summary["peaks"]):
         say(line)
     say(f"fsph: outputs in {outdir}/ (fsph.h5, ParaView .pvd series, summary.json)")
+
+
+def _printer(quiet, stream):
+    """say(text): print a line to `stream` and flush; nothing when quiet."""
+    def say(text):
+        if not quiet:
+            print(text, file=stream, flush=True)
+    return say
+
+
+def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress="auto"):
+    """Run one deck; returns the summary dict (its 'status' says whether the
+    run completed, failed or was interrupted). Raises DeckError for a bad
+    deck. With restart, the state is read from that checkpoint first.
+    progress: 'bar' (a tqdm bar), 'lines' (n_progress plain lines) or
+    'auto' (the bar when `stream` is a terminal); quiet: neither."""
+    stream = stream or sys.stdout
+    kind = _progress_kind(progress, quiet, stream)
+    say = _printer(quiet, stream)
+    t_wall0 = wallclock.perf_counter()
+    setup = _set_up(deck_path, outdir, restart)
+    _print_banner(say, setup, restart, kind == "lines")
+    books = _Books()
+    books.record(setup.sim, setup.deck, setup.writer)
+    setup.writer.energy0 = setup.sim.initial_energy
+    setup.writer.append_history(setup.sim.drain_history())
+    checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"])
+    end_time = setup.deck["control"]["end_time"]
+    bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None
+    _advance(say, setup, books, checkpoints, bar, kind == "lines", t_wall0)
+    setup.writer.close()
+    summary = _summary(setup, books, t_wall0)
+    write_summary(setup.outdir, summary)
+    _print_summary(say, summary, setup.outdir)
     return summary

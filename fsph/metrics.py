@@ -14,13 +14,14 @@ def _body_elements(snap, body_index):
     return snap["conn"][keep], keep
 
 
-def _particle_extent(snap, body_index):
-    """Particle centres (k, 2) and radii (k,) of a body."""
+def _body_particles(snap, body_index):
+    """A body's particles, selected once: centres (k, 2) [m], radii [m],
+    masses [kg] and smoothing lengths [m] (k,)."""
     if "particles" not in snap:
-        return EMPTY, np.zeros(0)
+        return EMPTY, np.zeros(0), np.zeros(0), np.zeros(0)
     part = snap["particles"]
     keep = part["body"] == body_index
-    return part["x"][keep], part["radius"][keep]
+    return part["x"][keep], part["radius"][keep], part["mass"][keep], part["h"][keep]
 
 
 #: Height of the impact face's band, as a fraction of the initial length:
@@ -83,10 +84,10 @@ def taylor(snap, body, body_index, w_height=None):
     the level, or particles whose extent covers it) meets the level
     z_face + w_height."""
     nodes, ea, eb = EMPTY, EMPTY, EMPTY
-    xp, rad = _particle_extent(snap, body_index)
+    xp, rad, p_mass, p_h = _body_particles(snap, body_index)
     node_r, node_m, links = np.zeros(0), np.zeros(0), None
-    if "conn" in snap and (snap["body"] == body_index).any():
-        conn, _ = _body_elements(snap, body_index)
+    conn = _body_elements(snap, body_index)[0] if "conn" in snap else np.zeros((0, 3), dtype=int)
+    if len(conn):
         ids = np.unique(conn)
         index = np.full(len(snap["x"]), -1)
         index[ids] = np.arange(len(ids))
@@ -94,11 +95,6 @@ def taylor(snap, body, body_index, w_height=None):
         links = index[np.vstack([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]])]
         node_r = _node_radii(nodes, links)
         node_m = snap["node_mass"][ids] if "node_mass" in snap else np.ones(len(ids))
-    p_mass, p_h = np.zeros(0), np.zeros(0)
-    if len(xp):
-        part = snap["particles"]
-        p_mass = part["mass"][part["body"] == body_index]
-        p_h = part["h"][part["body"] == body_index]
     keep = attached_points(np.vstack([nodes.reshape(-1, 2), xp.reshape(-1, 2)]),
                            np.concatenate([node_r, p_h]), np.concatenate([node_m, p_mass]), links)
     keep_n, keep_p = keep[:len(nodes)], keep[len(nodes):]

@@ -19,17 +19,20 @@ def _snapshots(h5):
     return sorted(((snaps[k].attrs["time"], snaps[k]) for k in snaps), key=lambda t: t[0])
 
 
-def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi=150):
-    """Write a PNG with one panel per requested time (the nearest snapshot),
-    the body mirrored about the axis; returns the PNG path."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
+def _nearest_snapshots(snaps, times_us):
+    """The (time, group) of `snaps` nearest each of times_us [us]."""
+    chosen = []
+    for t in times_us:
+        k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
+        chosen.append(snaps[k])
+    return chosen
 
-    run_dir = Path(run_dir)
-    output = Path(output) if output else run_dir / "shapes.png"
-    summary = json.loads((run_dir / "summary.json").read_text())
+
+def _shape_marks(summary):
+    """From a run's summary: the experiment's L, D and W [mm] where the
+    reference has them, the height of W [mm] (None without) and, for a
+    perforation run, the half-width framed: three hole diameters [mm]
+    (None otherwise)."""
     experiment = {}
     comparison = summary.get("reference", {}).get("comparison", {}).get("taylor", {})
     for key in ("L_mm", "D_mm", "W_mm"):
@@ -39,45 +42,84 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
     # a perforation run: frame the impact zone (three hole diameters), not the whole plate
     hole = (summary.get("metrics", {}).get("perforation") or {}).get("hole_diameter_mm")
     frame = 3.0 * hole if hole else None
+    return experiment, w_height, frame
+
+
+def _draw_body(ax, g, frame, bottom):
+    """Draw the elements and particles of snapshot g on ax, mirrored about
+    the axis; returns the extent (largest r, largest z) [mm] and `bottom`
+    lowered to the lowest point within r <= frame [mm] (frame None: as
+    given)."""
+    from matplotlib.collections import PolyCollection
+
+    extent = [0.0, 0.0]
+    for side in (1.0, -1.0):
+        if "connectivity" in g:
+            x = g["nodes"][...] * 1e3
+            tri = x[g["connectivity"][...]]
+            tri[..., 0] *= side
+            ax.add_collection(PolyCollection(tri, facecolors=ELEMENT_COLOUR, edgecolors="white",
+                                             linewidths=0.15, alpha=0.9))
+            extent = [max(extent[0], x[:, 0].max()), max(extent[1], x[:, 1].max())]
+            if frame:
+                bottom = min(bottom, x[x[:, 0] <= frame, 1].min(initial=bottom))
+        if "particles" in g:
+            xp = g["particles/x"][...] * 1e3
+            ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, color=PARTICLE_COLOUR, linewidths=0)
+            extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
+            if frame:
+                bottom = min(bottom, xp[xp[:, 0] <= frame, 1].min(initial=bottom))
+    return extent, bottom
+
+
+def _mark_experiment(ax, experiment, w_height):
+    """The experiment's final length (dashed line), foot diameter D at
+    z = 0 and width W at w_height [mm], those it has."""
+    if "L_mm" in experiment:
+        ax.axhline(experiment["L_mm"], color="k", ls="--", lw=0.8)
+    if "D_mm" in experiment:
+        ax.plot([-experiment["D_mm"] / 2, experiment["D_mm"] / 2], [0.0, 0.0], "k|",
+                ms=12, mew=1.5)
+    if "W_mm" in experiment and w_height:
+        ax.plot([-experiment["W_mm"] / 2, experiment["W_mm"] / 2], [w_height, w_height],
+                "k|", ms=8, mew=1.5)
+
+
+def _shapes_legend(fig, experiment):
+    """Legend of the shapes: elements, particles, and the experiment's
+    marks where there are some."""
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color=ELEMENT_COLOUR, lw=6, label="elements"),
+               Line2D([], [], color=PARTICLE_COLOUR, marker="o", ls="", label="particles")]
+    if experiment:
+        handles.append(Line2D([], [], color="k", ls="--", label="experiment L, D, W"))
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.95), ncol=3,
+               frameon=False)
+
+
+def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi=150):
+    """Write a PNG with one panel per requested time (the nearest snapshot),
+    the body mirrored about the axis; returns the PNG path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run_dir = Path(run_dir)
+    output = Path(output) if output else run_dir / "shapes.png"
+    summary = json.loads((run_dir / "summary.json").read_text())
+    experiment, w_height, frame = _shape_marks(summary)
 
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
-        snaps = _snapshots(h5)
-        chosen = []
-        for t in times_us:
-            k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
-            chosen.append(snaps[k])
+        chosen = _nearest_snapshots(_snapshots(h5), times_us)
         fig, axes = plt.subplots(1, len(chosen), figsize=(3.2 * len(chosen), 6.0), sharey=True)
         axes = np.atleast_1d(axes)
         top = experiment.get("L_mm", 0.0)
         width = experiment.get("D_mm", 0.0) / 2
         bottom = -0.5
         for ax, (time, g) in zip(axes, chosen):
-            extent = [0.0, 0.0]
-            for side in (1.0, -1.0):
-                if "connectivity" in g:
-                    x = g["nodes"][...] * 1e3
-                    tri = x[g["connectivity"][...]]
-                    tri[..., 0] *= side
-                    ax.add_collection(PolyCollection(tri, facecolors=ELEMENT_COLOUR, edgecolors="white",
-                                                     linewidths=0.15, alpha=0.9))
-                    extent = [max(extent[0], x[:, 0].max()), max(extent[1], x[:, 1].max())]
-                    if frame:
-                        bottom = min(bottom, x[x[:, 0] <= frame, 1].min(initial=bottom))
-                if "particles" in g:
-                    xp = g["particles/x"][...] * 1e3
-                    ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, color=PARTICLE_COLOUR, linewidths=0)
-                    extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
-                    if frame:
-                        bottom = min(bottom, xp[xp[:, 0] <= frame, 1].min(initial=bottom))
-            if experiment:
-                if "L_mm" in experiment:
-                    ax.axhline(experiment["L_mm"], color="k", ls="--", lw=0.8)
-                if "D_mm" in experiment:
-                    ax.plot([-experiment["D_mm"] / 2, experiment["D_mm"] / 2], [0.0, 0.0], "k|",
-                            ms=12, mew=1.5)
-                if "W_mm" in experiment and w_height:
-                    ax.plot([-experiment["W_mm"] / 2, experiment["W_mm"] / 2], [w_height, w_height],
-                            "k|", ms=8, mew=1.5)
+            extent, bottom = _draw_body(ax, g, frame, bottom)
+            _mark_experiment(ax, experiment, w_height)
             ax.set_title(f"{time * 1e6:.0f} µs")
             ax.set_xlabel("r [mm]")
             top = max(top, extent[1])
@@ -89,13 +131,8 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
             ax.set_ylim(bottom - 0.05 * (top - bottom) if frame else bottom, 1.05 * top)
             ax.set_aspect("equal")
         axes[0].set_ylabel("z [mm]")
-        handles = [plt.Line2D([], [], color=ELEMENT_COLOUR, lw=6, label="elements"),
-                   plt.Line2D([], [], color=PARTICLE_COLOUR, marker="o", ls="", label="particles")]
-        if experiment:
-            handles.append(plt.Line2D([], [], color="k", ls="--", label="experiment L, D, W"))
         fig.suptitle(summary.get("title") or summary.get("case", ""))
-        fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.95), ncol=3,
-                   frameon=False)
+        _shapes_legend(fig, experiment)
         fig.tight_layout(rect=(0, 0.02, 1, 0.9))
         # equal aspect shrinks the axes after the layout: save what is drawn
         fig.savefig(output, dpi=dpi, bbox_inches="tight")
@@ -189,10 +226,7 @@ def damage_map(run_dir, times_us=None, output=None, dpi=150):
         if times_us is None:
             end = snaps[-1][0] * 1e6
             times_us = [end * f for f in (0.25, 0.5, 0.75, 1.0)]
-        chosen = []
-        for t in times_us:
-            k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
-            chosen.append(snaps[k])
+        chosen = _nearest_snapshots(snaps, times_us)
         fig, axes = plt.subplots(1, len(chosen), figsize=(3.4 * len(chosen), 3.6),
                                  sharey=True, squeeze=False, layout="constrained")
         axes = axes[0]
