@@ -14,6 +14,7 @@ from pathlib import Path
 
 import f90nml
 
+from . import layouts
 from .errors import DeckError
 from .materials import (EOS_MODELS, HJC_KEYS, LIBRARY, STRENGTH_MODELS, elastic_moduli,
                         hjc_lock_strain)
@@ -350,7 +351,7 @@ SCHEMA = {
                              "min_angle: smallest interior angle below theta_c (Xiao et al. 2012); "
                              "plastic_strain: equivalent plastic strain at least eps_c "
                              "(Hu et al. 2013); equivalent_stress: von Mises stress at least sigma_c.",
-                             choices=("min_angle", "plastic_strain", "equivalent_stress")),
+                             choices=tuple(name for name, _ in layouts.CONVERSION_CRITERIA)),
             "theta_c": Key("float", 30.0, "deg", "Critical minimum interior angle (Xiao et al. 2012: 30).",
                            lower=0.0, upper=60.0, lower_open=True, upper_open=True),
             "relative_angle": Key("float", 0.75, "-",

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import checkpoint as checkpoint_module
 from . import deck as deck_module
+from . import layouts
 from . import metrics as metrics_module
 from .errors import FsphError, SimulationError
 from .output import RunWriter, write_summary
@@ -155,7 +156,7 @@ def _check_energy(sim, limit):
         raise SimulationError(
             f"run stopped at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: energy error above "
             f"the limit (energy_error_limit = {limit:g}): {error:+.3e}",
-            code=12, time=sim.time, cycle=sim.cycle)
+            code=layouts.status_code("energy_limit"), time=sim.time, cycle=sim.cycle)
 
 
 @contextmanager
