@@ -23,7 +23,7 @@ _REAL, _INT = 1, 2    # the solver's kinds of state array
 def _state_arrays(sim):
     """Every non-empty state array of `sim`, in checkpoint order (the order
     of fsph.layouts), as (its name, the array)."""
-    _api.checkpoint_layout(sim._run)     # the axis flags as integers, for nodes/on_axis
+    _api.begin_checkpoint(sim._run)     # the axis flags as integers, for nodes/on_axis
     for kind, names, getter in ((_REAL, layouts.CHECKPOINT_REAL, _api.get_real_state),
                                 (_INT, layouts.CHECKPOINT_INT, _api.get_int_state)):
         for k, name in enumerate(names, 1):

@@ -99,8 +99,8 @@ class Simulation:
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault, during="set-up")
         self.initial_energy = self.energy_budget()["total"]
-        self.particle_radius0 = (self._particles()["radius"].copy() if self.n_particles
-                                 else np.zeros(0))
+        # radii at set-up (a snapshot's radius0 for the particles present then)
+        self.particle_radius0 = self._raw_snapshot()["particle_fields"][:, _PF["radius"]].copy()
         self.n_elements0 = self.n_elements
 
     def __del__(self):
@@ -320,7 +320,9 @@ class Simulation:
     def penetration(self):
         """Deepest interpenetration of bodies at the current positions [m]
         and relative to the penetrated segment's length [-]."""
-        scalars = self._raw_snapshot()["scalars"]
+        scalars, ierr = _api.get_snapshot_scalars(self._run, len(layouts.SNAPSHOT_SCALARS))
+        if ierr != STATUS_OK:
+            raise FsphError("snapshot: layout mismatch, rebuild the package")
         return {"depth": float(scalars[_SS["contact_penetration"]]),
                 "relative": float(scalars[_SS["contact_penetration_relative"]])}
 
@@ -377,11 +379,6 @@ class Simulation:
             part["radius0"] = radius0
             snap["particles"] = part
         return snap
-
-    def _particles(self):
-        """Particle positions etc. (as in snapshot()["particles"])."""
-        raw = self._raw_snapshot()
-        return _particle_snapshot(raw["particle_fields"], raw["particle_ids"])
 
 
 # rows of the snapshot layouts by name (0-based columns of the transposed rows)

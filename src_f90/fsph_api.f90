@@ -1,10 +1,11 @@
 !> The module exposed to Python (through numpy.f2py; the tests' entry points
 !> are in fsph_verify). Plain arrays and scalars in and out; every layout the
-!> arrays follow is named in fsph_layouts (generated from fsph/layouts.py); the state stays inside Fortran. Every routine that can
-!> fail returns ierr (a fsph_status code) and, where useful, ifault (the
-!> 1-based index of the element or node at fault). Nothing here stops the
-!> process. A routine that reads or changes a run's state takes the run's
-!> handle (open_run) first and works on that run alone (fsph_runs).
+!> arrays follow is named in fsph_layouts (generated from fsph/layouts.py);
+!> the state stays inside Fortran. Every routine that can fail returns ierr
+!> (a fsph_status code) and, where useful, ifault (the 1-based index of the
+!> element or node at fault). Nothing here stops the process. A routine
+!> that reads or changes a run's state takes the run's handle (open_run)
+!> first and works on that run alone (fsph_runs).
 module fsph_api
   use fsph_kinds, only: wp
   use fsph_state, only: simulation_t
@@ -14,10 +15,11 @@ module fsph_api
   public :: open_run, close_run, get_layout_digest, phase_count, get_phase_times, reset_phase_times
   public :: threads, set_control, set_sph_control, set_particles, set_continua, reserve_particles
   public :: set_conversion, set_contact, set_erosion, get_erosion_stats, get_debris_count
-  public :: get_contact_stats, get_conversion_stats, checkpoint_layout, checkpoint_sizes, get_real_state
+  public :: get_contact_stats, get_conversion_stats, begin_checkpoint, checkpoint_sizes, get_real_state
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
   public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
-  public :: get_sizes, get_snapshot, get_clock, get_energy_budget, history_count, drain_history
+  public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
+  public :: drain_history
 
 contains
 
@@ -297,20 +299,15 @@ contains
     n_edges = sim%coupling%n_edges
   end subroutine get_conversion_stats
 
-  !> Numbers of real and integer state arrays and scalars of a checkpoint.
-  subroutine checkpoint_layout(run, n_real, n_int, n_rs, n_is)
+  !> Before the state arrays are read for a checkpoint: the axis flags as
+  !> integers (fsph_restart prepare_checkpoint, for nodes/on_axis).
+  subroutine begin_checkpoint(run)
     use fsph_restart, only: prepare_checkpoint
-    use fsph_layouts, only: n_real_arrays, n_int_arrays, n_real_scalars, n_int_scalars
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
-    integer, intent(out) :: n_real, n_int, n_rs, n_is
     sim => run_state(run)
-    n_real = n_real_arrays
-    n_int = n_int_arrays
-    n_rs = n_real_scalars
-    n_is = n_int_scalars
     call prepare_checkpoint(sim)
-  end subroutine checkpoint_layout
+  end subroutine begin_checkpoint
 
   !> Shape (rows, cols) of state array id, real (kind 1) or integer (2);
   !> (0, 0) when absent. Also the sizes to allocate at restart.
@@ -622,6 +619,25 @@ contains
     call snapshot_scalars(sim, scalars)
     ierr = status_ok
   end subroutine get_snapshot
+
+  !> The snapshot scalars alone (fsph_layouts ss_*, nss of them), for a
+  !> caller that wants no fields; changes nothing in the run.
+  subroutine get_snapshot_scalars(run, nss, scalars, ierr)
+    use fsph_layouts, only: n_snapshot_scalars
+    use fsph_snapshot, only: snapshot_scalars
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: nss
+    real(wp), intent(out) :: scalars(nss)
+    integer, intent(out) :: ierr
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    scalars = 0.0_wp
+    ierr = status_bad_input
+    if (nss /= n_snapshot_scalars) return
+    call snapshot_scalars(sim, scalars)
+    ierr = status_ok
+  end subroutine get_snapshot_scalars
 
   !> Clock: time [s], stable step for the next cycle [s], last step [s],
   !> initial stable step [s], cycle count, element or particle controlling

@@ -115,66 +115,89 @@ contains
   !> Clock and books (fsph_layouts csr_* and csi_*): time and steps, the
   !> conversion heat, the contact and plane dissipation, the erosion books;
   !> cycle, the element or particle setting the step, conversion counts,
-  !> coupling edges, imaginary particles, eroded elements.
+  !> coupling edges, imaginary particles, eroded elements. One list,
+  !> real_scalar and int_scalar, serves the checkpoint and the restore.
   subroutine get_scalars(sim, r, i)
-    type(simulation_t), intent(in) :: sim
+    type(simulation_t), intent(in), target :: sim
     real(wp), intent(out) :: r(n_real_scalars)
     integer, intent(out) :: i(n_int_scalars)
-    r(csr_time) = sim%time
-    r(csr_dt) = sim%dt
-    r(csr_dt_last) = sim%dt_last
-    r(csr_dt_initial) = sim%dt_initial
-    r(csr_conversion_heat) = sim%conversion%heat
-    r(csr_contact_dissipated) = sim%contact%dissipated
-    r(csr_eroded_element_mass) = sim%erosion%element_mass
-    r(csr_eroded_internal) = sim%erosion%internal
-    r(csr_eroded_node_mass) = sim%erosion%node_mass
-    r(csr_eroded_kinetic) = sim%erosion%kinetic
-    r(csr_eroded_momentum_r) = sim%erosion%momentum(1)
-    r(csr_eroded_momentum_z) = sim%erosion%momentum(2)
-    r(csr_plane_dissipated) = sim%plane_dissipated
-    i(csi_cycle) = sim%cycle
-    i(csi_dt_element) = sim%dt_element
-    i(csi_dt_particle) = sim%dt_particle
-    i(csi_n_converted) = sim%conversion%n_converted
-    i(csi_n_events) = sim%conversion%n_events
-    i(csi_n_groups) = sim%conversion%n_groups
-    i(csi_n_edges) = sim%coupling%n_edges
-    i(csi_n_imag) = sim%particles%n_imag
-    i(csi_n_eroded) = sim%erosion%n_eroded
+    real(wp), pointer :: pr
+    integer, pointer :: pi
+    integer :: k
+    do k = 1, n_real_scalars
+      pr => real_scalar(sim, k)
+      r(k) = pr
+    end do
+    do k = 1, n_int_scalars
+      pi => int_scalar(sim, k)
+      i(k) = pi
+    end do
   end subroutine get_scalars
 
   !> The inverse of get_scalars; the imaginary particles and the history
   !> buffer start empty.
   subroutine set_scalars(sim, r, i)
-    type(simulation_t), intent(inout) :: sim
+    type(simulation_t), intent(inout), target :: sim
     real(wp), intent(in) :: r(n_real_scalars)
     integer, intent(in) :: i(n_int_scalars)
-    sim%time = r(csr_time)
-    sim%dt = r(csr_dt)
-    sim%dt_last = r(csr_dt_last)
-    sim%dt_initial = r(csr_dt_initial)
-    sim%conversion%heat = r(csr_conversion_heat)
-    sim%contact%dissipated = r(csr_contact_dissipated)
-    sim%erosion%element_mass = r(csr_eroded_element_mass)
-    sim%erosion%internal = r(csr_eroded_internal)
-    sim%erosion%node_mass = r(csr_eroded_node_mass)
-    sim%erosion%kinetic = r(csr_eroded_kinetic)
-    sim%erosion%momentum = [r(csr_eroded_momentum_r), r(csr_eroded_momentum_z)]
-    sim%plane_dissipated = r(csr_plane_dissipated)
-    sim%cycle = i(csi_cycle)
-    sim%dt_element = i(csi_dt_element)
-    sim%dt_particle = i(csi_dt_particle)
-    sim%conversion%n_converted = i(csi_n_converted)
-    sim%conversion%n_events = i(csi_n_events)
-    sim%conversion%n_groups = i(csi_n_groups)
-    sim%coupling%n_edges = i(csi_n_edges)
-    sim%erosion%n_eroded = i(csi_n_eroded)
+    real(wp), pointer :: pr
+    integer, pointer :: pi
+    integer :: k
+    do k = 1, n_real_scalars
+      pr => real_scalar(sim, k)
+      pr = r(k)
+    end do
+    do k = 1, n_int_scalars
+      pi => int_scalar(sim, k)
+      pi = i(k)
+    end do
     sim%particles%n_imag = 0
     sim%particles%n_mirror = 0
     sim%history_cycle = sim%cycle
     sim%n_history = 0
   end subroutine set_scalars
+
+  !> The real scalar `id` (fsph_layouts csr_*) of the run.
+  function real_scalar(sim, id) result(p)
+    type(simulation_t), intent(in), target :: sim
+    integer, intent(in) :: id
+    real(wp), pointer :: p
+    p => null()
+    select case (id)
+    case (csr_time); p => sim%time
+    case (csr_dt); p => sim%dt
+    case (csr_dt_last); p => sim%dt_last
+    case (csr_dt_initial); p => sim%dt_initial
+    case (csr_conversion_heat); p => sim%conversion%heat
+    case (csr_contact_dissipated); p => sim%contact%dissipated
+    case (csr_eroded_element_mass); p => sim%erosion%element_mass
+    case (csr_eroded_internal); p => sim%erosion%internal
+    case (csr_eroded_node_mass); p => sim%erosion%node_mass
+    case (csr_eroded_kinetic); p => sim%erosion%kinetic
+    case (csr_eroded_momentum_r); p => sim%erosion%momentum(1)
+    case (csr_eroded_momentum_z); p => sim%erosion%momentum(2)
+    case (csr_plane_dissipated); p => sim%plane_dissipated
+    end select
+  end function real_scalar
+
+  !> The integer scalar `id` (fsph_layouts csi_*) of the run.
+  function int_scalar(sim, id) result(p)
+    type(simulation_t), intent(in), target :: sim
+    integer, intent(in) :: id
+    integer, pointer :: p
+    p => null()
+    select case (id)
+    case (csi_cycle); p => sim%cycle
+    case (csi_dt_element); p => sim%dt_element
+    case (csi_dt_particle); p => sim%dt_particle
+    case (csi_n_converted); p => sim%conversion%n_converted
+    case (csi_n_events); p => sim%conversion%n_events
+    case (csi_n_groups); p => sim%conversion%n_groups
+    case (csi_n_edges); p => sim%coupling%n_edges
+    case (csi_n_imag); p => sim%particles%n_imag
+    case (csi_n_eroded); p => sim%erosion%n_eroded
+    end select
+  end function int_scalar
 
   !> Allocate nodes, elements, particles (with their capacity) and coupling
   !> edges for the sizes of a checkpoint; the contents follow through the
