@@ -20,16 +20,55 @@ FORMAT = 3
 _REAL, _INT = 1, 2    # the solver's kinds of state array
 
 
+def _state_id(name):
+    """(kind, 1-based id) of the state array `name` (fsph.layouts)."""
+    if name in layouts.CHECKPOINT_REAL:
+        return _REAL, layouts.CHECKPOINT_REAL.index(name) + 1
+    if name in layouts.CHECKPOINT_INT:
+        return _INT, layouts.CHECKPOINT_INT.index(name) + 1
+    raise FsphError(f"unknown state array '{name}' (fsph.layouts CHECKPOINT_REAL, CHECKPOINT_INT)")
+
+
+def state_array(sim, name):
+    """A copy of the state array `name` of `sim` ('nodes/v', 'elements/e',
+    ...: fsph.layouts CHECKPOINT_REAL and CHECKPOINT_INT) as the solver
+    holds it, (rows, cols) with one column per node, element or particle;
+    None where the run has no such array. Indices are the solver's
+    (1-based, 0 none)."""
+    kind, k = _state_id(name)
+    if name == "nodes/on_axis":
+        _api.begin_checkpoint(sim._run)     # the axis flags as integers
+    rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
+    if rows * cols == 0:
+        return None
+    getter = _api.get_real_state if kind == _REAL else _api.get_int_state
+    return getter(sim._run, k, rows, cols)
+
+
+def _write_state_array(sim, name, values):
+    """Overwrite the state array `name`; False if the shape does not fit."""
+    kind, k = _state_id(name)
+    setter = _api.set_real_state if kind == _REAL else _api.set_int_state
+    dtype = np.float64 if kind == _REAL else np.int32
+    return setter(sim._run, k, np.asfortranarray(values, dtype=dtype)) == STATUS_OK
+
+
+def set_state_array(sim, name, values):
+    """Overwrite the state array `name` of `sim` with `values` of its
+    shape (rows, cols) (see state_array); the neighbour lists are rebuilt
+    at the next cycle."""
+    if not _write_state_array(sim, name, values):
+        raise FsphError(f"state array '{name}': expected the shape {np.shape(state_array(sim, name))}, "
+                        f"got {np.shape(values)}")
+
+
 def _state_arrays(sim):
     """Every non-empty state array of `sim`, in checkpoint order (the order
     of fsph.layouts), as (its name, the array)."""
-    _api.begin_checkpoint(sim._run)     # the axis flags as integers, for nodes/on_axis
-    for kind, names, getter in ((_REAL, layouts.CHECKPOINT_REAL, _api.get_real_state),
-                                (_INT, layouts.CHECKPOINT_INT, _api.get_int_state)):
-        for k, name in enumerate(names, 1):
-            rows, cols = _api.checkpoint_sizes(sim._run, kind, k)[:2]
-            if rows * cols > 0:
-                yield name, getter(sim._run, k, rows, cols)
+    for name in layouts.CHECKPOINT_REAL + layouts.CHECKPOINT_INT:
+        values = state_array(sim, name)
+        if values is not None:
+            yield name, values
 
 
 def _scalars(sim):
@@ -77,16 +116,13 @@ def _read_scalars(h5, path):
 
 def _restore_arrays(sim, h5, path):
     """Copy every named state array of the checkpoint into `sim`."""
-    known = {name: (_REAL, k) for k, name in enumerate(layouts.CHECKPOINT_REAL, 1)}
-    known.update({name: (_INT, k) for k, name in enumerate(layouts.CHECKPOINT_INT, 1)})
+    known = set(layouts.CHECKPOINT_REAL + layouts.CHECKPOINT_INT)
     names = []
     h5["state"].visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
     for name in names:
         if name not in known:
             raise FsphError(f"{path}: unknown state array '{name}' (written by another fsph version?)")
-        kind, k = known[name]
-        setter = _api.set_real_state if kind == _REAL else _api.set_int_state
-        if setter(sim._run, k, np.asfortranarray(h5["state"][name][...])) != STATUS_OK:
+        if not _write_state_array(sim, name, h5["state"][name][...]):
             raise FsphError(f"{path}: state array '{name}' does not fit this deck "
                             "(was the checkpoint written from another deck?)")
 

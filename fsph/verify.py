@@ -8,6 +8,7 @@ import numpy as np
 
 from . import layouts
 from .errors import FsphError
+from .checkpoint import set_state_array, state_array
 from .materials import property_table
 from .simulation import STATUS_OK, _api, python_index
 
@@ -24,21 +25,18 @@ def _check(ierr, what):
 # ---- states no deck can reach ---------------------------------------------
 def set_velocities(sim, v):
     """Overwrite nodal velocities (n, 2) [m/s] (elements)."""
-    _check(_verify.set_node_velocities(sim._run, np.asfortranarray(np.asarray(v, float).T)),
-           "set_velocities: wrong number of nodes")
+    set_state_array(sim, "nodes/v", np.asarray(v, float).T)
 
 
 def set_element_energy(sim, e):
     """Overwrite the specific internal energy (m,) [J/kg] of every element."""
-    _check(_verify.set_element_energy(sim._run, np.asarray(e, float)),
-           "set_element_energy: wrong number of elements")
+    set_state_array(sim, "elements/e", np.asarray(e, float)[None, :])
 
 
 def set_particle_motion(sim, x, v):
     """Overwrite particle positions (n, 2) [m] and velocities (n, 2) [m/s]."""
-    _check(_verify.set_particle_motion(sim._run, np.asfortranarray(np.asarray(x, float).T),
-                                       np.asfortranarray(np.asarray(v, float).T)),
-           "set_particle_motion: wrong number of particles")
+    set_state_array(sim, "particles/x", np.asarray(x, float).T)
+    set_state_array(sim, "particles/v", np.asarray(v, float).T)
 
 
 def set_stress_state(sim, deviator, pressure):
@@ -106,7 +104,8 @@ def neighbours(sim):
 
 def element_groups(sim):
     """Conversion group of every element (0-based, -1 none)."""
-    return python_index(_verify.get_element_groups(sim._run, sim.n_elements))
+    group = state_array(sim, "elements/group")
+    return python_index(group[0]) if group is not None else np.zeros(0, dtype=int)
 
 
 def ties(sim):

@@ -337,6 +337,9 @@ contains
     capacity = sim%particles%capacity; n_edges = sim%coupling%n_edges
   end subroutine checkpoint_sizes
 
+  !> Copy of state array id (fsph_layouts ckr_*, cki_*) of shape (rows,
+  !> cols) (zeros if the shape does not fit): checkpoints, and tests that
+  !> read one array by name (fsph.checkpoint state_array).
   subroutine get_real_state(run, id, rows, cols, a)
     use fsph_restart, only: real_view
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
@@ -367,6 +370,9 @@ contains
     end if
   end subroutine get_int_state
 
+  !> Overwrite state array id with a (rows, cols) array of its shape
+  !> (restarts, and tests that set a state no deck reaches); the neighbour
+  !> lists are rebuilt at the next cycle.
   subroutine set_real_state(run, id, rows, cols, a, ierr)
     use fsph_restart, only: real_view
     use fsph_status, only: status_ok, status_bad_input
@@ -382,6 +388,7 @@ contains
     if (.not. associated(r)) return
     if (size(r, 1) /= rows .or. size(r, 2) /= cols) return
     r = a
+    sim%particles%lists_valid = .false.    ! the neighbour lists rest on the old state
     ierr = status_ok
   end subroutine set_real_state
 
@@ -400,6 +407,7 @@ contains
     if (.not. associated(i)) return
     if (size(i, 1) /= rows .or. size(i, 2) /= cols) return
     i = a
+    sim%particles%lists_valid = .false.    ! the neighbour lists rest on the old state
     ierr = status_ok
   end subroutine set_int_state
 

@@ -1,19 +1,22 @@
 !> Verification entry points, exposed to Python beside fsph_api (as
 !> fsph._core.fsph_verify) and used by the tests only: they set states no
-!> deck can reach (stresses, velocities, NaNs), run one kernel on given
-!> input (a material point, an HJC pressure, a contact pair, a triangle's
-!> strain) or expose intermediate products of the cycle (forces, SPH
-!> rates, neighbour lists, ties, groups). The driver never calls them.
+!> deck can reach (uniform stresses), run one kernel on given input (a
+!> material point, an HJC pressure, a contact pair, a triangle's strain)
+!> or expose intermediate products of the cycle (forces, SPH rates,
+!> neighbour lists, ties). Single state arrays (velocities, energies,
+!> groups) are read and overwritten by name through the checkpoint views
+!> instead (fsph_api get_real_state, set_real_state; fsph.checkpoint
+!> state_array). The driver never calls them.
 module fsph_verify
   use fsph_kinds, only: wp
   use fsph_state, only: simulation_t
   use fsph_runs, only: run_state
   implicit none
   private
-  public :: get_particle_rates, get_element_groups, get_principal_strains, triangle_principal_strain
+  public :: get_particle_rates, get_principal_strains, triangle_principal_strain
   public :: hjc_point_pressure, contact_pair_values, get_particle_ties, convert_now, set_stress_state
-  public :: get_forces, set_neighbour_width, get_neighbour_count, get_neighbours, set_node_velocities
-  public :: set_element_energy, set_particle_motion, get_strain_rates, material_point
+  public :: get_forces, set_neighbour_width, get_neighbour_count, get_neighbours
+  public :: get_strain_rates, material_point
 
 contains
 
@@ -63,18 +66,6 @@ contains
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
-
-  !> Conversion group of every element (0: not in a coupled body).
-  subroutine get_element_groups(run, ne, group)
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    integer, intent(out) :: group(ne)
-    sim => run_state(run)
-    group = 0
-    if (ne /= sim%elements%n .or. ne == 0) return
-    group = sim%elements%group(1:ne)
-  end subroutine get_element_groups
 
   !> Largest principal logarithmic strain of every element [-] (the erosion
   !> measure).
@@ -267,55 +258,6 @@ contains
       end do
     end associate
   end subroutine get_neighbours
-
-  !> Overwrite nodal velocities [m/s] (verification tests and restarts).
-  subroutine set_node_velocities(run, nn, v, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: nn
-    real(wp), intent(in) :: v(2, nn)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    ierr = status_bad_input
-    if (nn /= sim%nodes%n) return
-    sim%nodes%v = v
-    ierr = status_ok
-  end subroutine set_node_velocities
-
-  !> Overwrite the specific internal energy of every element [J/kg]
-  !> (verification tests: e.g. a NaN to exercise the element guard).
-  subroutine set_element_energy(run, ne, e, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: ne
-    real(wp), intent(in) :: e(ne)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    ierr = status_bad_input
-    if (ne /= sim%elements%n) return
-    sim%elements%e(1:ne) = e
-    ierr = status_ok
-  end subroutine set_element_energy
-
-  !> Overwrite particle positions [m] and velocities [m/s] (verification
-  !> tests: e.g. put a particle across the axis to exercise its guard).
-  subroutine set_particle_motion(run, np, x, v, ierr)
-    use fsph_status, only: status_ok, status_bad_input
-    integer, intent(in) :: run             !< handle of the run (fsph_runs)
-    type(simulation_t), pointer :: sim
-    integer, intent(in) :: np
-    real(wp), intent(in) :: x(2, np), v(2, np)
-    integer, intent(out) :: ierr
-    sim => run_state(run)
-    ierr = status_bad_input
-    if (np /= sim%particles%n) return
-    sim%particles%x(:, 1:np) = x
-    sim%particles%v(:, 1:np) = v
-    sim%particles%lists_valid = .false.
-    ierr = status_ok
-  end subroutine set_particle_motion
 
   !> Strain rates (rr, zz, rz, tt) [1/s] and spin [1/s] of every element for
   !> the current positions and velocities (the kernel the cycle uses).

@@ -2,8 +2,10 @@
 for bit like the uninterrupted run, across conversion events."""
 
 import numpy as np
+import pytest
 
 import fsph
+from fsph.errors import FsphError
 from fsph import checkpoint
 from conftest import CASES
 
@@ -180,3 +182,19 @@ def test_cycle_checkpoints_restart_bit_for_bit(tmp_path):
     for key in a:
         assert np.array_equal(a[key], b[key]), key
         assert np.array_equal(a[key], c[key]), key
+
+
+def test_state_arrays_by_name():
+    """One state array read and overwritten by its checkpoint name: the
+    copy is the snapshot's field, a write reaches the solver, and an unknown
+    name or a wrong shape is refused with the name and the expected shape."""
+    sim = fsph.Simulation.from_deck(CASES / "taylor_armco.nml")
+    v = checkpoint.state_array(sim, "nodes/v")
+    assert v.shape == (2, sim.n_nodes)
+    assert np.array_equal(v.T, sim.snapshot()["velocity"])
+    checkpoint.set_state_array(sim, "nodes/v", 0.5 * v)
+    assert np.array_equal(sim.snapshot()["velocity"], 0.5 * v.T)
+    with pytest.raises(FsphError, match=rf"'nodes/v': expected the shape \(2, {sim.n_nodes}\)"):
+        checkpoint.set_state_array(sim, "nodes/v", v[:, :-1])
+    with pytest.raises(FsphError, match="unknown state array 'nodes/speed'"):
+        checkpoint.state_array(sim, "nodes/speed")
