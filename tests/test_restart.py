@@ -94,38 +94,6 @@ def test_interrupted_run_restarts_to_the_same_end(tmp_path):
         assert np.array_equal(a[key], b[key]), key
 
 
-def test_wall_clock_checkpoints(tmp_path):
-    """checkpoint_minutes: a checkpoint appears before the first snapshot is
-    due when the wall-clock interval is short (500-cycle granularity)."""
-    from fsph.driver import run
-    from fsph import deck as deck_module
-    import h5py
-    text = (CASES / "taylor_armco.nml").read_text().replace(
-        "  n_snapshots = 16", "  n_snapshots = 1\n  checkpoint_minutes = 1.0e-9")
-    text = text.replace("end_time = 60.0e-6", "end_time = 4.0e-6")
-    deck = tmp_path / "taylor.nml"
-    deck.write_text(text)
-    (tmp_path / "references").mkdir()
-    (tmp_path / "references" / "taylor_armco.json").write_text(
-        (CASES / "references" / "taylor_armco.json").read_text())
-    seen = []
-    original = checkpoint.save
-
-    def spy(sim, path):
-        seen.append(sim.cycle)
-        return original(sim, path)
-
-    checkpoint.save = spy
-    try:
-        summary = run(deck, tmp_path / "out", quiet=True)
-    finally:
-        checkpoint.save = original
-    assert summary["status"] == "completed"
-    assert len(seen) >= 2 and seen[0] < summary["cycles"]
-    with h5py.File(tmp_path / "out" / "checkpoint.h5") as h5:
-        assert h5.attrs["format"] == 3
-
-
 def _short_taylor(tmp_path, name, output=""):
     """The adaptive Taylor deck cut to 4 us (about 250 cycles, conversions
     from cycle 35 on) with one snapshot, extra &output keys appended."""
@@ -141,30 +109,52 @@ def _short_taylor(tmp_path, name, output=""):
     return deck
 
 
-def test_cycle_checkpoints_restart_bit_for_bit(tmp_path):
-    """checkpoint_cycles = 100: checkpoints at cycles 100 and 200 (then the
-    end snapshot's), the trajectory is the same as without them, and a
-    restart from the cycle-100 checkpoint ends in the same state, bit for
-    bit, as the uninterrupted run."""
+def _run_watching_checkpoints(deck, out, keep=None):
+    """Run `deck` into `out`; returns the summary and the cycles at which
+    checkpoints were written (each copied to keep/ckpt_<cycle>.h5 if keep
+    is given)."""
     import shutil
     from fsph.driver import run
-
-    plain = run(_short_taylor(tmp_path, "plain"), tmp_path / "plain", quiet=True)
-    deck = _short_taylor(tmp_path, "every", "  checkpoint_cycles = 100\n")
     seen = []
     original = checkpoint.save
 
     def spy(sim, path):
         written = original(sim, path)
         seen.append(sim.cycle)
-        shutil.copy(written, tmp_path / f"ckpt_{sim.cycle}.h5")
+        if keep is not None:
+            shutil.copy(written, keep / f"ckpt_{sim.cycle}.h5")
         return written
 
     checkpoint.save = spy
     try:
-        summary = run(deck, tmp_path / "every", quiet=True)
+        summary = run(deck, out, quiet=True)
     finally:
         checkpoint.save = original
+    return summary, seen
+
+
+def test_wall_clock_checkpoints(tmp_path):
+    """checkpoint_minutes: a checkpoint appears before the first snapshot is
+    due when the wall-clock interval is short (500-cycle granularity)."""
+    import h5py
+    deck = _short_taylor(tmp_path, "taylor", "  checkpoint_minutes = 1.0e-9\n")
+    summary, seen = _run_watching_checkpoints(deck, tmp_path / "out")
+    assert summary["status"] == "completed"
+    assert len(seen) >= 2 and seen[0] < summary["cycles"]
+    with h5py.File(tmp_path / "out" / "checkpoint.h5") as h5:
+        assert h5.attrs["format"] == 3
+
+
+def test_cycle_checkpoints_restart_bit_for_bit(tmp_path):
+    """checkpoint_cycles = 100: checkpoints at cycles 100 and 200 (then the
+    end snapshot's), the trajectory is the same as without them, and a
+    restart from the cycle-100 checkpoint ends in the same state, bit for
+    bit, as the uninterrupted run."""
+    from fsph.driver import run
+
+    plain = run(_short_taylor(tmp_path, "plain"), tmp_path / "plain", quiet=True)
+    deck = _short_taylor(tmp_path, "every", "  checkpoint_cycles = 100\n")
+    summary, seen = _run_watching_checkpoints(deck, tmp_path / "every", keep=tmp_path)
     assert summary["status"] == "completed"
     assert summary["cycles"] == plain["cycles"] > 200
     assert seen == [100, 200, summary["cycles"]]
