@@ -11,6 +11,7 @@ module fsph_element
                          status_eos_range
   use fsph_layouts, only: n_props, n_hist
   use fsph_material, only: material_update
+  use fsph_ordered, only: first_fault, merge_minimum
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
@@ -79,12 +80,7 @@ contains
       if (.not. (area(ie) > 0.0_wp)) ifault = min(ifault, ie)
     end do
     !$omp end parallel do
-    ierr = status_ok
-    if (ifault <= ne) then
-      ierr = status_inverted_element
-    else
-      ifault = 0
-    end if
+    call first_fault(ne, [ifault], [status_inverted_element], ierr, ifault)
   end subroutine element_geometry
 
   !> Strain rates (rr, zz, rz, tt; tensor components) and in-plane spin of
@@ -270,15 +266,8 @@ contains
         ifault_nan = min(ifault_nan, ie)
     end do
     !$omp end parallel do
-    ierr = status_ok
-    ifault = 0
-    if (ifault_inv <= ne) then
-      ierr = status_inverted_element; ifault = ifault_inv
-    else if (ifault_nan <= ne) then
-      ierr = status_nonfinite_element; ifault = ifault_nan
-    else if (ifault_eos <= ne) then
-      ierr = status_eos_range; ifault = ifault_eos
-    end if
+    call first_fault(ne, [ifault_inv, ifault_nan, ifault_eos], &
+                     [status_inverted_element, status_nonfinite_element, status_eos_range], ierr, ifault)
   end subroutine element_update
 
   !> Stable time step over all elements, dt_e = L_min/(Q + sqrt(Q^2 + c^2)),
@@ -312,10 +301,7 @@ contains
     end do
     !$omp end do
     !$omp critical (element_step_minimum)
-    if (t_i > 0 .and. (t_min < dt_min .or. (t_min == dt_min .and. t_i < icontrol))) then
-      dt_min = t_min
-      icontrol = t_i
-    end if
+    call merge_minimum(t_min, t_i, dt_min, icontrol)
     !$omp end critical (element_step_minimum)
     !$omp end parallel
   end subroutine element_time_step

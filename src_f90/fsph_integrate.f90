@@ -2,6 +2,7 @@
 module fsph_integrate
   use fsph_kinds, only: wp
   use fsph_status, only: status_ok, status_nonfinite_node
+  use fsph_ordered, only: first_fault
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
@@ -46,12 +47,7 @@ contains
                  ieee_is_finite(v(1, a)) .and. ieee_is_finite(v(2, a)))) ifault = min(ifault, a)
     end do
     !$omp end parallel do
-    ierr = status_ok
-    if (ifault <= nn) then
-      ierr = status_nonfinite_node
-    else
-      ifault = 0
-    end if
+    call first_fault(nn, [ifault], [status_nonfinite_node], ierr, ifault)
   end subroutine integrate_positions
 
 end module fsph_integrate

@@ -7,6 +7,7 @@ module fsph_particles
                          status_particle_axis
   use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc
   use fsph_material, only: material_update, eos_pressure, sound_speed
+  use fsph_ordered, only: first_fault
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use fsph_kernel, only: kernel_w, kernel_dwdr, in_support
   implicit none
@@ -81,15 +82,8 @@ contains
       if (.not. (ieee_is_finite(p(i)) .and. all(ieee_is_finite(s(:, i))))) f_nan = min(f_nan, i)
     end do
     !$omp end parallel do
-    ierr = status_ok
-    ifault = 0
-    if (f_axis <= n) then
-      ierr = status_particle_axis; ifault = f_axis
-    else if (f_nan <= n) then
-      ierr = status_nonfinite_particle; ifault = f_nan
-    else if (f_eos <= n) then
-      ierr = status_eos_range; ifault = f_eos
-    end if
+    call first_fault(n, [f_axis, f_nan, f_eos], [status_particle_axis, status_nonfinite_particle, status_eos_range], &
+                     ierr, ifault)
   end subroutine particle_state_update
 
   !> Final internal energy e = e_old + dt de (de from the mid-step stress)
@@ -131,13 +125,7 @@ contains
       if (.not. (ieee_is_finite(e(i)) .and. ieee_is_finite(p(i)))) f_nan = min(f_nan, i)
     end do
     !$omp end parallel do
-    ierr = status_ok
-    ifault = 0
-    if (f_nan <= n) then
-      ierr = status_nonfinite_particle; ifault = f_nan
-    else if (f_eos <= n) then
-      ierr = status_eos_range; ifault = f_eos
-    end if
+    call first_fault(n, [f_nan, f_eos], [status_nonfinite_particle, status_eos_range], ierr, ifault)
   end subroutine particle_energy_update
 
   !> Contact between particles of different bodies (in the spirit of

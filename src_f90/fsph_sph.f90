@@ -71,6 +71,7 @@
 module fsph_sph
   use fsph_kinds, only: wp, pi, two_pi
   use fsph_kernel, only: kernel_gradient_factor, in_support
+  use fsph_ordered, only: merge_minimum
   implicit none
   private
 
@@ -514,10 +515,7 @@ contains
     end do
     !$omp end do
     !$omp critical (particle_step_minimum)
-    if (t_i > 0 .and. (t_min < dt_min .or. (t_min == dt_min .and. t_i < icontrol))) then
-      dt_min = t_min
-      icontrol = t_i
-    end if
+    call merge_minimum(t_min, t_i, dt_min, icontrol)
     !$omp end critical (particle_step_minimum)
     !$omp end parallel
   end subroutine sph_time_step
