@@ -12,7 +12,7 @@ module fsph_convert
   use fsph_material, only: equivalent_stress
   use fsph_coupling, only: coupled_body, update_tie_masses, element_mean, element_smoothing_length, &
                            associate_particles, tie_new_particles, association_reach
-  use fsph_topology, only: element_across
+  use fsph_topology, only: edge_elements
   use fsph_remesh, only: remove_elements, remove_unused_nodes, mesh_changed
   implicit none
   private
@@ -248,7 +248,7 @@ contains
     integer, intent(in) :: continuum_of_body(:)
     logical, intent(in) :: convert(:)
     integer, intent(out) :: pending(:, :, :)
-    integer :: ie, i, k, a, b, other, slot, knew
+    integer :: ie, i, k, a, b, other, n_across, slot, knew
     real(wp) :: vbar(2), dke
     pending = 0
     knew = 0
@@ -292,7 +292,7 @@ contains
       do k = 1, 3
         a = el%conn(k, ie)
         b = el%conn(modulo(k, 3) + 1, ie)
-        other = element_across(nd, el, a, b, ie)
+        call edge_elements(nd, el, a, b, ie, n_across, other)   ! the element across edge (a, b)
         if (other == 0) cycle
         if (convert(other)) cycle
         if (slot == 2) cycle

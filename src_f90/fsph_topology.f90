@@ -7,7 +7,7 @@ module fsph_topology
   implicit none
   private
 
-  public :: rebuild_corner_map, nodal_masses, elements_with_edge, element_across
+  public :: rebuild_corner_map, nodal_masses, edge_elements, elements_with_edge
 
 contains
 
@@ -56,35 +56,35 @@ contains
     nd%mass_total = nd%mass + nd%mass_tie
   end subroutine nodal_masses
 
-  !> Number of elements, other than `except`, that have both nodes a and b.
-  integer function elements_with_edge(nd, el, a, b, except) result(count)
+  !> The elements other than `except` (0: none excepted) that have both
+  !> nodes a and b, i.e. the edge (a, b): how many (count) and the first in
+  !> the corner list of a (first, 0 if none).
+  subroutine edge_elements(nd, el, a, b, except, count, first)
     type(node_set_t), intent(in) :: nd
     type(element_set_t), intent(in) :: el
     integer, intent(in) :: a, b, except
+    integer, intent(out) :: count, first
     integer :: k, ie
     count = 0
-    do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
-      ie = (nd%corner_list(k) - 1)/3 + 1
-      if (ie == except) cycle
-      if (any(el%conn(:, ie) == b)) count = count + 1
-    end do
-  end function elements_with_edge
-
-  !> The element other than `except` that has edge (a, b), 0 if none.
-  integer function element_across(nd, el, a, b, except) result(other)
-    type(node_set_t), intent(in) :: nd
-    type(element_set_t), intent(in) :: el
-    integer, intent(in) :: a, b, except
-    integer :: k, ie
-    other = 0
+    first = 0
     do k = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
       ie = (nd%corner_list(k) - 1)/3 + 1
       if (ie == except) cycle
       if (any(el%conn(:, ie) == b)) then
-        other = ie
-        return
+        count = count + 1
+        if (first == 0) first = ie
       end if
     end do
-  end function element_across
+  end subroutine edge_elements
+
+  !> Number of elements, other than `except`, that have edge (a, b)
+  !> (0: a surface edge of `except`).
+  integer function elements_with_edge(nd, el, a, b, except) result(count)
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
+    integer, intent(in) :: a, b, except
+    integer :: first
+    call edge_elements(nd, el, a, b, except, count, first)
+  end function elements_with_edge
 
 end module fsph_topology
