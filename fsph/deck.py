@@ -9,6 +9,7 @@ source of the deck reference (``docs/decks.md`` is generated from it by
 
 import copy
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -595,6 +596,60 @@ def _groups(nml):
     return out
 
 
+def _group_openings(text):
+    """The namelist structure of a deck's text, outside strings and
+    comments: a list of (kind, group name or None, line), kind 'open'
+    (&name or $name) or 'close' (/, &end or $end)."""
+    events, line, k, n = [], 1, 0, len(text)
+    while k < n:
+        c = text[k]
+        if c == "\n":
+            line += 1
+        elif c == "!":                                   # comment to the end of the line
+            while k < n and text[k] != "\n":
+                k += 1
+            continue
+        elif c in "'\"":                                # string; a doubled quote stays inside
+            k += 1
+            while k < n and not (text[k] == c and text[k + 1:k + 2] != c):
+                if text[k] == c:
+                    k += 1
+                line += text[k] == "\n"
+                k += 1
+        elif c == "/":
+            events.append(("close", None, line))
+        elif c in "&$":
+            m = re.match(r"[A-Za-z_]\w*", text[k + 1:])
+            name = m.group(0).lower() if m else ""
+            events.append(("close" if name == "end" else "open", name, line))
+            k += len(name)
+        k += 1
+    return events
+
+
+def _check_group_bounds(path, text):
+    """Every group is closed by '/' before the next one opens: a missing
+    '/' would otherwise let the group swallow the next one, which the
+    namelist reader drops without a word."""
+    seen, current = {}, None
+    for kind, name, line in _group_openings(text):
+        if kind == "close":
+            current = None
+            continue
+        seen[name] = seen.get(name, 0) + 1
+        group = SCHEMA.get(name)
+        label = _group_label(name, group, seen[name] - 1) if group else name
+        if current is not None:
+            raise DeckError(path, current[0], None,
+                            f"a '/' closing &{current[0]} (opened on line {current[1]}) before "
+                            f"the next group", f"&{label} on line {line} inside it")
+        current = (label, line)
+    if current is not None:
+        raise DeckError(path, current[0], None,
+                        f"a '/' closing &{current[0]} (opened on line {current[1]})",
+                        "the end of the file")
+
+
 def _parse(path):
     path = Path(path)
     if not path.is_file():
@@ -606,6 +661,7 @@ def _parse(path):
     if "&" not in text:
         raise DeckError(path, None, None, "at least one namelist group (&control ... /)",
                         "no namelist group")
+    _check_group_bounds(path, text)
     try:
         parser = f90nml.Parser()
         nml = parser.reads(text)

@@ -74,6 +74,12 @@ BAD_DECKS = {
     "checkpoint_cycles_without_checkpoint": (
         rod_deck(output="checkpoint = .false.\n checkpoint_cycles = 100"),
         ["&output", "'checkpoint_cycles'", "when checkpoint = .false.", "100"]),
+    "group_swallows_the_next": (rod_deck().replace(" velocity_z = -50.0\n \n/\n",
+                                                   " velocity_z = -50.0\n \n"),
+                                ["&body #1", "a '/' closing &body #1 (opened on line 11)",
+                                 "&output on line 20 inside it"]),
+    "group_never_closed": (rod_deck().rstrip()[:-1],
+                           ["&boundary #1", "a '/' closing &boundary #1", "the end of the file"]),
     "zero_normal": (rod_deck().replace("normal = 0.0, 1.0", "normal = 0.0, 0.0"),
                     ["&boundary #1", "'normal'", "non-zero"]),
 }
