@@ -228,9 +228,13 @@ def _ident(name):
     return name.replace("/", "_")
 
 
-def fortran_source():
-    """The text of fsph_layouts.f90."""
-    out = ["!> GENERATED at build time from fsph/layouts.py: edit that file, not this one.",
+_GENERATED = "!> GENERATED at build time from fsph/layouts.py: edit that file, not this one."
+
+
+def fortran_status_source():
+    """The text of fsph_status.f90 (one module a file: build tools track
+    a Fortran file by the module it provides)."""
+    out = [_GENERATED,
            "!> Status codes returned by kernels and by the API. Nothing in the library",
            "!> stops the process: every failure travels back as one of these codes plus",
            "!> the index of the element (> 0), particle (< 0) or node at fault.",
@@ -238,14 +242,20 @@ def fortran_source():
     for code, name, index, text in STATUS:
         out.append(f"  !> {text} (index: {index})")
         out.append(f"  integer, parameter, public :: status_{name} = {code}")
-    out += ["end module fsph_status", "",
-            "!> Layouts shared with Python (fsph/layouts.py): phases, history columns,",
-            "!> checkpoint arrays and scalars, material properties, history and",
-            "!> model ids, conversion criteria, snapshot rows.",
-            "module fsph_layouts", "  implicit none", "  private",
-            f"  !> digest of the layouts (fsph.layouts.digest), checked by Python at set-up",
-            f"  integer, parameter, public :: layout_digest = {digest()}",
-            "  ! timed phases of the cycle"]
+    out.append("end module fsph_status")
+    return "\n".join(out) + "\n"
+
+
+def fortran_source():
+    """The text of fsph_layouts.f90."""
+    out = [_GENERATED,
+           "!> Layouts shared with Python (fsph/layouts.py): phases, history columns,",
+           "!> checkpoint arrays and scalars, material properties, history and",
+           "!> model ids, conversion criteria, snapshot rows.",
+           "module fsph_layouts", "  implicit none", "  private",
+           f"  !> digest of the layouts (fsph.layouts.digest), checked by Python at set-up",
+           f"  integer, parameter, public :: layout_digest = {digest()}",
+           "  ! timed phases of the cycle"]
     out += _constants("phase_", [n for n, _ in PHASES], [d for _, d in PHASES], count="n_phases")
     out.append("  ! columns of a time-history record; energy_first..history_columns: the budget")
     out += _constants("hcol_", [n for n, _, _ in HISTORY_COLUMNS],
@@ -280,5 +290,7 @@ def fortran_source():
 
 
 if __name__ == "__main__":
-    with open(sys.argv[1], "w", encoding="utf-8") as f:
-        f.write(fortran_source())
+    # python layouts.py fsph_status.f90 fsph_layouts.f90 (meson, at build time)
+    for target, text in zip(sys.argv[1:3], (fortran_status_source(), fortran_source())):
+        with open(target, "w", encoding="utf-8") as f:
+            f.write(text)

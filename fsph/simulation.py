@@ -8,6 +8,7 @@ from . import layouts
 from . import mesh as mesh_module
 from .errors import DeckError, FsphError, SimulationError
 from .materials import property_table
+from .startup import check_starting_state
 try:
     from ._core import fsph_api as _api
 except ImportError as exc:  # importing the source folder instead of the installed package
@@ -82,6 +83,7 @@ class Simulation:
             (elem_bodies if b["discretisation"] == "elements" else part_bodies).append(
                 (ib, b, geometry, mat))
 
+        check_starting_state(deck, [(ib, geometry) for ib, _, geometry, _ in elem_bodies + part_bodies])
         if elem_bodies:
             self._set_elements(elem_bodies)
         if part_bodies:

@@ -80,6 +80,14 @@ BAD_DECKS = {
                                  "&output on line 20 inside it"]),
     "group_never_closed": (rod_deck().rstrip()[:-1],
                            ["&boundary #1", "a '/' closing &boundary #1", "the end of the file"]),
+    "body_across_plane": (rod_deck(body="z_base = -1.0e-3"),
+                          ["&body #1", "'rod' in front of &boundary #1", "part of it behind the plane",
+                           "1 mm deep"]),
+    "body_behind_plane": (rod_deck(body="z_base = -9.0e-3"),
+                          ["&body #1", "'rod' in front of &boundary #1", "all of it behind the plane"]),
+    "bodies_overlap": (rod_deck() + "&body\n name = 'cap'\n material = 'steel'\n radius = 1.0e-3\n"
+                       " length = 1.0e-3\n z_base = 3.5e-3\n n_radial = 3\n n_axial = 3\n/\n",
+                       ["&body #1", "'rod' clear of &body #2 ('cap')", "of its cells inside it"]),
     "zero_normal": (rod_deck().replace("normal = 0.0, 1.0", "normal = 0.0, 0.0"),
                     ["&boundary #1", "'normal'", "non-zero"]),
 }

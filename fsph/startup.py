@@ -1,0 +1,111 @@
+"""Checks of the starting state, made before the first cycle: no body
+without mass, no body crossing or behind a rigid plane, no two bodies
+overlapping. Each failure is a DeckError naming the bodies (and the plane),
+with where it happens; a deck that fails them would otherwise run to its end
+with a large energy error.
+
+Overlap means that an interior point of one body (an element's centroid or
+a particle's centre) lies inside another body: inside one of its triangles,
+or within half a cell spacing of one of its particles. Bodies that only
+touch (a projectile resting on a plate, joined bodies) pass: their interior
+points stay at least half a cell away from the other body."""
+
+import numpy as np
+from matplotlib.tri import Triangulation
+from scipy.spatial import cKDTree
+
+from .errors import DeckError
+from .mesh import Mesh, ring_volume
+
+#: Relative tolerance of "behind a plane", a fraction of the body's size [-].
+PLANE_TOLERANCE = 1e-9
+
+
+def _where(x):
+    return f"r = {1e3 * x[0]:.4g} mm, z = {1e3 * x[1]:.4g} mm"
+
+
+class _Body:
+    """One body's starting discretisation seen as a region: its points on
+    the boundary or beyond (nodes or particle centres), its interior points
+    (centroids or particle centres), and a test of whether points lie
+    inside it."""
+
+    def __init__(self, index, spec, disc):
+        self.index, self.name = index, spec["name"]
+        self.label = f"body #{index + 1}"
+        self.is_mesh = isinstance(disc, Mesh)
+        if self.is_mesh:
+            self.points = disc.x
+            self.interior = disc.x[disc.conn].mean(axis=1)
+            self.mass_volume = ring_volume(disc)
+            self._tri = Triangulation(disc.x[:, 0], disc.x[:, 1], disc.conn)
+        else:
+            self.points = self.interior = disc.x
+            self.mass_volume = disc.ring_volume.sum()
+            self._tree = cKDTree(disc.x)
+            self._half = 0.5 * disc.spacing
+        # the region: a particle stands for a cell about its centre
+        reach = 0.0 if self.is_mesh else self._half[:, None]
+        self.lo, self.hi = (self.points - reach).min(axis=0), (self.points + reach).max(axis=0)
+        self.size = float(np.max(self.hi - self.lo))
+
+    def contains(self, x):
+        """Which of the points x (n, 2) lie inside this body."""
+        if self.is_mesh:
+            return self._tri.get_trifinder()(x[:, 0], x[:, 1]) >= 0
+        dist, k = self._tree.query(x)
+        return dist < self._half[k]
+
+    def boxes_meet(self, other):
+        return bool(np.all(self.lo < other.hi) and np.all(other.lo < self.hi))
+
+
+def _check_mass(path, body):
+    if not body.mass_volume > 0.0:
+        raise DeckError(path, body.label, None, f"a body with mass ('{body.name}': its ring "
+                        "volume 2 pi r A summed over its cells is zero, all of it on the axis "
+                        "r = 0?)", f"{body.mass_volume:g} m^3")
+
+
+def _check_planes(path, body, boundaries):
+    for k, bc in enumerate(boundaries):
+        n = np.asarray(bc["normal"], float)
+        n = n / np.linalg.norm(n)
+        depth = (body.points - np.asarray(bc["point"], float)) @ n
+        worst = int(np.argmin(depth))
+        if depth[worst] < -PLANE_TOLERANCE * body.size:
+            raise DeckError(path, body.label, None,
+                            f"'{body.name}' in front of &boundary #{k + 1} (the rigid plane "
+                            f"through {list(bc['point'])} m facing along {list(bc['normal'])})",
+                            f"{'all' if depth.max() < 0 else 'part'} of it behind the plane, "
+                            f"{1e3 * -depth[worst]:.4g} mm deep at {_where(body.points[worst])}")
+
+
+def _check_overlap(path, a, b):
+    """Interior points of either body inside the other."""
+    if not a.boxes_meet(b):
+        return
+    for inner, outer in ((a, b), (b, a)):
+        inside = outer.contains(inner.interior)
+        if inside.any():
+            first = inner.interior[np.flatnonzero(inside)[0]]
+            raise DeckError(path, inner.label, None,
+                            f"'{inner.name}' clear of &{outer.label} ('{outer.name}') at the "
+                            "start (bodies may touch, not overlap)",
+                            f"{int(inside.sum())} of its cells inside it, the first at "
+                            f"{_where(first)}")
+
+
+def check_starting_state(deck, discretisations):
+    """Raise a DeckError if a body has no mass, lies behind or across a
+    rigid plane, or overlaps another body. discretisations: (body index,
+    Mesh or ParticleLattice) for every body."""
+    path = deck.get("path", "deck")
+    bodies = [_Body(ib, deck["body"][ib], disc) for ib, disc in discretisations]
+    for body in bodies:
+        _check_mass(path, body)
+        _check_planes(path, body, deck["boundary"])
+    for i, a in enumerate(bodies):
+        for b in bodies[i + 1:]:
+            _check_overlap(path, a, b)
