@@ -8,12 +8,16 @@ source of the deck reference (``docs/decks.md`` is generated from it by
 """
 
 import copy
+import hashlib
+import json
 import math
+import numbers
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import f90nml
+import numpy as np
 
 from . import layouts
 from .errors import DeckError
@@ -498,24 +502,26 @@ def _coerce(path, gname, kname, key, value):
     """Check the type of one raw value and return it in Python form."""
     expected = _type_name(key.kind)
     if key.kind == "float":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise DeckError(path, gname, kname, expected, value)
         value = float(value)
         if not math.isfinite(value):
             raise DeckError(path, gname, kname, "a finite real number", value)
     elif key.kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
             raise DeckError(path, gname, kname, expected, value)
+        value = int(value)
     elif key.kind == "str":
         if not isinstance(value, str):
             raise DeckError(path, gname, kname, expected, value)
         value = value.strip()
     elif key.kind == "bool":
-        if not isinstance(value, bool):
+        if not isinstance(value, (bool, np.bool_)):
             raise DeckError(path, gname, kname, expected, value)
+        value = bool(value)
     elif key.kind == "float2":
-        if (not isinstance(value, list) or len(value) != 2
-                or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value)):
+        if (not isinstance(value, (list, tuple)) or len(value) != 2
+                or any(isinstance(v, bool) or not isinstance(v, numbers.Real) for v in value)):
             raise DeckError(path, gname, kname, expected, value)
         value = tuple(float(v) for v in value)
         if not all(math.isfinite(v) for v in value):
@@ -807,12 +813,56 @@ def load(path):
     """Read and validate a deck; returns a dict of groups (lists for the
     repeatable ones) with defaults filled in."""
     path = Path(path)
-    raw = _parse(path)
+    return _validate(_parse(path), path, path.resolve().parent)
+
+
+def from_groups(groups, name="<dict>", folder=None):
+    """Validate a deck given as a dict: group name -> dict of keys (a list
+    of dicts for a repeatable group such as body), the keys and values as
+    in a namelist file; relative paths (references, meshes) from `folder`
+    (default the current folder). Returns what load returns; errors name
+    `name`."""
+    if not isinstance(groups, dict):
+        raise DeckError(name, None, None, "a dict of namelist groups", type(groups).__name__)
+    raw = {}
+    for gname, value in groups.items():
+        items = list(value) if isinstance(value, (list, tuple)) else [value]
+        for item in items:
+            if not isinstance(item, dict):
+                raise DeckError(name, str(gname), None, "a dict of keys (a list of dicts for a "
+                                "repeatable group)", type(item).__name__)
+        raw.setdefault(str(gname).lower(), []).extend(
+            {str(k).lower(): v for k, v in item.items() if v is not None} for item in items)
+    return _validate(raw, Path(name), Path(folder) if folder is not None else Path.cwd())
+
+
+def _fingerprint(deck):
+    """Digest of a deck's groups (what a Simulation is built from)."""
+    groups = {g: deck[g] for g in SCHEMA if g in deck}
+    return hashlib.sha256(json.dumps(groups, sort_keys=True, default=repr).encode()).hexdigest()
+
+
+def checked(deck):
+    """`deck` itself if it is a validated deck unchanged since validation;
+    otherwise its groups validated again (a dict built by hand, or a
+    loaded deck whose values were changed), as from_groups does."""
+    if isinstance(deck, dict) and deck.get("fingerprint") == _fingerprint(deck):
+        return deck
+    if not isinstance(deck, dict):
+        raise DeckError("<deck>", None, None, "a deck dict (fsph.deck.load or from_groups)",
+                        type(deck).__name__)
+    groups = {g: deck[g] for g in SCHEMA if g in deck}
+    return from_groups(copy.deepcopy(groups), deck.get("path", "<dict>"), deck.get("dir"))
+
+
+def _validate(raw, path, folder):
+    """The deck of raw groups (name -> list of dicts of raw values), read
+    from `path`, relative paths from `folder`."""
     for gname in raw:
         if gname not in SCHEMA:
             raise DeckError(path, gname, None, "one of the groups "
                             + ", ".join("&" + g for g in SCHEMA), "unknown group")
-    deck = {"path": str(path), "dir": str(path.resolve().parent), "warnings": []}
+    deck = {"path": str(path), "dir": str(folder), "warnings": []}
     for gname, group in SCHEMA.items():
         items = raw.get(gname, [])
         if group.required and not items:
@@ -835,6 +885,7 @@ def load(path):
             deck[gname] = _read_group(path, gname, group, items[0] if items else {}, 0)
 
     _cross_check(path, deck)
+    deck["fingerprint"] = _fingerprint(deck)
     return deck
 
 

@@ -1,6 +1,8 @@
 """`Simulation`: set up the Fortran state from a validated deck, advance it,
 take snapshots. The Fortran side is reached only through ``fsph._core``."""
 
+import math
+
 import numpy as np
 
 from . import deck as deck_module
@@ -49,10 +51,13 @@ def _check_layout():
 
 
 class Simulation:
-    """One run. Build with `Simulation.from_deck(path)` or `Simulation(deck_dict)`."""
+    """One run. Build with `Simulation.from_deck(path)`, `Simulation.from_dict(groups)` or
+    `Simulation(deck)` (a deck from fsph.deck.load; changed or hand-built ones are validated)."""
 
     def __init__(self, deck):
         _check_layout()
+        # a dict built by hand, or a loaded deck changed since, is validated as a deck is
+        deck = deck_module.checked(deck)
         self.deck = deck
         self.control = deck["control"]
         materials = deck["material"]
@@ -183,7 +188,15 @@ class Simulation:
 
     @classmethod
     def from_deck(cls, path):
+        """The run of the namelist deck at `path`."""
         return cls(deck_module.load(path))
+
+    @classmethod
+    def from_dict(cls, groups, name="<dict>"):
+        """The run of a deck given as a dict (group -> keys, a list of
+        dicts for repeatable groups; fsph.deck.from_groups), validated
+        exactly as a deck file is."""
+        return cls(deck_module.from_groups(groups, name))
 
     # ------------------------------------------------------------------
     @staticmethod
@@ -229,11 +242,18 @@ class Simulation:
         keeps the stable step and stops at the first cycle end at or after t
         (outputs then do not alter the trajectory). With partial=True at most
         max_cycles cycles are run and reaching that number is not an error
-        (the deck's max_cycles still is)."""
+        (the deck's max_cycles still is). A t at or before the current time
+        does nothing; a t that is not a finite number >= 0 is refused."""
+        try:
+            t = float(t)
+        except (TypeError, ValueError):
+            raise FsphError(f"advance: expected a time in seconds, got {t!r}") from None
+        if not (math.isfinite(t) and t >= 0.0):
+            raise FsphError(f"advance: expected a finite time >= 0 s, got {t!r}")
         limit = self.control["max_cycles"] - self.cycle
         if max_cycles is None or not partial:
             max_cycles = limit if max_cycles is None else max_cycles
-        ierr, ifault = _api.advance(self._run, float(t), int(max(min(max_cycles, limit), 0)), int(bool(land)))
+        ierr, ifault = _api.advance(self._run, t, int(max(min(max_cycles, limit), 0)), int(bool(land)))
         if ierr == STATUS_MAX_CYCLES and partial and self.cycle < self.control["max_cycles"]:
             return
         if ierr != STATUS_OK:
