@@ -5,18 +5,29 @@ for bit (same thread count). Files are written to a temporary name and
 renamed: a crash mid-write never leaves a torn checkpoint."""
 
 import hashlib
+import json
 import os
 from pathlib import Path
 
 import h5py
 import numpy as np
 
+from . import deck as deck_module
 from . import layouts
-from .errors import FsphError
+from .errors import DeckError, FsphError
 from .simulation import STATUS_OK, _api
 
-#: 3: datasets and scalars named (fsph.layouts), not numbered
-FORMAT = 3
+#: 3: datasets and scalars named (fsph.layouts), not numbered; 4: the deck
+#: and the starting mesh's counts recorded (a restart from another deck is
+#: refused), and the run's books (the largest energy error so far)
+FORMAT = 4
+
+#: What a restart may change in the deck: these keys of &control, and the
+#: whole of &output and &metrics. Everything else must be as in the
+#: checkpoint's deck.
+RESTART_MAY_CHANGE = {"control": ("title", "end_time", "max_cycles", "energy_error_warning",
+                                  "energy_error_limit"),
+                      "output": None, "metrics": None}
 _REAL, _INT = 1, 2    # the solver's kinds of state array
 
 
@@ -80,13 +91,56 @@ def _scalars(sim):
     return r, i
 
 
-def save(sim, path):
-    """Write the state of `sim` to `path` (HDF5)."""
+def _restart_identity(deck):
+    """The deck's groups a restart must keep (all but RESTART_MAY_CHANGE),
+    as plain JSON values."""
+    out = {}
+    for gname, value in deck.items():
+        if gname not in deck_module.SCHEMA or (gname in RESTART_MAY_CHANGE
+                                               and RESTART_MAY_CHANGE[gname] is None):
+            continue
+        free = RESTART_MAY_CHANGE.get(gname, ())
+        items = value if isinstance(value, list) else [value]
+        out[gname] = [{k: v for k, v in item.items() if k not in free} for item in items]
+    return json.loads(json.dumps(out, default=repr))
+
+
+def _check_same_deck(sim, h5, path):
+    """The deck of `sim` is the checkpoint's but for what a restart may
+    change; the starting mesh has the checkpoint's counts."""
+    ours, theirs = _restart_identity(sim.deck), json.loads(h5.attrs["deck"])
+    where = sim.deck.get("path", "<deck>")
+    may = ("&control " + ", ".join(RESTART_MAY_CHANGE["control"]) + ", &output and &metrics")
+    for gname in sorted(set(ours) | set(theirs)):
+        a, b = theirs.get(gname, []), ours.get(gname, [])
+        if len(a) != len(b):
+            raise DeckError(where, gname, None, f"{len(a)} &{gname} group(s) as in the deck of "
+                            f"the checkpoint {path} (a restart may change only {may})", len(b))
+        for k, (old, new) in enumerate(zip(a, b)):
+            label = f"{gname} #{k + 1}" if isinstance(sim.deck[gname], list) else gname
+            for key in sorted(set(old) | set(new)):
+                if old.get(key) != new.get(key):
+                    raise DeckError(where, label, key, f"{old.get(key)!r} as in the deck of the "
+                                    f"checkpoint {path} (a restart may change only {may})",
+                                    new.get(key))
+    counts = [sim.n_nodes0, sim.n_elements0, sim.n_particles0]
+    if list(h5.attrs["counts0"]) != counts:
+        raise DeckError(where, None, None, f"a starting mesh of {list(h5.attrs['counts0'])} "
+                        f"nodes, elements and particles as the checkpoint {path}'s", counts)
+
+
+def save(sim, path, books=None):
+    """Write the state of `sim` to `path` (HDF5), with the deck it was set
+    up from and `books` (a JSON-able dict the caller gets back from
+    restore: the driver's largest energy error so far)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     r, i = _scalars(sim)
     with h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = FORMAT
+        h5.attrs["deck"] = json.dumps(_restart_identity(sim.deck))
+        h5.attrs["counts0"] = np.array([sim.n_nodes0, sim.n_elements0, sim.n_particles0])
+        h5.attrs["books"] = json.dumps(books or {})
         h5.attrs["initial_energy"] = sim.initial_energy
         h5.attrs["n_elements0"] = sim.n_elements0
         h5["particle_radius0"] = sim.particle_radius0
@@ -109,7 +163,8 @@ def _read_scalars(h5, path):
     missing = [n for n in layouts.CHECKPOINT_REAL_SCALARS + layouts.CHECKPOINT_INT_SCALARS
                if n not in attrs]
     if missing:
-        raise FsphError(f"{path}: checkpoint lacks the scalars {', '.join(missing)}")
+        raise DeckError(path, None, None, "a checkpoint with every scalar of fsph.layouts",
+                        "none for " + ", ".join(missing))
     return (np.array([attrs[n] for n in layouts.CHECKPOINT_REAL_SCALARS], dtype=np.float64),
             np.array([attrs[n] for n in layouts.CHECKPOINT_INT_SCALARS], dtype=np.int32))
 
@@ -121,32 +176,37 @@ def _restore_arrays(sim, h5, path):
     h5["state"].visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
     for name in names:
         if name not in known:
-            raise FsphError(f"{path}: unknown state array '{name}' (written by another fsph version?)")
+            raise DeckError(path, None, None, "state arrays of fsph.layouts (written by another "
+                            "fsph version?)", name)
         if not _write_state_array(sim, name, h5["state"][name][...]):
-            raise FsphError(f"{path}: state array '{name}' does not fit this deck "
-                            "(was the checkpoint written from another deck?)")
+            raise DeckError(path, None, None, f"a state array '{name}' that fits this deck",
+                            "another shape")
 
 
 def restore(sim, path):
-    """Replace the state of `sim` (set up from the same deck) by the
-    checkpoint at `path`."""
+    """Replace the state of `sim` by the checkpoint at `path`, written from
+    the same deck (but for RESTART_MAY_CHANGE; a DeckError names what
+    differs). Returns the books given to save."""
     path = Path(path)
     try:
         h5 = h5py.File(path, "r")
     except OSError as exc:
-        raise FsphError(f"{path}: expected an fsph checkpoint (HDF5): {exc}") from None
+        raise DeckError(path, None, None, "an fsph checkpoint (HDF5)", str(exc)) from None
     with h5:
         if h5.attrs.get("format") != FORMAT:
-            raise FsphError(f"{path}: expected an fsph checkpoint of format {FORMAT}")
+            raise DeckError(path, None, None, f"an fsph checkpoint of format {FORMAT}",
+                            h5.attrs.get("format"))
+        _check_same_deck(sim, h5, path)
         nn, ne, np_, cap, n_edges = (int(v) for v in h5.attrs["sizes"])
         r, i = _read_scalars(h5, path)
         if _api.restore_begin(sim._run, nn, ne, np_, cap, n_edges, r, i) != STATUS_OK:
-            raise FsphError(f"{path}: checkpoint scalars do not fit this build")
+            raise DeckError(path, None, None, "checkpoint scalars that fit this build", "others")
         _restore_arrays(sim, h5, path)
         _api.restore_end(sim._run)
         sim.initial_energy = float(h5.attrs["initial_energy"])
         sim.n_elements0 = int(h5.attrs["n_elements0"])
         sim.particle_radius0 = h5["particle_radius0"][...]
+        return json.loads(h5.attrs["books"])
 
 
 def state_digest(sim):

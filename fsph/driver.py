@@ -16,7 +16,7 @@ from . import checkpoint as checkpoint_module
 from . import deck as deck_module
 from . import layouts
 from . import metrics as metrics_module
-from .errors import FsphError, SimulationError
+from .errors import DeckError, FsphError, SimulationError
 from .output import RunWriter, write_summary
 from .simulation import Simulation, threads
 
@@ -195,18 +195,42 @@ class _Setup:
     writer: RunWriter
 
 
+def _restart(sim, deck, restart, outdir):
+    """Restore `sim` from the checkpoint `restart`; returns the output
+    folder of the continuation and the books the checkpoint kept. The deck
+    must end after the checkpoint; the continuation writes into a folder
+    of its own (default: restart_<cycle> beside the checkpoint), so the
+    outputs before the checkpoint are never overwritten."""
+    books = checkpoint_module.restore(sim, restart)
+    end_time = deck["control"]["end_time"]
+    if not end_time > sim.time:
+        raise DeckError(deck["path"], "control", "end_time", f"a time after the checkpoint's "
+                        f"t = {sim.time:.6g} s ({restart})", end_time)
+    outdir = Path(outdir) if outdir else Path(restart).parent / f"restart_{sim.cycle:07d}"
+    earlier = [name for name in ("fsph.h5", "summary.json", "checkpoint.h5") if (outdir / name).exists()]
+    if earlier:
+        raise DeckError(restart, None, None, "an output folder for the continuation that "
+                        "holds no earlier run (a restart never overwrites one; give -o)",
+                        f"{outdir} with {', '.join(earlier)}")
+    return outdir, books
+
+
 def _set_up(deck_path, outdir, restart):
     """Load the deck and its reference, set up the simulation (restored
     from the checkpoint `restart` unless None) and open the writer."""
     deck_path = Path(deck_path)
     deck = deck_module.load(deck_path)
     reference = _load_reference(deck)
-    outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
     sim = Simulation(deck)
+    books = {}
     if restart is not None:
-        checkpoint_module.restore(sim, restart)
+        outdir, books = _restart(sim, deck, restart, outdir)
+    outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
     writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
                        vtu=deck["output"]["vtu"])
+    writer.energy0 = sim.initial_energy
+    writer.max_energy_error = books.get("max_energy_error", 0.0)
+    writer.max_energy_error_time = books.get("max_energy_error_time", 0.0)
     return _Setup(deck_path, deck, reference, outdir, sim, writer)
 
 
@@ -276,12 +300,14 @@ class _Checkpoints:
     cycles: int
     minutes: float
     last: float
+    writer: RunWriter
 
     @classmethod
-    def from_output(cls, path, out):
-        """From the deck's &output, the clock started now."""
+    def from_output(cls, path, out, writer):
+        """From the deck's &output, the clock started now; `writer` keeps
+        the books a restart carries on (the largest energy error)."""
         return cls(path, out["checkpoint"], out["checkpoint_cycles"] if out["checkpoint"] else 0,
-                   out["checkpoint_minutes"], wallclock.perf_counter())
+                   out["checkpoint_minutes"], wallclock.perf_counter(), writer)
 
     def due(self, cycle0, cycle):
         """Whether a call that went from cycle0 to cycle ends on a multiple
@@ -291,7 +317,9 @@ class _Checkpoints:
                         and wallclock.perf_counter() - self.last >= 60.0 * self.minutes))
 
     def save(self, sim):
-        checkpoint_module.save(sim, self.path)
+        checkpoint_module.save(sim, self.path, {
+            "max_energy_error": self.writer.max_energy_error,
+            "max_energy_error_time": self.writer.max_energy_error_time})
         self.last = wallclock.perf_counter()
 
 
@@ -320,8 +348,10 @@ def _stop_on_signal(say, sim, signum, checkpoints, bar):
         bar.close()
     if checkpoints.enabled:
         checkpoints.save(sim)
-    say(f"fsph: {name} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: "
-        f"stopped; restart with --restart {checkpoints.path}")
+        then = f"restart with --restart {checkpoints.path}"
+    else:
+        then = "no checkpoint (&output checkpoint = .false.), the run cannot be continued"
+    say(f"fsph: {name} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}: stopped; {then}")
     return name
 
 
@@ -502,9 +532,9 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
     _print_banner(say, setup, restart, kind == "lines")
     books = _Books()
     books.record(setup.sim, setup.deck, setup.writer)
-    setup.writer.energy0 = setup.sim.initial_energy
     setup.writer.append_history(setup.sim.drain_history())
-    checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"])
+    checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"],
+                                           setup.writer)
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None
     _advance(say, setup, books, checkpoints, bar, kind == "lines", t_wall0)

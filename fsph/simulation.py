@@ -109,6 +109,7 @@ class Simulation:
         # radii at set-up (a snapshot's radius0 for the particles present then)
         self.particle_radius0 = self._raw_snapshot()["particle_fields"][:, _PF["radius"]].copy()
         self.n_elements0 = self.n_elements
+        self.n_nodes0, self.n_particles0 = self.n_nodes, self.n_particles
 
     def __del__(self):
         # free this run's state in the solver (other runs are untouched)

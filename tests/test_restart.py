@@ -118,8 +118,8 @@ def _run_watching_checkpoints(deck, out, keep=None):
     seen = []
     original = checkpoint.save
 
-    def spy(sim, path):
-        written = original(sim, path)
+    def spy(sim, path, *books):
+        written = original(sim, path, *books)
         seen.append(sim.cycle)
         if keep is not None:
             shutil.copy(written, keep / f"ckpt_{sim.cycle}.h5")
@@ -142,7 +142,7 @@ def test_wall_clock_checkpoints(tmp_path):
     assert summary["status"] == "completed"
     assert len(seen) >= 2 and seen[0] < summary["cycles"]
     with h5py.File(tmp_path / "out" / "checkpoint.h5") as h5:
-        assert h5.attrs["format"] == 3
+        assert h5.attrs["format"] == checkpoint.FORMAT
 
 
 def test_cycle_checkpoints_restart_bit_for_bit(tmp_path):
@@ -167,11 +167,89 @@ def test_cycle_checkpoints_restart_bit_for_bit(tmp_path):
 
     resumed = run(deck, tmp_path / "resumed", quiet=True, restart=tmp_path / "ckpt_100.h5")
     assert resumed["status"] == "completed" and resumed["cycles"] == plain["cycles"]
+    # the largest energy error of the whole run, the part before the checkpoint included
+    for key in ("max_relative_error", "max_relative_error_time_s", "relative_error"):
+        assert resumed["energy"][key] == plain["energy"][key], key
     a, b, c = (_final_arrays(tmp_path / d) for d in ("plain", "every", "resumed"))
     assert a.keys() == b.keys() == c.keys() and "p_x" in a
     for key in a:
         assert np.array_equal(a[key], b[key]), key
         assert np.array_equal(a[key], c[key]), key
+
+
+def test_largest_energy_error_survives_a_restart(tmp_path):
+    """The largest energy error before the checkpoint (booked in it) is the
+    whole run's largest when the continuation stays below it: summary and
+    warning report it, at its time."""
+    from fsph.driver import run
+    deck = _short_taylor(tmp_path, "taylor")
+    sim = fsph.Simulation.from_deck(deck)
+    sim.advance(1.0e-6)
+    path = checkpoint.save(sim, tmp_path / "ckpt.h5",
+                           {"max_energy_error": -0.2, "max_energy_error_time": 0.5e-6})
+    summary = run(deck, tmp_path / "resumed", quiet=True, restart=path)
+    assert summary["status"] == "completed"
+    energy = summary["energy"]
+    assert energy["max_relative_error"] == -0.2 and energy["max_relative_error_time_s"] == 0.5e-6
+    assert abs(energy["relative_error"]) < 0.01
+    assert any(w["kind"] == "energy_error" and w["value"] == -0.2 for w in summary["warnings"])
+
+
+def _checkpoint_of(deck, tmp_path, t=1.0e-6):
+    sim = fsph.Simulation.from_deck(deck)
+    sim.advance(t)
+    return checkpoint.save(sim, tmp_path / "ckpt.h5"), sim.cycle
+
+
+def test_restart_refuses_another_deck(tmp_path):
+    """A checkpoint restored into a run of another deck: one line naming
+    the group and key that differ and the checkpoint (exit 2 from the
+    command line); a change a restart may make is taken."""
+    from fsph import cli
+    deck = _short_taylor(tmp_path, "taylor")
+    path, _ = _checkpoint_of(deck, tmp_path)
+    faster = tmp_path / "faster.nml"
+    faster.write_text(deck.read_text().replace("velocity_z = -221.0", "velocity_z = -250.0"))
+    with pytest.raises(FsphError, match=r"faster.nml: &body #1 key 'velocity_z': expected -221.0 as "
+                                        r"in the deck of the checkpoint .*ckpt.h5 \(a restart may change "
+                                        r"only &control title, end_time"):
+        checkpoint.restore(fsph.Simulation.from_deck(faster), path)
+    other = tmp_path / "bar.nml"
+    other.write_text((CASES / "elastic_bar.nml").read_text())
+    assert cli.main(["run", str(other), "-q", "--restart", str(path), "-o",
+                     str(tmp_path / "bar_out")]) == cli.EXIT_DECK == 2
+    longer = tmp_path / "longer.nml"
+    longer.write_text(deck.read_text().replace("end_time = 4.0e-6", "end_time = 5.0e-6")
+                      .replace("n_snapshots = 1", "n_snapshots = 2"))
+    restored = fsph.Simulation.from_deck(longer)
+    checkpoint.restore(restored, path)
+    assert restored.time > 0.9e-6
+
+
+def test_restart_end_time_and_folders(tmp_path, capsys):
+    """An end time at or before the checkpoint's is an error; the
+    continuation goes to restart_<cycle> beside the checkpoint by default,
+    and a folder holding a run's outputs is refused (nothing is
+    overwritten)."""
+    from fsph import cli
+    from fsph.driver import run
+    deck = _short_taylor(tmp_path, "taylor")
+    first = run(deck, tmp_path / "first", quiet=True)
+    assert first["status"] == "completed"
+    ckpt = tmp_path / "first" / "checkpoint.h5"
+    shutil_copy = (tmp_path / "first" / "fsph.h5").read_bytes()
+    # the end-of-run checkpoint is at end_time: nothing is left to run
+    assert cli.main(["run", str(deck), "-q", "--restart", str(ckpt)]) == 2
+    assert "&control key 'end_time': expected a time after the checkpoint's" in capsys.readouterr().err
+    path, cycle = _checkpoint_of(deck, tmp_path)
+    assert cli.main(["run", str(deck), "-q", "--restart", str(path), "-o",
+                     str(tmp_path / "first")]) == 2
+    err = capsys.readouterr().err
+    assert "holds no earlier run" in err and "fsph.h5, summary.json, checkpoint.h5" in err
+    assert (tmp_path / "first" / "fsph.h5").read_bytes() == shutil_copy
+    assert cli.main(["run", str(deck), "-q", "--restart", str(path)]) == 0
+    resumed = tmp_path / f"restart_{cycle:07d}"
+    assert (resumed / "summary.json").is_file() and (resumed / "fsph.h5").is_file()
 
 
 def test_state_arrays_by_name():
