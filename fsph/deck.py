@@ -454,7 +454,11 @@ SCHEMA = {
                                      "trajectory does not depend on it.", lower=0),
             "reference": Key("str", None, "-",
                              "JSON file of reference (experimental or analytic) values, "
-                             "relative to the deck's folder."),
+                             "relative to the deck's folder. Its optional 'conditions' "
+                             "({\"body(rod).velocity_z\": -221.0, ...}) are the deck values "
+                             "the values hold for: a run that differs in one is not compared "
+                             "(the summary says why), and a sweep keeps a reference without "
+                             "conditions only for the variants that change nothing."),
         },
     ),
     "metrics": Group(

@@ -16,6 +16,7 @@ from . import checkpoint as checkpoint_module
 from . import deck as deck_module
 from . import layouts
 from . import metrics as metrics_module
+from . import references
 from .errors import DeckError, FsphError, SimulationError
 from .output import RunWriter, write_summary
 from .simulation import Simulation, threads
@@ -27,13 +28,6 @@ def _targets(t_end, n_snapshots, n_progress):
     progs = {round(k * 10**9 / n_progress): True for k in range(1, n_progress + 1)}
     keys = sorted(set(snaps) | set(progs))
     return [(t_end * k / 10**9, k in snaps, k in progs) for k in keys]
-
-
-def _load_reference(deck):
-    ref = deck["output"]["reference"]
-    if ref is None:
-        return None
-    return json.loads((Path(deck["dir"]) / ref).read_text())
 
 
 def _format_metrics(comparison, metrics):
@@ -220,7 +214,7 @@ def _set_up(deck_path, outdir, restart):
     from the checkpoint `restart` unless None) and open the writer."""
     deck_path = Path(deck_path)
     deck = deck_module.load(deck_path)
-    reference = _load_reference(deck)
+    reference = references.load(deck)
     sim = Simulation(deck)
     books = {}
     if restart is not None:
@@ -412,7 +406,8 @@ def _final_metrics(books, deck, reference):
         if "perforation" in case_metrics:
             case_metrics["perforation"].update(metrics_module.perforation_settling(
                 case_metrics["series"]["time_us"], case_metrics["series"]["velocity_z_m_s"]))
-    comparison = metrics_module.compare(case_metrics, reference) if reference else {}
+    applies = reference is not None and references.applies(reference, deck)[0]
+    comparison = metrics_module.compare(case_metrics, reference) if applies else {}
     return case_metrics, comparison
 
 
@@ -479,7 +474,11 @@ def _summary(setup, books, t_wall0):
         "warnings": warnings,
     }
     if reference:
-        summary["reference"] = {"source": reference.get("source", ""), "comparison": comparison}
+        applies, why = references.applies(reference, deck)
+        summary["reference"] = {"source": reference.get("source", ""), "applies": applies,
+                                "comparison": comparison}
+        if not applies:
+            summary["reference"]["not_applied_because"] = why
     failure = books.failure
     if failure:
         summary["failure"] = {"message": str(failure), "code": failure.code,
@@ -502,7 +501,11 @@ def _print_summary(say, summary, outdir):
         f"{energy['max_relative_error_time_s'] * 1e6:.4g} us)")
     for warning in warnings:
         say(f"fsph: warning: {warning['message']}")
-    comparison = summary.get("reference", {}).get("comparison", {})
+    ref = summary.get("reference", {})
+    if ref and not ref["applies"]:
+        say(f"fsph: not compared with the reference ({ref['source']}): "
+            f"{ref['not_applied_because']}")
+    comparison = ref.get("comparison", {})
     for line in _format_metrics(comparison, summary["metrics"]):
         say(line)
     for line in _format_peaks(summary["peaks"]):

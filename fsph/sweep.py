@@ -40,6 +40,7 @@ import f90nml
 import numpy as np
 
 from . import deck as deck_module
+from . import references
 from . import metrics as metrics_module
 from .ballistics import fit_recht_ipson
 from .errors import DeckError, FsphError
@@ -258,9 +259,11 @@ def _folder_name(index, params, values):
     return f"v{index:03d}" + ("_" + re.sub(r"[^\w.=+-]", "-", label) if label else "")
 
 
-def _variant_text(nml, base_dir, params, values):
+def _variant_text(nml, base_dir, params, values, drop_reference=False):
     """Deck text of one variant: the base deck with the swept keys set and
-    relative paths made absolute."""
+    relative paths made absolute; without its &output reference if
+    drop_reference (fsph.references: a reference without conditions does
+    not say it applies to a changed deck)."""
     nml = f90nml.Parser().reads(str(nml))      # a deep copy
     for gname, keys in PATH_KEYS.items():
         if gname not in nml:
@@ -277,7 +280,17 @@ def _variant_text(nml, base_dir, params, values):
         group[p.key] = values[p.column]
     header = "".join(f"! sweep variant: {p.column} = {_format(values[p.column])}\n"
                      for p in params)
+    if drop_reference and "reference" in nml.get("output", {}):
+        del nml["output"]["reference"]
+        header += ("! reference left out: it lists no conditions, so it does not say it applies "
+                   "to a changed deck\n")
     return header + str(nml) + "\n"
+
+
+def _base_value(items, p):
+    """The base deck's raw value of a swept key (None where unset)."""
+    group = items.get(p.group, [])
+    return group[p.index].get(p.key) if p.index < len(group) else None
 
 
 def plan(deck, sets, output):
@@ -293,12 +306,16 @@ def plan(deck, sets, output):
     columns = [p.column for p in params]
     if len(set(columns)) != len(columns):
         raise DeckError(deck, None, None, "each key set once", ", ".join(columns))
+    reference = references.load(deck_module.load(deck))
+    unconditional = reference is not None and "conditions" not in reference
     variants = []
     for i, combo in enumerate(itertools.product(*(p.values for p in params))):
         values = dict(zip(columns, combo))
         folder = Path(output) / _folder_name(i, params, values)
+        changed = any(_base_value(items, p) != values[p.column] for p in params)
         v = Variant(i, folder.name, values, folder,
-                    _variant_text(nml, deck.resolve().parent, params, values))
+                    _variant_text(nml, deck.resolve().parent, params, values,
+                                  drop_reference=unconditional and changed))
         folder.mkdir(parents=True, exist_ok=True)
         if not v.deck_path.is_file() or v.deck_path.read_text() != v.deck_text:
             v.deck_path.write_text(v.deck_text)

@@ -188,3 +188,40 @@ def test_face_diameter_and_largest_diameter():
     assert got["D_mm"] == pytest.approx(8.0)
     assert got["D_max_mm"] == pytest.approx(10.0)
     assert got["face_band_mm"] == pytest.approx(metrics.FACE_BAND * 20.0)
+
+
+# ---- references and their conditions ---------------------------------------------
+def _taylor_at(tmp_path, speed, reference_text=None):
+    """The Taylor deck cut to 2 us at `speed` [m/s], with the shipped
+    reference or `reference_text` as references/taylor_armco.json."""
+    text = (CASES / "taylor_armco.nml").read_text().replace("end_time = 60.0e-6", "end_time = 2.0e-6")
+    deck = tmp_path / f"taylor_{speed:g}.nml"
+    deck.write_text(text.replace("velocity_z = -221.0", f"velocity_z = -{speed:.1f}"))
+    (tmp_path / "references").mkdir(exist_ok=True)
+    (tmp_path / "references" / "taylor_armco.json").write_text(
+        reference_text or (CASES / "references" / "taylor_armco.json").read_text())
+    return deck
+
+
+def test_reference_is_compared_only_where_its_conditions_hold(tmp_path):
+    """The 221 m/s experiment: compared at 221 m/s; at 180 m/s the summary
+    and the console say why not, and no error against it is reported."""
+    same = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0)), "-o", "same"], tmp_path)
+    slower = fsph_cli(["run", str(_taylor_at(tmp_path, 180.0)), "-o", "slower"], tmp_path)
+    assert same.returncode == slower.returncode == 0, same.stderr + slower.stderr
+    ref_same = json.loads((tmp_path / "same" / "summary.json").read_text())["reference"]
+    ref_slow = json.loads((tmp_path / "slower" / "summary.json").read_text())["reference"]
+    assert ref_same["applies"] and set(ref_same["comparison"]["taylor"]) == {"L_mm", "D_mm", "W_mm"}
+    assert not ref_slow["applies"] and ref_slow["comparison"] == {}
+    assert ref_slow["not_applied_because"] == "body(rod).velocity_z is -180.0 here, -221.0 in the reference"
+    assert "fsph: not compared with the reference" in slower.stdout
+    assert "reference 19.8" in same.stdout and "reference 19.8" not in slower.stdout
+
+
+def test_malformed_reference_is_a_deck_error(tmp_path):
+    res = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0, '{"taylor": {"L_mm": 19.8,}')), "-o", "o"],
+                   tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "&output key 'reference': expected a readable JSON file" in lines[0]
+    assert not (tmp_path / "o" / "fsph.h5").exists()

@@ -93,7 +93,8 @@ def test_variant_decks_set_the_chosen_instance_and_keep_references(tmp_path):
     deck.parent.mkdir()
     deck.write_text(_two_body_deck(reference=True))
     (deck.parent / "ref.json").write_text(json.dumps(
-        {"ballistic": {"striking_velocity_m_s": [650.0, 550.0],
+        {"conditions": {"material(2).density": 2700.0},     # the target, whatever the velocity
+         "ballistic": {"striking_velocity_m_s": [650.0, 550.0],
                        "residual_velocity_m_s": [520.0, 400.0]},
          "perforation": {"residual_velocity_m_s": 480.0}}))
     params, variants = plan(deck, {"body(rod).velocity_z": "-500:-700:3",
@@ -112,6 +113,22 @@ def test_variant_decks_set_the_chosen_instance_and_keep_references(tmp_path):
         assert d["output"]["reference"] == str(deck.parent / "ref.json")
     assert variants[0].folder.name == "v000_velocity_z=-500_density=2700"
     assert experiment_points(deck) == [(50.0, 480.0), (550.0, 400.0), (650.0, 520.0)]
+
+
+def test_a_reference_without_conditions_leaves_changed_variants(tmp_path):
+    """A reference that lists no conditions does not say it applies to a
+    changed deck: the variants that change a key lose it (and say so),
+    the one at the base deck's values keeps it."""
+    deck = tmp_path / "case" / "two.nml"
+    deck.parent.mkdir()
+    deck.write_text(_two_body_deck(reference=True))
+    (deck.parent / "ref.json").write_text(json.dumps({"perforation": {"residual_velocity_m_s": 480.0}}))
+    base = deck_module.load(deck)["body"][0]["velocity_z"]
+    _, variants = plan(deck, {"body(rod).velocity_z": [base, base - 100.0]}, tmp_path / "out")
+    kept, dropped = (deck_module.load(v.deck_path)["output"]["reference"] for v in variants)
+    assert kept == str(deck.parent / "ref.json") and dropped is None
+    assert "! reference left out" in variants[1].deck_text
+    assert "! reference left out" not in variants[0].deck_text
 
 
 # ------------------------------------------------------------ on a cluster
