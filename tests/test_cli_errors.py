@@ -108,6 +108,15 @@ def test_bad_deck_one_line_exit_2(name, tmp_path):
         assert frag in lines[0], lines[0]
 
 
+def test_reliability_table_lists_every_bad_deck():
+    """docs/reliability.md keeps the table of inputs tried: every case of
+    the bad-deck family has its row there."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "docs" / "reliability.md").read_text()
+    missing = [name for name in BAD_DECKS if f"| `{name}` |" not in text]
+    assert not missing, missing
+
+
 def test_missing_deck_file(tmp_path):
     res = fsph_cli(["run", str(tmp_path / "nowhere.nml")], tmp_path)
     assert res.returncode == 2
