@@ -606,6 +606,36 @@ def _groups(nml):
     return out
 
 
+#: A deck key as `fsph sweep --set` and a reference's conditions write it:
+#: GROUP.KEY, GROUP(I).KEY (I from 1) or GROUP(NAME).KEY.
+KEY_SPEC = re.compile(r"^\s*([A-Za-z_]\w*)\s*(?:[(\[]\s*([^)\]]*?)\s*[)\]])?\s*\.\s*(\w+)\s*$")
+
+
+def group_instance(path, gname, selector, key, items):
+    """0-based instance among `items` (the group's dicts) chosen by the
+    selector of a KEY_SPEC (None, a 1-based index or a name); DeckError
+    names the deck at `path` where none or several fit."""
+    group = SCHEMA[gname]
+    n = len(items)
+    if selector is None:
+        if group.repeatable and n > 1:
+            raise DeckError(path, gname, key,
+                            f"an instance of the {n} &{gname} groups: {gname}(1).{key} to "
+                            f"{gname}({n}).{key} or {gname}(NAME).{key}", f"{gname}.{key}")
+        return 0
+    if selector.isdigit():
+        i = int(selector)
+        if not 1 <= i <= max(n, 1) or (not group.repeatable and i != 1):
+            raise DeckError(path, gname, key, f"an instance from 1 to {max(n, 1)} (the deck "
+                            f"has {n} &{gname} group(s))", f"{gname}({selector})")
+        return i - 1
+    names = [str(item.get("name", "")).strip() for item in items]
+    if selector.strip("'\"") not in names:
+        raise DeckError(path, gname, key, f"the name of a &{gname}: " + ", ".join(names),
+                        selector)
+    return names.index(selector.strip("'\""))
+
+
 def _group_openings(text):
     """The namelist structure of a deck's text, outside strings and
     comments: a list of (kind, group name or None, line), kind 'open'

@@ -14,12 +14,10 @@ from the variants that change a key (fsph.sweep)."""
 
 import json
 import math
-import re
 from pathlib import Path
 
+from . import deck as deck_module
 from .errors import DeckError
-
-_KEY = re.compile(r"^(\w+)(?:\((\w+)\))?\.(\w+)$")
 
 #: Relative tolerance of a numeric condition [-].
 CONDITION_TOLERANCE = 1e-9
@@ -43,23 +41,15 @@ def load(deck):
 
 
 def deck_value(deck, spec):
-    """The value of GROUP.KEY, GROUP(NAME).KEY or GROUP(I).KEY in a loaded
-    deck; KeyError if the deck has no such group, item or key."""
-    m = _KEY.match(spec)
+    """The value of a KEY_SPEC (GROUP.KEY, GROUP(I).KEY or GROUP(NAME).KEY,
+    as for --set) in a loaded deck; KeyError or DeckError if the deck has
+    no such group, instance or key."""
+    m = deck_module.KEY_SPEC.match(spec)
     if not m:
         raise KeyError(spec)
-    gname, selector, key = m.groups()
-    group = deck[gname]
-    if isinstance(group, list):
-        if selector is None:
-            item = group[0]
-        elif selector.isdigit():
-            item = group[int(selector) - 1]
-        else:
-            item = next(g for g in group if g.get("name") == selector)
-    else:
-        item = group
-    return item[key]
+    gname, selector, key = m.group(1).lower(), m.group(2), m.group(3).lower()
+    items = deck[gname] if isinstance(deck[gname], list) else [deck[gname]]
+    return items[deck_module.group_instance(deck["path"], gname, selector, key, items)][key]
 
 
 def _same(a, b):
@@ -74,8 +64,8 @@ def applies(reference, deck):
     for spec, expected in reference.get("conditions", {}).items():
         try:
             value = deck_value(deck, spec)
-        except (KeyError, IndexError, StopIteration):
-            return False, f"the deck has no {spec} (a condition of the reference)"
+        except (KeyError, DeckError):
+            return False, f"the deck has no single {spec} (a condition of the reference)"
         if not _same(value, expected):
             return False, f"{spec} is {value!r} here, {expected!r} in the reference"
     return True, ""

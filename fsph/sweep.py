@@ -57,8 +57,6 @@ SUMMARY_SCALARS = ("status", "cycles", "end_time_s", "n_elements", "n_nodes", "n
 #: Status of a variant whose deck did not pass validation (it is not run).
 INVALID = "invalid"
 
-_SPEC = re.compile(r"^\s*([A-Za-z_]\w*)\s*(?:[(\[]\s*([^)\]]*?)\s*[)\]])?\s*\.\s*(\w+)\s*$")
-
 
 @dataclass(frozen=True)
 class Parameter:
@@ -178,35 +176,11 @@ def _suggest(word, choices):
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-def _instance(path, gname, selector, key, items):
-    """0-based instance of a group chosen by a --set selector (None, a
-    1-based index or a name)."""
-    group = deck_module.SCHEMA[gname]
-    n = len(items)
-    if selector is None:
-        if group.repeatable and n > 1:
-            raise DeckError(path, gname, key,
-                            f"an instance of the {n} &{gname} groups: {gname}(1).{key} to "
-                            f"{gname}({n}).{key} or {gname}(NAME).{key}", f"{gname}.{key}")
-        return 0
-    if selector.isdigit():
-        i = int(selector)
-        if not 1 <= i <= max(n, 1) or (not group.repeatable and i != 1):
-            raise DeckError(path, gname, key, f"an instance from 1 to {max(n, 1)} (the deck "
-                            f"has {n} &{gname} group(s))", f"{gname}({selector})")
-        return i - 1
-    names = [str(item.get("name", "")).strip() for item in items]
-    if selector.strip("'\"") not in names:
-        raise DeckError(path, gname, key, f"the name of a &{gname}: " + ", ".join(names),
-                        selector)
-    return names.index(selector.strip("'\""))
-
-
 def parse_parameter(path, spec, values, items_by_group):
     """A Parameter from the key part of a --set (spec) and its values (the
     text after '=', or a sequence of values); DeckError names the deck, the
     group, the key and what was expected."""
-    m = _SPEC.match(spec)
+    m = deck_module.KEY_SPEC.match(spec)
     if not m:
         raise DeckError(path, None, None, f"--set {SET_SYNTAX}", f"{spec}={values}")
     gname, selector, key = m.group(1).lower(), m.group(2), m.group(3).lower()
@@ -219,7 +193,7 @@ def parse_parameter(path, spec, values, items_by_group):
         raise DeckError(path, gname, key, f"one of the keys of &{gname}: " + ", ".join(keys)
                         + _suggest(key, list(keys)), "unknown key")
     items = items_by_group.get(gname, [])
-    index = _instance(path, gname, selector, key, items)
+    index = deck_module.group_instance(path, gname, selector, key, items)
     kind = keys[key].kind
     try:
         if isinstance(values, str):
