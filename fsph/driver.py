@@ -178,12 +178,15 @@ def _interrupt_flag():
 @dataclass
 class _Setup:
     """A run ready to start: the deck path and its validated dict, the
-    reference values (None without), the output folder, the simulation (at
-    the checkpoint's state on a restart) and its writer."""
+    reference values (None without) and why they do not apply to this deck
+    ("" where they do: references.not_applied_because, decided once), the output
+    folder, the simulation (at the checkpoint's state on a restart) and its
+    writer."""
 
     deck_path: Path
     deck: dict
     reference: dict
+    not_applied_because: str
     outdir: Path
     sim: Simulation
     writer: RunWriter
@@ -215,6 +218,7 @@ def _set_up(deck_path, outdir, restart):
     deck_path = Path(deck_path)
     deck = deck_module.load(deck_path)
     reference = references.load(deck)
+    why = "" if reference is None else references.not_applied_because(reference, deck)
     sim = Simulation(deck)
     books = {}
     if restart is not None:
@@ -225,7 +229,7 @@ def _set_up(deck_path, outdir, restart):
     writer.energy0 = sim.initial_energy
     writer.max_energy_error = books.get("max_energy_error", 0.0)
     writer.max_energy_error_time = books.get("max_energy_error_time", 0.0)
-    return _Setup(deck_path, deck, reference, outdir, sim, writer)
+    return _Setup(deck_path, deck, reference, why, outdir, sim, writer)
 
 
 #: Column heads of the progress lines.
@@ -406,8 +410,7 @@ def _final_metrics(books, deck, reference):
         if "perforation" in case_metrics:
             case_metrics["perforation"].update(metrics_module.perforation_settling(
                 case_metrics["series"]["time_us"], case_metrics["series"]["velocity_z_m_s"]))
-    applies = reference is not None and references.applies(reference, deck)[0]
-    comparison = metrics_module.compare(case_metrics, reference) if applies else {}
+    comparison = metrics_module.compare(case_metrics, reference) if reference else {}
     return case_metrics, comparison
 
 
@@ -442,7 +445,8 @@ def _summary(setup, books, t_wall0):
     sim, deck, writer, reference = setup.sim, setup.deck, setup.writer, setup.reference
     ctrl = deck["control"]
     energies = sim.energies()
-    case_metrics, comparison = _final_metrics(books, deck, reference)
+    why = setup.not_applied_because
+    case_metrics, comparison = _final_metrics(books, deck, None if why else reference)
     peaks = _peaks(books.last_good, deck)
     warnings = [{"kind": "deck", "message": text} for text in deck.get("warnings", [])]
     warnings += _warnings(ctrl, energies, writer)
@@ -474,10 +478,9 @@ def _summary(setup, books, t_wall0):
         "warnings": warnings,
     }
     if reference:
-        applies, why = references.applies(reference, deck)
-        summary["reference"] = {"source": reference.get("source", ""), "applies": applies,
+        summary["reference"] = {"source": reference.get("source", ""), "applies": not why,
                                 "comparison": comparison}
-        if not applies:
+        if why:
             summary["reference"]["not_applied_because"] = why
     failure = books.failure
     if failure:

@@ -58,14 +58,14 @@ def _same(a, b):
     return a == b
 
 
-def applies(reference, deck):
-    """(True, "") when every condition of the reference holds for the deck;
-    (False, why) otherwise."""
+def not_applied_because(reference, deck):
+    """Why the reference does not apply to the deck: the first condition
+    that does not hold; "" when every one holds (it applies)."""
     for spec, expected in reference.get("conditions", {}).items():
         try:
             value = deck_value(deck, spec)
         except (KeyError, DeckError):
-            return False, f"the deck has no single {spec} (a condition of the reference)"
+            return f"the deck has no single {spec} (a condition of the reference)"
         if not _same(value, expected):
-            return False, f"{spec} is {value!r} here, {expected!r} in the reference"
-    return True, ""
+            return f"{spec} is {value!r} here, {expected!r} in the reference"
+    return ""
