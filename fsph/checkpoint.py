@@ -142,7 +142,6 @@ def save(sim, path, books=None):
         h5.attrs["counts0"] = np.array([sim.n_nodes0, sim.n_elements0, sim.n_particles0])
         h5.attrs["books"] = json.dumps(books or {})
         h5.attrs["initial_energy"] = sim.initial_energy
-        h5.attrs["n_elements0"] = sim.n_elements0
         h5["particle_radius0"] = sim.particle_radius0
         scalars = h5.create_group("scalars")
         for names, values in ((layouts.CHECKPOINT_REAL_SCALARS, r), (layouts.CHECKPOINT_INT_SCALARS, i)):
@@ -204,7 +203,6 @@ def restore(sim, path):
         _restore_arrays(sim, h5, path)
         _api.restore_end(sim._run)
         sim.initial_energy = float(h5.attrs["initial_energy"])
-        sim.n_elements0 = int(h5.attrs["n_elements0"])
         sim.particle_radius0 = h5["particle_radius0"][...]
         return json.loads(h5.attrs["books"])
 
