@@ -10,6 +10,8 @@ or within half a cell spacing of one of its particles. Bodies that only
 touch (a projectile resting on a plate, joined bodies) pass: their interior
 points stay at least half a cell away from the other body."""
 
+from functools import cached_property
+
 import numpy as np
 from matplotlib.tri import Triangulation
 from scipy.spatial import cKDTree
@@ -34,27 +36,35 @@ class _Body:
     def __init__(self, index, spec, disc):
         self.index, self.name = index, spec["name"]
         self.label = f"body #{index + 1}"
+        self.disc = disc
         self.is_mesh = isinstance(disc, Mesh)
+        self.points = disc.x
         if self.is_mesh:
-            self.points = disc.x
-            self.interior = disc.x[disc.conn].mean(axis=1)
             self.mass_volume = ring_volume(disc)
-            self._tri = Triangulation(disc.x[:, 0], disc.x[:, 1], disc.conn)
+            reach = 0.0
         else:
-            self.points = self.interior = disc.x
             self.mass_volume = disc.ring_volume.sum()
-            self._tree = cKDTree(disc.x)
             self._half = 0.5 * disc.spacing
-        # the region: a particle stands for a cell about its centre
-        reach = 0.0 if self.is_mesh else self._half[:, None]
+            reach = self._half[:, None]     # a particle stands for a cell about its centre
         self.lo, self.hi = (self.points - reach).min(axis=0), (self.points + reach).max(axis=0)
         self.size = float(np.max(self.hi - self.lo))
+
+    # the search structures only for bodies whose boxes meet another's
+    @cached_property
+    def interior(self):
+        return self.disc.x[self.disc.conn].mean(axis=1) if self.is_mesh else self.disc.x
+
+    @cached_property
+    def _finder(self):
+        if self.is_mesh:
+            return Triangulation(self.disc.x[:, 0], self.disc.x[:, 1], self.disc.conn).get_trifinder()
+        return cKDTree(self.disc.x)
 
     def contains(self, x):
         """Which of the points x (n, 2) lie inside this body."""
         if self.is_mesh:
-            return self._tri.get_trifinder()(x[:, 0], x[:, 1]) >= 0
-        dist, k = self._tree.query(x)
+            return self._finder(x[:, 0], x[:, 1]) >= 0
+        dist, k = self._finder.query(x)
         return dist < self._half[k]
 
     def boxes_meet(self, other):
