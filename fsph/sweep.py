@@ -165,10 +165,11 @@ def expand_values(text, kind="float"):
 
 # ---------------------------------------------------------------- keys
 def _raw_groups(path):
-    """The base deck as f90nml parsed it, and group name -> list of raw dicts."""
-    deck_module.load(path)          # a bad base deck is reported as it is by `fsph run`
+    """The base deck validated (a bad one is reported as by `fsph run`), as
+    f90nml parsed it, and group name -> list of raw dicts."""
+    base = deck_module.load(path)
     nml = f90nml.Parser().reads(Path(path).read_text())
-    return nml, deck_module._groups(nml)
+    return base, nml, deck_module._groups(nml)
 
 
 def _suggest(word, choices):
@@ -272,7 +273,7 @@ def plan(deck, sets, output):
     its text changed) and validates it. Variants whose deck is invalid get
     status 'invalid' and the message; a bad --set raises DeckError."""
     deck = Path(deck)
-    nml, items = _raw_groups(deck)
+    base, nml, items = _raw_groups(deck)
     params = [parse_parameter(deck, spec, values, items)
               for spec, values in _split_sets(deck, sets)]
     if not params:
@@ -280,7 +281,7 @@ def plan(deck, sets, output):
     columns = [p.column for p in params]
     if len(set(columns)) != len(columns):
         raise DeckError(deck, None, None, "each key set once", ", ".join(columns))
-    reference = references.load(deck_module.load(deck))
+    reference = references.load(base)
     unconditional = reference is not None and "conditions" not in reference
     variants = []
     for i, combo in enumerate(itertools.product(*(p.values for p in params))):
