@@ -87,6 +87,9 @@ def test_mutated_decks_fail_cleanly_or_set_up(tmp_path_factory, case):
     path.write_bytes(text.encode("utf-8", "surrogatepass"))
     try:
         deck = deck_module.load(path)
+        # a valid deck must set up, or fail the start-up checks (bodies
+        # overlapping, behind a plane, without mass) with a deck error
+        sim = fsph.Simulation(deck)
     except DeckError as err:
         message = str(err)
         assert "\n" not in message
@@ -94,6 +97,5 @@ def test_mutated_decks_fail_cleanly_or_set_up(tmp_path_factory, case):
         event("clean deck error")
         return
     event("valid set-up")
-    sim = fsph.Simulation(deck)          # a valid deck must set up
     assert sim.n_elements + sim.n_particles > 0
     assert math.isfinite(sim.dt) and sim.dt > 0
