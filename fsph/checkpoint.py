@@ -95,9 +95,8 @@ def _restart_identity(deck):
     """The deck's groups a restart must keep (all but RESTART_MAY_CHANGE),
     as plain JSON values."""
     out = {}
-    for gname, value in deck.items():
-        if gname not in deck_module.SCHEMA or (gname in RESTART_MAY_CHANGE
-                                               and RESTART_MAY_CHANGE[gname] is None):
+    for gname, value in deck_module.groups_of(deck).items():
+        if gname in RESTART_MAY_CHANGE and RESTART_MAY_CHANGE[gname] is None:
             continue
         free = RESTART_MAY_CHANGE.get(gname, ())
         items = value if isinstance(value, list) else [value]

@@ -870,23 +870,26 @@ def from_groups(groups, name="<dict>", folder=None):
     return _validate(raw, Path(name), Path(folder) if folder is not None else Path.cwd())
 
 
+def groups_of(deck):
+    """The namelist groups of a deck dict (not its path, folder, warnings)."""
+    return {g: deck[g] for g in SCHEMA if g in deck}
+
+
 def _fingerprint(deck):
     """Digest of a deck's groups (what a Simulation is built from)."""
-    groups = {g: deck[g] for g in SCHEMA if g in deck}
-    return hashlib.sha256(json.dumps(groups, sort_keys=True, default=repr).encode()).hexdigest()
+    return hashlib.sha256(json.dumps(groups_of(deck), sort_keys=True, default=repr).encode()).hexdigest()
 
 
 def checked(deck):
     """`deck` itself if it is a validated deck unchanged since validation;
     otherwise its groups validated again (a dict built by hand, or a
     loaded deck whose values were changed), as from_groups does."""
-    if isinstance(deck, dict) and deck.get("fingerprint") == _fingerprint(deck):
-        return deck
     if not isinstance(deck, dict):
         raise DeckError("<deck>", None, None, "a deck dict (fsph.deck.load or from_groups)",
                         type(deck).__name__)
-    groups = {g: deck[g] for g in SCHEMA if g in deck}
-    return from_groups(copy.deepcopy(groups), deck.get("path", "<dict>"), deck.get("dir"))
+    if deck.get("fingerprint") == _fingerprint(deck):
+        return deck
+    return from_groups(copy.deepcopy(groups_of(deck)), deck.get("path", "<dict>"), deck.get("dir"))
 
 
 def _validate(raw, path, folder):
