@@ -15,6 +15,7 @@ import numpy as np
 from . import deck as deck_module
 from . import layouts
 from .errors import DeckError, FsphError
+from .output import writing_errors
 from .simulation import STATUS_OK, _api
 
 #: 3: datasets and scalars named (fsph.layouts), not numbered; 4: the deck
@@ -135,23 +136,29 @@ def save(sim, path, books=None):
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     r, i = _scalars(sim)
-    with h5py.File(tmp, "w") as h5:
-        h5.attrs["format"] = FORMAT
-        h5.attrs["deck"] = json.dumps(_restart_identity(sim.deck))
-        h5.attrs["counts0"] = np.array([sim.n_nodes0, sim.n_elements0, sim.n_particles0])
-        h5.attrs["books"] = json.dumps(books or {})
-        h5.attrs["initial_energy"] = sim.initial_energy
-        h5["particle_radius0"] = sim.particle_radius0
-        scalars = h5.create_group("scalars")
-        for names, values in ((layouts.CHECKPOINT_REAL_SCALARS, r), (layouts.CHECKPOINT_INT_SCALARS, i)):
-            for name, value in zip(names, values):
-                scalars.attrs[name] = value
-        sizes = _api.checkpoint_sizes(sim._run, _REAL, 1)[2:]
-        h5.attrs["sizes"] = np.array(sizes)          # nodes, elements, particles, capacity, edges
-        state = h5.create_group("state")
-        for name, values in _state_arrays(sim):
-            state[name] = values
-    os.replace(tmp, path)
+    sizes = _api.checkpoint_sizes(sim._run, _REAL, 1)[2:]
+    # a failed write (full disk) leaves the previous checkpoint as it was
+    try:
+        with writing_errors(path), h5py.File(tmp, "w") as h5:
+            h5.attrs["format"] = FORMAT
+            h5.attrs["deck"] = json.dumps(_restart_identity(sim.deck))
+            h5.attrs["counts0"] = np.array([sim.n_nodes0, sim.n_elements0, sim.n_particles0])
+            h5.attrs["books"] = json.dumps(books or {})
+            h5.attrs["initial_energy"] = sim.initial_energy
+            h5["particle_radius0"] = sim.particle_radius0
+            scalars = h5.create_group("scalars")
+            for names, values in ((layouts.CHECKPOINT_REAL_SCALARS, r),
+                                  (layouts.CHECKPOINT_INT_SCALARS, i)):
+                for name, value in zip(names, values):
+                    scalars.attrs[name] = value
+            h5.attrs["sizes"] = np.array(sizes)     # nodes, elements, particles, capacity, edges
+            state = h5.create_group("state")
+            for name, values in _state_arrays(sim):
+                state[name] = values
+        with writing_errors(path):
+            os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
     return path
 
 

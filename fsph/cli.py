@@ -11,7 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .errors import DeckError, FsphError
+from .errors import FsphError, InputError, OutputError
 
 EXIT_OK, EXIT_ERROR, EXIT_DECK, EXIT_RUN_FAILED, EXIT_INTERRUPTED = 0, 1, 2, 3, 4
 
@@ -135,9 +135,12 @@ def main(argv=None):
             from . import __version__, threads
             print(f"fsph {__version__}, OpenMP threads: {threads()}")
             return EXIT_OK
-    except DeckError as err:
+    except InputError as err:
         print(f"fsph: error: {err}", file=sys.stderr)
         return EXIT_DECK
+    except OutputError as err:
+        print(f"fsph: error: {err}", file=sys.stderr)
+        return EXIT_RUN_FAILED
     except FsphError as err:
         print(f"fsph: error: {err}", file=sys.stderr)
         return EXIT_ERROR

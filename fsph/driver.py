@@ -17,8 +17,8 @@ from . import deck as deck_module
 from . import layouts
 from . import metrics as metrics_module
 from . import references
-from .errors import DeckError, FsphError, SimulationError
-from .output import RunWriter, write_summary
+from .errors import DeckError, FsphError, OutputError, SimulationError
+from .output import FolderLock, RunWriter, write_summary
 from .simulation import Simulation, threads
 
 
@@ -180,14 +180,15 @@ class _Setup:
     """A run ready to start: the deck path and its validated dict, the
     reference values (None without) and why they do not apply to this deck
     ("" where they do: references.not_applied_because, decided once), the output
-    folder, the simulation (at the checkpoint's state on a restart) and its
-    writer."""
+    folder and its lock, the simulation (at the checkpoint's state on a
+    restart) and its writer."""
 
     deck_path: Path
     deck: dict
     reference: dict
     not_applied_because: str
     outdir: Path
+    lock: FolderLock
     sim: Simulation
     writer: RunWriter
 
@@ -214,7 +215,8 @@ def _restart(sim, deck, restart, outdir):
 
 def _set_up(deck_path, outdir, restart):
     """Load the deck and its reference, set up the simulation (restored
-    from the checkpoint `restart` unless None) and open the writer."""
+    from the checkpoint `restart` unless None), take the output folder's
+    lock and open the writer."""
     deck_path = Path(deck_path)
     deck = deck_module.load(deck_path)
     reference = references.load(deck)
@@ -224,12 +226,17 @@ def _set_up(deck_path, outdir, restart):
     if restart is not None:
         outdir, books = _restart(sim, deck, restart, outdir)
     outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
-    writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
-                       vtu=deck["output"]["vtu"])
+    lock = FolderLock(outdir)
+    try:
+        writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
+                           vtu=deck["output"]["vtu"])
+    except BaseException:
+        lock.release()
+        raise
     writer.energy0 = sim.initial_energy
     writer.max_energy_error = books.get("max_energy_error", 0.0)
     writer.max_energy_error_time = books.get("max_energy_error_time", 0.0)
-    return _Setup(deck_path, deck, reference, why, outdir, sim, writer)
+    return _Setup(deck_path, deck, reference, why, outdir, lock, sim, writer)
 
 
 #: Column heads of the progress lines.
@@ -246,6 +253,9 @@ def _print_banner(say, setup, restart, lines):
         f"end time {ctrl['end_time'] * 1e6:g} us")
     if restart is not None:
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
+    if setup.lock.stale:
+        say(f"fsph: warning: took over the lock of a run that is gone (pid {setup.lock.stale}) "
+            f"in {setup.outdir}")
     for text in setup.deck.get("warnings", []):
         say(f"fsph: warning: {text}")
     if lines:
@@ -266,24 +276,31 @@ class _Books:
     """What the run keeps from its outputs: the last snapshot written (the
     one the metrics use), the per-snapshot metric records (perforation
     series), and how the advance ended: the SimulationError of a failure,
-    the signal name of an interruption (both None: completed)."""
+    the signal name of an interruption (both None: completed); ended False
+    while the run goes on (status 'running')."""
 
     last_good: dict = None
     series: list = field(default_factory=list)
     failure: SimulationError = None
     interrupted: str = None
+    ended: bool = False
 
     def record(self, sim, deck, writer):
         """Take a snapshot of `sim`, write it and keep its metric record."""
-        self.last_good = sim.snapshot()
-        writer.write_snapshot(self.last_good)
-        record = metrics_module.snapshot_series(self.last_good, deck)
+        snap = sim.snapshot()
+        writer.write_snapshot(snap)
+        self.last_good = snap
+        record = metrics_module.snapshot_series(snap, deck)
         if record:
             self.series.append(record)
 
     @property
     def status(self):
-        return "failed" if self.failure else ("interrupted" if self.interrupted else "completed")
+        if self.failure:
+            return "failed"
+        if self.interrupted:
+            return "interrupted"
+        return "completed" if self.ended else "running"
 
 
 @dataclass
@@ -353,17 +370,35 @@ def _stop_on_signal(say, sim, signum, checkpoints, bar):
     return name
 
 
-def _record_failure(say, err, sim, writer, books, bar):
+def _record_failure(say, err, sim, writer, books, bar, outputs_usable=True):
     """Book a failed run: its error, the history up to it and the failure
-    mark in the outputs; say where the last good snapshot is."""
+    mark in the outputs (unless writing them is what failed); say where
+    the last good snapshot is."""
     if bar:
         bar.close()
     books.failure = err
-    writer.append_history(sim.drain_history())
-    writer.mark_failure(str(err))
+    if outputs_usable:
+        writer.append_history(sim.drain_history())
+        writer.mark_failure(str(err))
     say(f"fsph: run failed: {err}")
     say(f"fsph: last good snapshot t = {books.last_good['time'] * 1e6:.4g} us kept in "
         f"{writer.h5_path}")
+
+
+def _snapshot(setup, books, t_wall0, checkpoints=None):
+    """Write a snapshot (once sure the disk has room for it), the checkpoint
+    (checkpoints: a _Checkpoints, None for none), and summary.json with the
+    status so far ('running'), so a run killed later leaves a summary of
+    its last snapshot. OutputError when a write fails or would not fit."""
+    sim = setup.sim
+    checkpoint_bytes = 0
+    if checkpoints and checkpoints.path.is_file():
+        checkpoint_bytes = checkpoints.path.stat().st_size
+    setup.writer.check_room(sim.time, checkpoint_bytes)
+    books.record(sim, setup.deck, setup.writer)
+    if checkpoints:
+        checkpoints.save(sim)
+    write_summary(setup.outdir, _summary(setup, books, t_wall0))
 
 
 def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
@@ -387,13 +422,17 @@ def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
                     books.interrupted = _stop_on_signal(say, sim, flag["signal"], checkpoints, bar)
                     break
                 if snap_due:
-                    books.record(sim, deck, writer)
-                    if checkpoints.enabled:
-                        checkpoints.save(sim)
+                    _snapshot(setup, books, t_wall0,
+                              checkpoints if checkpoints.enabled else None)
                 if progress_due and lines:
                     say(_progress_line(sim, t_wall0))
     except SimulationError as err:
         _record_failure(say, err, sim, writer, books, bar)
+    except OutputError as err:
+        failure = SimulationError(f"run stopped at t = {sim.time * 1e6:.6g} us, cycle "
+                                  f"{sim.cycle}: {err}", code=layouts.status_code("output"),
+                                  time=sim.time, cycle=sim.cycle)
+        _record_failure(say, failure, sim, writer, books, bar, outputs_usable=False)
     finally:
         if bar:
             bar.close()
@@ -535,16 +574,25 @@ def run(deck_path, outdir=None, quiet=False, stream=None, restart=None, progress
     say = _printer(quiet, stream)
     t_wall0 = wallclock.perf_counter()
     setup = _set_up(deck_path, outdir, restart)
+    try:
+        return _run(say, setup, restart, kind, stream, t_wall0)
+    finally:
+        setup.lock.release()
+
+
+def _run(say, setup, restart, kind, stream, t_wall0):
+    """The run of run() once set up: banner, the first snapshot, the
+    advance to the end, the summary."""
     _print_banner(say, setup, restart, kind == "lines")
     books = _Books()
-    books.record(setup.sim, setup.deck, setup.writer)
-    setup.writer.append_history(setup.sim.drain_history())
     checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"],
                                            setup.writer)
+    setup.writer.append_history(setup.sim.drain_history())
+    _snapshot(setup, books, t_wall0)
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None
     _advance(say, setup, books, checkpoints, bar, kind == "lines", t_wall0)
-    setup.writer.close()
+    books.ended = True
     summary = _summary(setup, books, t_wall0)
     write_summary(setup.outdir, summary)
     _print_summary(say, summary, setup.outdir)

@@ -11,7 +11,16 @@ def _one_line(text):
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
 
 
-class DeckError(FsphError):
+class InputError(FsphError):
+    """Bad input other than a deck's content: the command line, the output
+    folder (a file, not writable, in use by another run). Exit 2, like a
+    DeckError; the message names what and where on one line."""
+
+    def __init__(self, message):
+        super().__init__(_one_line(message))
+
+
+class DeckError(InputError):
     """An input deck is unreadable or holds a value fsph cannot accept.
 
     The message names the file, the namelist group, the key and what was
@@ -32,7 +41,16 @@ class DeckError(FsphError):
         msg = f"{where}: expected {expected}"
         if got is not None:
             msg += f", got {got!r}"
-        super().__init__(_one_line(msg))
+        FsphError.__init__(self, _one_line(msg))
+
+
+class OutputError(FsphError):
+    """Writing a run's outputs failed or would fail: the disk (or the file
+    size limit) is full, the folder went away. The run stops as failed
+    (exit 3); what was written before stays readable."""
+
+    def __init__(self, message):
+        super().__init__(_one_line(message))
 
 
 class SimulationError(FsphError):

@@ -20,8 +20,8 @@ import sys
 
 # ---- status codes: (name, where the index points, text); the code is the
 # position (0: ok). Index kinds: "element" (> 0 element, < 0 particle),
-# "node", "none". energy_limit is raised by the driver (fsph.driver),
-# never by the solver.
+# "node", "none". energy_limit and output are raised by the driver
+# (fsph.driver), never by the solver.
 STATUS_CODES = (
     ("ok", "none", "ok"),
     ("inverted_element", "element", "inverted element (area <= 0): the mesh has tangled"),
@@ -36,6 +36,7 @@ STATUS_CODES = (
     ("particle_axis", "element", "a particle reached the axis (r <= 0)"),
     ("dt_drop", "element", "time step fell by more than the allowed factor in one cycle (dt_drop_ratio)"),
     ("energy_limit", "none", "energy error above the limit (energy_error_limit)"),
+    ("output", "none", "writing the outputs failed or would not fit (disk full, file size limit)"),
 )
 STATUS = tuple((code, name, index, text) for code, (name, index, text) in enumerate(STATUS_CODES))
 

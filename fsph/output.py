@@ -3,6 +3,10 @@
 
 import json
 import os
+import resource
+import shutil
+import socket
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -10,12 +14,20 @@ import meshio
 import numpy as np
 
 from . import layouts
+from .errors import InputError, OutputError
 
 #: columns of the time history (fsph.layouts), the energy total included
 HISTORY_FIELDS = tuple(name for name, _, _ in layouts.HISTORY_COLUMNS)
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
                         "internal_energy", "temperature", "damage", "material", "body")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
+#: the lock file that keeps a second run out of an output folder in use
+LOCK_NAME = "fsph.lock"
+#: a snapshot is written under this name and renamed NNNNN when complete,
+#: so a snapshot cut short (a full disk) never looks like one
+PARTIAL_SNAPSHOT = "writing"
+#: a snapshot needs room for this many times the bytes of the last one
+ROOM_FACTOR = 2.0
 
 
 def _points3(xy):
@@ -23,11 +35,101 @@ def _points3(xy):
     return np.column_stack([xy, np.zeros(len(xy))])
 
 
+@contextmanager
+def writing_errors(path):
+    """Turn an OSError of the writes inside into an OutputError naming the
+    file (a full disk, the file size limit, a folder removed)."""
+    try:
+        yield
+    except OSError as err:
+        raise OutputError(f"{path}: writing failed: {err.strerror or err}") from err
+
+
 def _atomic_write_text(path, text):
     """Write to a temporary name then rename: a crash never leaves a torn file."""
     tmp = Path(str(path) + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    with writing_errors(path):
+        try:
+            tmp.write_text(text)
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+
+
+def _pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:     # alive, another user's
+        return True
+    return True
+
+
+class FolderLock:
+    """The output folder's lock file (fsph.lock: pid, host). A second run
+    into a folder in use is refused, whatever HDF5's own file locking does
+    (it is often off on cluster file systems). A lock left by a killed run
+    on this host (its pid gone) is taken over; one from another host is
+    not (its process cannot be checked): the message says to remove it.
+
+    Creating the folder and the lock is also the test that the folder can
+    be written: a file in its place, a folder without write permission and
+    a folder in use are InputErrors (exit 2) before the run starts."""
+
+    def __init__(self, outdir):
+        self.path = Path(outdir) / LOCK_NAME
+        self.stale = None
+        outdir = Path(outdir)
+        if outdir.exists() and not outdir.is_dir():
+            raise InputError(f"{outdir}: expected an output folder, got a file of that name "
+                             f"(give another -o)")
+        try:
+            outdir.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise InputError(f"{outdir}: cannot create the output folder: "
+                             f"{err.strerror or err}") from err
+        self._acquire()
+
+    def _acquire(self):
+        me = f"{os.getpid()} {socket.gethostname()}\n"
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                self._refuse_or_clear()
+                continue
+            except OSError as err:
+                raise InputError(f"{self.path.parent}: expected a writable output folder: "
+                                 f"{err.strerror or err}") from err
+            with os.fdopen(fd, "w") as fh:
+                fh.write(me)
+            return
+        raise InputError(f"{self.path}: could not take the output folder's lock")
+
+    def _refuse_or_clear(self):
+        """Remove a stale lock (its process gone, on this host) or raise."""
+        try:
+            pid_text, host = self.path.read_text().split()
+            pid = int(pid_text)
+        except (OSError, ValueError):
+            pid, host = None, "?"
+        if pid is not None and host == socket.gethostname() and not _pid_alive(pid):
+            self.stale = pid
+            self.path.unlink(missing_ok=True)
+            return
+        raise InputError(f"{self.path.parent}: output folder in use by another run (pid {pid} "
+                         f"on {host}, {self.path}); give another -o, or remove {LOCK_NAME} if "
+                         f"that run is dead")
+
+    def release(self):
+        self.path.unlink(missing_ok=True)
+
+
+def _file_size_limit():
+    """The process's file size limit [bytes] (ulimit -f), None without."""
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    return None if soft == resource.RLIM_INFINITY else soft
 
 
 class RunWriter:
@@ -43,27 +145,71 @@ class RunWriter:
     pressure, ...). The deck text is stored in /deck. vtu/ with fsph.pvd
     (elements) and fsph_particles.pvd (particles as vertices): the same
     snapshots for ParaView (points at (r, z, 0)).
+
+    fsph.h5 is opened for each write and closed after it, so other
+    processes can read it while the run goes on (between writes; HDF5's
+    file locking is off for the writer: the folder's lock file keeps other
+    writers out). Every failed write is an OutputError; before a snapshot,
+    check_room refuses to start one the disk or the file size limit has no
+    room for, so the last complete snapshot stays readable.
     """
 
     def __init__(self, outdir, deck_text, title, vtu=True):
         self.outdir = Path(outdir)
-        self.outdir.mkdir(parents=True, exist_ok=True)
         self.h5_path = self.outdir / "fsph.h5"
-        self.h5 = h5py.File(self.h5_path, "w")
-        self.h5.attrs["title"] = title
-        self.h5["deck"] = deck_text
-        hist = self.h5.create_group("history")
-        for name in HISTORY_FIELDS:
-            hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
-        self.snapshots = self.h5.create_group("snapshots")
+        with self._h5("w") as h5:
+            h5.attrs["title"] = title
+            h5["deck"] = deck_text
+            hist = h5.create_group("history")
+            for name in HISTORY_FIELDS:
+                hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
+                                    chunks=(4096,))
+            h5.create_group("snapshots")
         self.n_snapshots = 0
+        self.last_snapshot_bytes = 0
         self.energy0 = None
         self.max_energy_error = 0.0
         self.max_energy_error_time = 0.0
         self.vtu = vtu
         self.pvd_entries = {}
         if vtu:
-            (self.outdir / "vtu").mkdir(exist_ok=True)
+            with writing_errors(self.outdir / "vtu"):
+                (self.outdir / "vtu").mkdir(exist_ok=True)
+
+    @contextmanager
+    def _h5(self, mode="a"):
+        """fsph.h5 open for one write (OSError -> OutputError)."""
+        with writing_errors(self.h5_path), h5py.File(self.h5_path, mode, locking=False) as h5:
+            yield h5
+
+    def _bytes_written(self):
+        """Bytes of fsph.h5 and the vtu folder [B]."""
+        with writing_errors(self.outdir):
+            total = self.h5_path.stat().st_size
+            if self.vtu:
+                total += sum(f.stat().st_size for f in (self.outdir / "vtu").iterdir())
+        return total
+
+    def check_room(self, time, other_bytes=0):
+        """Raise OutputError if the disk, or the file size limit, leaves no
+        room for the next snapshot (ROOM_FACTOR times the last one) and
+        other_bytes [B] more (the checkpoint rewritten beside it); time [s]
+        for the message. Nothing is known before the first snapshot."""
+        need = ROOM_FACTOR * self.last_snapshot_bytes
+        if not need:
+            return
+        free = shutil.disk_usage(self.outdir).free
+        where = f"the disk of {self.outdir} has {free / 2**20:.1f} MiB free"
+        limit = _file_size_limit()
+        short = free < need + other_bytes
+        if limit is not None and not short:
+            largest = max(self.h5_path.stat().st_size + need, other_bytes)
+            short = largest > limit
+            where = f"the file size limit (ulimit -f) is {limit / 2**20:.1f} MiB"
+        if short:
+            raise OutputError(f"no room for the snapshot at t = {time * 1e6:.6g} us: {where}, "
+                              f"the next snapshot needs about {need / 2**20:.1f} MiB "
+                              f"(and {other_bytes / 2**20:.1f} MiB for the checkpoint)")
 
     def append_history(self, records):
         """records: (k, len(HISTORY_FIELDS)) rows. Also tracks the largest
@@ -81,34 +227,43 @@ class RunWriter:
             if abs(error) > abs(self.max_energy_error):
                 self.max_energy_error = float(error)
                 self.max_energy_error_time = float(records[worst, HISTORY_FIELDS.index("time")])
-        hist = self.h5["history"]
-        n0 = hist["time"].shape[0]
-        n1 = n0 + len(records)
-        for j, name in enumerate(HISTORY_FIELDS):
-            hist[name].resize((n1,))
-            hist[name][n0:n1] = records[:, j]
+        with self._h5() as h5:
+            hist = h5["history"]
+            n0 = hist["time"].shape[0]
+            n1 = n0 + len(records)
+            for j, name in enumerate(HISTORY_FIELDS):
+                hist[name].resize((n1,))
+                hist[name][n0:n1] = records[:, j]
 
     def write_snapshot(self, snap):
-        g = self.snapshots.create_group(f"{self.n_snapshots:05d}")
-        g.attrs["time"] = snap["time"]
-        g.attrs["cycle"] = snap["cycle"]
-        if "conn" in snap:
-            g["nodes"] = snap["x"]
-            g["nodes_initial"] = snap["x0"]
-            g["velocity"] = snap["velocity"]
-            g["connectivity"] = snap["conn"]
-            for name in SNAPSHOT_CELL_FIELDS:
-                g[name] = snap[name]
-            g["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
-        if "particles" in snap:
-            pg = g.create_group("particles")
-            for name, values in snap["particles"].items():
-                pg[name] = values
-            pg["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
-        self.h5.flush()
+        """Write snap into fsph.h5 (under PARTIAL_SNAPSHOT, renamed NNNNN
+        once complete) and the vtu series."""
+        before = self._bytes_written()
+        with self._h5() as h5:
+            snapshots = h5["snapshots"]
+            if PARTIAL_SNAPSHOT in snapshots:
+                del snapshots[PARTIAL_SNAPSHOT]
+            g = snapshots.create_group(PARTIAL_SNAPSHOT)
+            g.attrs["time"] = snap["time"]
+            g.attrs["cycle"] = snap["cycle"]
+            if "conn" in snap:
+                g["nodes"] = snap["x"]
+                g["nodes_initial"] = snap["x0"]
+                g["velocity"] = snap["velocity"]
+                g["connectivity"] = snap["conn"]
+                for name in SNAPSHOT_CELL_FIELDS:
+                    g[name] = snap[name]
+                g["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
+            if "particles" in snap:
+                pg = g.create_group("particles")
+                for name, values in snap["particles"].items():
+                    pg[name] = values
+                pg["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
+            snapshots.move(PARTIAL_SNAPSHOT, f"{self.n_snapshots:05d}")
         if self.vtu:
             self._write_vtu(snap)
         self.n_snapshots += 1
+        self.last_snapshot_bytes = max(self._bytes_written() - before, 0)
 
     def _write_vtu(self, snap):
         if "conn" in snap:
@@ -136,7 +291,8 @@ class RunWriter:
         name = f"vtu/{kind}_{self.n_snapshots:05d}.vtu"
         # uncompressed binary: double-precision fields hardly compress, and
         # zlib was the largest output cost of a short run
-        meshio.write(self.outdir / name, mesh, binary=True, compression=None)
+        with writing_errors(self.outdir / name):
+            meshio.write(self.outdir / name, mesh, binary=True, compression=None)
         entries = self.pvd_entries.setdefault(kind, [])
         entries.append((time, name))
         rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="0" file="{f}"/>'
@@ -147,10 +303,8 @@ class RunWriter:
                            f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
 
     def mark_failure(self, message):
-        self.h5.attrs["failure"] = message
-
-    def close(self):
-        self.h5.close()
+        with self._h5() as h5:
+            h5.attrs["failure"] = message
 
 
 def write_summary(outdir, summary):

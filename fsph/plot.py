@@ -14,9 +14,11 @@ PARTICLE_COLOUR = "#d9822b"
 
 
 def _snapshots(h5):
-    """(time, group) of every snapshot, in time order."""
+    """(time, group) of every complete snapshot, in time order (a snapshot
+    being written, or cut short, has no number yet)."""
     snaps = h5["snapshots"]
-    return sorted(((snaps[k].attrs["time"], snaps[k]) for k in snaps), key=lambda t: t[0])
+    return sorted(((snaps[k].attrs["time"], snaps[k]) for k in snaps if k.isdigit()),
+                  key=lambda t: t[0])
 
 
 def _nearest_snapshots(snaps, times_us):

@@ -16,7 +16,9 @@ VALIDATION_DECKS = ("elastic_bar", "elastic_bar_sph", "elastic_bar_coupled",
 def _summary(deck, outdir, rerun):
     summary_path = outdir / "summary.json"
     if not rerun and summary_path.is_file():
-        return json.loads(summary_path.read_text())
+        summary = json.loads(summary_path.read_text())
+        if summary["status"] != "running":      # 'running': a run that was killed
+            return summary
     return run(deck, outdir, quiet=True)
 
 

@@ -345,6 +345,8 @@ def run_variant(deck_path, folder, threads, deck_hash):
         summary = json.loads((folder / "summary.json").read_text())
     except (OSError, ValueError):
         summary = None
+    if summary is not None and summary["status"] == "running":
+        summary = None      # the summary of the last snapshot of a run that was killed
     if summary is not None:
         status = summary["status"]
         error = summary.get("failure", {}).get("message", "") if status != "completed" else ""

@@ -1,0 +1,204 @@
+"""The output folder and its files under misuse and faults: a folder that is
+a file or cannot be written, a second run into a folder in use, reading
+fsph.h5 while the run writes it, a killed run, a full disk."""
+
+import errno
+import json
+import os
+import resource
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import h5py
+import pytest
+
+from conftest import rod_deck
+from test_cli_errors import fsph_cli
+
+#: a deck of about 20 s on one thread (it is killed long before), and the
+#: same rod for 60 us (about a second)
+LONG_DECK = rod_deck(control="end_time = 2.0e-3", body="n_radial = 6\n n_axial = 24",
+                     output="n_snapshots = 1000")
+SHORT_DECK = rod_deck(control="end_time = 60.0e-6", body="n_radial = 6\n n_axial = 24",
+                      output="n_snapshots = 40")
+
+
+def one_line_error(res, code, *fragments):
+    """res ended with `code`, no traceback and one stderr line holding every fragment."""
+    assert res.returncode == code, res.stdout + res.stderr
+    assert "Traceback" not in res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+def complete_snapshots(path):
+    """Times [s] of the complete snapshots of fsph.h5, read as a user reads it."""
+    with h5py.File(path, "r") as h5:
+        snaps = h5["snapshots"]
+        return sorted(snaps[k].attrs["time"] for k in snaps if k.isdigit())
+
+
+def test_output_folder_that_is_a_file(tmp_path):
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    (tmp_path / "taken").write_text("not a folder")
+    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "taken")], tmp_path)
+    one_line_error(res, 2, "taken", "expected an output folder, got a file")
+    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "taken" / "out")], tmp_path)
+    one_line_error(res, 2, "cannot create the output folder")
+
+
+def _can_create_in(folder):
+    probe = os.path.join(folder, "fsph-probe")
+    try:
+        os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except OSError:
+        return False
+    os.unlink(probe)
+    return True
+
+
+def test_output_folder_not_writable(tmp_path):
+    """A folder without write permission (as root, which ignores it, a
+    read-only system folder) is refused before the run, exit 2."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    folder = tmp_path / "read_only"
+    folder.mkdir()
+    folder.chmod(0o555)
+    if _can_create_in(folder):
+        folder = "/sys/kernel"
+        if not os.path.isdir(folder) or _can_create_in(folder):
+            pytest.skip("no folder this user cannot write")
+    res = fsph_cli(["run", str(deck), "-o", str(folder)], tmp_path)
+    one_line_error(res, 2, str(folder), "expected a writable output folder")
+
+
+def test_a_run_is_readable_while_it_writes_and_its_folder_is_locked(tmp_path):
+    """While a run writes: a second process (this test) opens fsph.h5 with
+    HDF5's default locking and reads complete snapshots; summary.json says
+    'running'; a second run into the folder is refused (exit 2) even with
+    HDF5's file locking off. Killed (SIGKILL), the run leaves a summary of
+    its last snapshot that `fsph plot` reads, and a stale lock the next
+    run takes over."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(LONG_DECK)
+    out = tmp_path / "out"
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    first = subprocess.Popen([sys.executable, "-m", "fsph", "run", str(deck), "-o", str(out),
+                              "-q"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        times = []
+        while len(times) < 3:
+            assert first.poll() is None and time.monotonic() < deadline, first.stderr.read()
+            time.sleep(0.2)
+            try:
+                times = complete_snapshots(out / "fsph.h5")
+            except (OSError, KeyError):
+                times = []      # between the file's creation and its first snapshot
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["status"] == "running" and summary["metrics_time_s"] > 0
+        second = subprocess.run([sys.executable, "-m", "fsph", "run", str(deck), "-o", str(out)],
+                                cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                                env=dict(env, HDF5_USE_FILE_LOCKING="FALSE"))
+        one_line_error(second, 2, "output folder in use by another run", f"pid {first.pid}")
+        assert first.poll() is None, "the run ended before the test could watch it"
+    finally:
+        first.send_signal(signal.SIGKILL)
+        first.wait()
+    assert (out / "fsph.lock").is_file()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "running"
+    assert summary["metrics_time_s"] in complete_snapshots(out / "fsph.h5")
+    plot = fsph_cli(["plot", str(out), "--times", "0,1"], tmp_path)
+    assert plot.returncode == 0, plot.stderr
+    deck.write_text(rod_deck())
+    again = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert f"took over the lock of a run that is gone (pid {first.pid})" in again.stdout
+    assert not (out / "fsph.lock").exists()
+    assert json.loads((out / "summary.json").read_text())["status"] == "completed"
+
+
+def test_lock_of_another_host_is_not_taken_over(tmp_path):
+    """A lock whose process cannot be checked (another host) keeps the run out."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "fsph.lock").write_text(f"12345 not-{socket.gethostname()}\n")
+    res = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
+    one_line_error(res, 2, "in use by another run (pid 12345", "remove fsph.lock")
+
+
+def _limit_file_size(limit):
+    """preexec_fn: the child may write no file larger than `limit` bytes
+    (ulimit -f; Python ignores SIGXFSZ, so a write beyond fails with EFBIG)."""
+    def apply():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    return apply
+
+
+def test_full_disk_stops_before_the_snapshot_that_would_not_fit(tmp_path):
+    """Under a file size limit of half what the run writes into fsph.h5,
+    the run stops with exit 3 and one line before the snapshot that would
+    not fit; every snapshot written before stays complete and readable,
+    and summary.json says where and why."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(SHORT_DECK)
+    whole = fsph_cli(["run", str(deck), "-o", str(tmp_path / "whole"), "-q"], tmp_path)
+    assert whole.returncode == 0, whole.stderr
+    full_size = (tmp_path / "whole" / "fsph.h5").stat().st_size
+    out = tmp_path / "out"
+    res = subprocess.run([sys.executable, "-m", "fsph", "run", str(deck), "-o", str(out)],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ, OMP_NUM_THREADS="1"),
+                         preexec_fn=_limit_file_size(full_size // 2))
+    assert res.returncode == 3, res.stdout + res.stderr
+    assert "Traceback" not in res.stdout + res.stderr
+    assert "no room for the snapshot" in res.stdout and "file size limit" in res.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    assert summary["failure"]["message"].startswith("run stopped at t = ")
+    times = complete_snapshots(out / "fsph.h5")
+    assert 3 <= len(times) < 40
+    assert summary["metrics_time_s"] == times[-1]
+    assert f"last good snapshot t = {times[-1] * 1e6:.4g} us" in res.stdout
+    assert not (out / "fsph.lock").exists()
+
+
+def test_failed_write_stops_the_run_and_keeps_what_was_written(tmp_path, monkeypatch, capsys):
+    """A write that fails however much room there seemed to be (here the
+    third .vtu file, ENOSPC) stops the run: exit 3, the failure named on
+    one line, the snapshots written before complete."""
+    from fsph import cli, layouts, output
+    calls = {"n": 0}
+    real_write = output.meshio.write
+
+    def write(path, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+        return real_write(path, *args, **kwargs)
+
+    monkeypatch.setattr(output.meshio, "write", write)
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck(output="n_snapshots = 4"))
+    out = tmp_path / "out"
+    assert cli.main(["run", str(deck), "-o", str(out)]) == 3
+    stdout = capsys.readouterr().out
+    assert "Traceback" not in stdout
+    failure = [line for line in stdout.splitlines() if line.startswith("fsph: run failed:")]
+    assert len(failure) == 1 and "No space left on device" in failure[0]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failure"]["code"] == layouts.status_code("output")
+    times = complete_snapshots(out / "fsph.h5")
+    assert len(times) == 3          # the third's vtu failed after its fsph.h5 group
+    assert summary["metrics_time_s"] == times[1]
