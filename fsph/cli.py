@@ -8,6 +8,7 @@ error.
 """
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -73,6 +74,55 @@ def _parser():
     return p
 
 
+#: picture formats `fsph plot -o` writes (matplotlib's Agg backend)
+PLOT_FORMATS = (".png", ".pdf", ".svg")
+#: the resolutions `fsph plot --dpi` accepts [dots per inch]
+PLOT_DPI = (10, 2400)
+
+
+def _plot_times(text):
+    """--times as a list of finite times >= 0 [us]; InputError otherwise."""
+    expected = f"--times: expected times in microseconds >= 0 separated by commas, got {text!r}"
+    try:
+        times = [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise InputError(expected) from None
+    if not times or not all(math.isfinite(t) and t >= 0.0 for t in times):
+        raise InputError(expected)
+    return times
+
+
+def _plot(args):
+    """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
+    from .plot import damage_map, deformed_shapes, histories, perforation_histories
+    times = _plot_times(args.times)
+    if not PLOT_DPI[0] <= args.dpi <= PLOT_DPI[1]:
+        raise InputError(f"--dpi: expected an integer from {PLOT_DPI[0]} to {PLOT_DPI[1]}, "
+                         f"got {args.dpi}")
+    run_dir = Path(args.run_dir)
+    for name in ("fsph.h5", "summary.json"):
+        if not (run_dir / name).is_file():
+            raise InputError(f"{run_dir}: expected the output folder of `fsph run` (no {name})")
+    if args.output:
+        output = Path(args.output)
+        if output.suffix.lower() not in PLOT_FORMATS:
+            raise InputError(f"-o {output}: expected a file name ending in "
+                             f"{', '.join(PLOT_FORMATS)}")
+        if not output.parent.is_dir():
+            raise InputError(f"-o {output}: expected an existing folder, no {output.parent}")
+    try:
+        print(deformed_shapes(run_dir, times, args.output, args.dpi))
+        print(histories(run_dir, dpi=args.dpi))
+        for extra in (perforation_histories(run_dir, dpi=args.dpi),
+                      damage_map(run_dir, dpi=args.dpi)):
+            if extra:
+                print(extra)
+    except OSError as err:
+        raise InputError(f"{err.filename or run_dir}: cannot write the picture: "
+                         f"{err.strerror or err}") from None
+    return EXIT_OK
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     try:
@@ -91,28 +141,11 @@ def main(argv=None):
             frame = sweep(args.deck, args.sets, args.output, scheduler=args.scheduler,
                           workers=args.workers, threads=args.threads, free_p=args.free_p,
                           rerun=args.rerun, quiet=args.quiet)
+            if (frame["status"] == "interrupted").any():
+                return EXIT_INTERRUPTED
             return EXIT_OK if (frame["status"] == "completed").all() else EXIT_RUN_FAILED
         if args.command == "plot":
-            from .plot import damage_map, deformed_shapes, histories, perforation_histories
-            try:
-                times = [float(t) for t in args.times.split(",") if t.strip()]
-            except ValueError:
-                print(f"fsph: error: --times: expected numbers separated by commas, got "
-                      f"{args.times!r}", file=sys.stderr)
-                return EXIT_DECK
-            run_dir = Path(args.run_dir)
-            for name in ("fsph.h5", "summary.json"):
-                if not (run_dir / name).is_file():
-                    print(f"fsph: error: {run_dir}: expected the output folder of `fsph run` "
-                          f"(no {name})", file=sys.stderr)
-                    return EXIT_DECK
-            print(deformed_shapes(run_dir, times, args.output, args.dpi))
-            print(histories(run_dir, dpi=args.dpi))
-            for extra in (perforation_histories(run_dir, dpi=args.dpi),
-                          damage_map(run_dir, dpi=args.dpi)):
-                if extra:
-                    print(extra)
-            return EXIT_OK
+            return _plot(args)
         if args.command == "report":
             from .report import VALIDATION_DECKS, write_report
             decks = tuple(d.strip() for d in args.decks.split(",")) if args.decks else VALIDATION_DECKS
@@ -141,6 +174,9 @@ def main(argv=None):
     except OutputError as err:
         print(f"fsph: error: {err}", file=sys.stderr)
         return EXIT_RUN_FAILED
+    except KeyboardInterrupt:
+        print("fsph: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except FsphError as err:
         print(f"fsph: error: {err}", file=sys.stderr)
         return EXIT_ERROR

@@ -692,6 +692,8 @@ def _check_group_bounds(path, text):
 
 def _parse(path):
     path = Path(path)
+    if path.is_dir():
+        raise DeckError(path, None, None, "a deck file", "a folder")
     if not path.is_file():
         raise DeckError(path, None, None, "an existing deck file", "no such file")
     try:
@@ -1005,10 +1007,12 @@ def _check_size(path, bodies):
     for i, b in enumerate(bodies):
         entities += _cell_estimate(b) * (4 if b["discretisation"] == "elements" else 1)
         if entities > MAX_ENTITIES:
-            raise DeckError(path, f"body #{i + 1}", "n_axial",
+            counts = {k: b[k] for k in ("n_radial", "n_coarse", "n_axial", "n_nose") if b.get(k)}
+            largest = max(counts, key=counts.get)
+            raise DeckError(path, f"body #{i + 1}", largest,
                             f"a resolution with at most {MAX_ENTITIES} elements and particles "
                             "in all bodies (each quadrilateral is 4 elements)",
-                            f"n_radial x n_axial = {b['n_radial']} x {b['n_axial']}")
+                            " x ".join(f"{k} {v}" for k, v in counts.items()))
 
 
 def _check_joins(path, bodies, mode):

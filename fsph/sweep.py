@@ -29,6 +29,7 @@ import json
 import math
 import os
 import re
+import signal
 import subprocess
 import sys
 import time as wallclock
@@ -43,7 +44,8 @@ from . import deck as deck_module
 from . import references
 from . import metrics as metrics_module
 from .ballistics import fit_recht_ipson
-from .errors import DeckError, FsphError
+from .errors import DeckError, FsphError, InputError
+from .output import LOCK_NAME
 
 #: What a --set looks like, for error messages.
 SET_SYNTAX = ("GROUP.KEY=VALUES, GROUP(I).KEY=VALUES or GROUP(NAME).KEY=VALUES with VALUES "
@@ -56,6 +58,14 @@ SUMMARY_SCALARS = ("status", "cycles", "end_time_s", "n_elements", "n_nodes", "n
                    "n_converted", "n_debris_particles", "threads")
 #: Status of a variant whose deck did not pass validation (it is not run).
 INVALID = "invalid"
+#: Status of a variant the sweep's interruption stopped or kept from running.
+INTERRUPTED = "interrupted"
+#: How long to wait for a --scheduler to answer [s].
+SCHEDULER_TIMEOUT_S = 10
+#: How long an interrupted sweep waits for its runs to write their checkpoints [s].
+STOP_WAIT_S = 120
+#: In the sweep folder while an interrupted sweep stops: no variant starts.
+STOP_MARK = "sweep.stopping"
 
 
 @dataclass(frozen=True)
@@ -329,6 +339,10 @@ def run_variant(deck_path, folder, threads, deck_hash):
     message, wall time and the summary (None when the run left none), and
     writes them with the deck's hash to folder/variant.json."""
     folder = Path(folder)
+    if (folder.parent / STOP_MARK).exists():
+        return {"status": INTERRUPTED, "error": "the sweep was interrupted before this run",
+                "returncode": None, "wall_time_s": 0.0, "deck_sha256": deck_hash,
+                "threads": threads, "summary": None}
     for name in ("summary.json", "variant.json"):
         (folder / name).unlink(missing_ok=True)
     package_root = str(Path(__file__).resolve().parents[1])
@@ -355,7 +369,7 @@ def run_variant(deck_path, folder, threads, deck_hash):
         status = "crashed"
         error = f"killed by signal {-proc.returncode}: {_last_line(proc.stderr)}".rstrip(": ")
     else:
-        status = INVALID if proc.returncode == 2 else "error"
+        status = {2: INVALID, 4: INTERRUPTED}.get(proc.returncode, "error")
         error = _last_line(proc.stderr) or f"exit code {proc.returncode}"
     record = {"status": status, "error": error, "returncode": proc.returncode,
               "wall_time_s": wall, "deck_sha256": deck_hash, "threads": threads}
@@ -537,7 +551,12 @@ def _client(scheduler, workers):
     (closed afterwards)."""
     from distributed import Client, LocalCluster
     if scheduler:
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
+        except (OSError, ValueError, TypeError) as err:
+            raise InputError(f"--scheduler {scheduler}: expected the address of a running "
+                             f"Dask scheduler: {err}") from None
+        with client:
             yield client
         return
     import logging
@@ -571,6 +590,7 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
     # absolute: the runs start in their own folders, maybe on other hosts
     output = (Path(output) if output else Path("out") / f"{deck.stem}_sweep").resolve()
     params, variants = plan(deck, sets, output)
+    (output / STOP_MARK).unlink(missing_ok=True)      # an earlier sweep's, interrupted
     todo = [v for v in variants if v.status is None and (rerun or not _reuse(v))]
     workers = workers or max(1, cores() // threads)
     invalid = [v for v in variants if v.status == INVALID]
@@ -599,8 +619,11 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
 
 
 def _run_all(todo, scheduler, workers, threads, say):
-    """Submit the variants as Dask tasks and record each result as it comes."""
-    from distributed import as_completed
+    """Submit the variants as Dask tasks and record each result as it comes.
+    SIGINT (Ctrl-C) stops the sweep: runs under way are asked to stop (they
+    write their checkpoints), queued ones are cancelled; both are
+    'interrupted', and the same command resumes the sweep."""
+    from distributed import as_completed, wait
     with _client(scheduler, workers) as client:
         where = (f"scheduler {scheduler}" if scheduler else
                  f"local cluster of {workers} worker(s)")
@@ -608,14 +631,62 @@ def _run_all(todo, scheduler, workers, threads, say):
         futures = {client.submit(run_variant, str(v.deck_path), str(v.folder), threads,
                                  v.deck_hash, key=f"fsph-{v.name}-{v.deck_hash[:12]}",
                                  pure=False): v for v in todo}
-        for k, future in enumerate(as_completed(futures), 1):
-            v = futures[future]
-            try:
-                record = future.result()
-            except Exception as exc:      # the task itself failed (worker lost...)
-                record = {"status": "error", "error": f"{type(exc).__name__}: {exc}",
-                          "wall_time_s": float("nan"), "summary": None}
-            v.status, v.error = record["status"], record["error"]
-            v.summary, v.wall_time_s = record["summary"], record["wall_time_s"]
-            say(f"fsph sweep: [{k}/{len(todo)}] {v.name}: {v.status} "
-                f"({v.wall_time_s:.1f} s)" + (f": {v.error}" if v.error else ""))
+        done = 0
+        try:
+            for future in as_completed(futures):
+                done += 1
+                _record(futures[future], future, f"[{done}/{len(todo)}]", say)
+        except KeyboardInterrupt:
+            say("fsph sweep: interrupted: stopping the runs under way (they keep their "
+                "checkpoints); the same command resumes the sweep")
+            _stop(futures, say)
+
+
+def _stop(futures, say):
+    """Stop a sweep: the stop mark keeps queued variants from starting;
+    runs under way get SIGINT until they have ended (STOP_WAIT_S at most)."""
+    from distributed import wait
+    pending = [f for f in futures if not f.done()]
+    if not pending:
+        return
+    mark = futures[pending[0]].folder.parent / STOP_MARK
+    mark.touch()
+    deadline = wallclock.monotonic() + STOP_WAIT_S
+    while pending and wallclock.monotonic() < deadline:
+        _stop_runs([futures[f] for f in pending])
+        wait(pending, timeout=1.0)
+        for future in [f for f in pending if f.done()]:
+            _record(futures[future], future, "[stopped]", say)
+        pending = [f for f in pending if not f.done()]
+    for future in pending:
+        future.cancel()
+        v = futures[future]
+        v.status, v.error = INTERRUPTED, "the sweep was interrupted before this run ended"
+    if not pending:
+        mark.unlink(missing_ok=True)
+
+
+def _record(v, future, count, say):
+    """Book the result of variant v's finished future; say it."""
+    try:
+        record = future.result()
+    except Exception as exc:      # the task itself failed (worker lost...)
+        record = {"status": "error", "error": f"{type(exc).__name__}: {exc}",
+                  "wall_time_s": float("nan"), "summary": None}
+    v.status, v.error = record["status"], record["error"]
+    v.summary, v.wall_time_s = record["summary"], record["wall_time_s"]
+    say(f"fsph sweep: {count} {v.name}: {v.status} "
+        f"({v.wall_time_s:.1f} s)" + (f": {v.error}" if v.error else ""))
+
+
+def _stop_runs(variants):
+    """SIGINT to the runs of these variants under way on this host (their
+    pids are in their folders' lock files); they stop with a checkpoint."""
+    import socket
+    for v in variants:
+        try:
+            pid, host = (v.folder / LOCK_NAME).read_text().split()
+            if host == socket.gethostname():
+                os.kill(int(pid), signal.SIGINT)
+        except (OSError, ValueError):
+            pass        # not started, already ended, or elsewhere

@@ -31,6 +31,8 @@ BAD_DECKS = {
     "poisson_half": (rod_deck(material="name='steel'\n library='steel_elastic_bar'\n poisson_ratio=0.5"),
                      ["&material #1", "'poisson_ratio'", "[0, 0.5)"]),
     "zero_resolution": (rod_deck(body="n_radial = 0"), ["&body #1", "'n_radial'", "[1, inf)"]),
+    "oversized_n_radial": (rod_deck(body="n_radial = 100000"),
+                           ["&body #1", "'n_radial'", "at most 4000000", "n_radial 100000 x n_axial 12"]),
     "missing_required": (rod_deck().replace(" end_time = 1.0e-6\n", ""),
                          ["&control", "'end_time'", "missing key"]),
     "unknown_material": (rod_deck(body="material = 'unobtainium'"),
@@ -121,6 +123,13 @@ def test_missing_deck_file(tmp_path):
     res = fsph_cli(["run", str(tmp_path / "nowhere.nml")], tmp_path)
     assert res.returncode == 2
     assert "nowhere.nml" in res.stderr and "no such file" in res.stderr
+
+
+def test_deck_path_that_is_a_folder(tmp_path):
+    (tmp_path / "decks").mkdir()
+    res = fsph_cli(["run", str(tmp_path / "decks")], tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert "decks: expected a deck file, got 'a folder'" in res.stderr
 
 
 def run_failing(tmp_path, deck_text, code, what):

@@ -4,6 +4,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from fsph.driver import run
 from conftest import rod_deck
@@ -88,3 +89,30 @@ def test_plot_draws_the_damage_map_of_a_concrete_run(tmp_path, write_deck):
     png = out / "damage.png"
     assert str(png) in res.stdout
     assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--times", ""], "--times: expected times in microseconds >= 0"),
+    (["--times=-5,10"], "--times: expected times in microseconds >= 0"),
+    (["--times", "nan"], "--times: expected times in microseconds >= 0"),
+    (["--dpi", "0"], "--dpi: expected an integer from 10 to 2400, got 0"),
+    (["-o", "shapes.txt"], "expected a file name ending in .png, .pdf, .svg"),
+    (["-o", "no_such_folder/shapes.png"], "expected an existing folder, no no_such_folder"),
+])
+def test_bad_plot_arguments_are_one_line_errors(tmp_path, args, expected):
+    """Each bad argument of `fsph plot` is refused before anything is drawn:
+    exit 2, one line, no picture."""
+    out = tmp_path / "out"
+    run(_small_deck(tmp_path), out, quiet=True)
+    res = subprocess.run([sys.executable, "-m", "fsph", "plot", str(out), *args],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 2, res.stderr
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert expected in res.stderr, res.stderr
+    assert not list(out.glob("*.png"))
+
+
+def _small_deck(tmp_path):
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    return deck

@@ -297,3 +297,56 @@ def test_fit_label_keeps_the_first_significant_digit_of_the_error():
     assert _fit_label(fit) == "v_bl = 265.3 ± 0.1 m/s, a = 0.988 ± 0.001, p = 2"
     fit.update(v_bl_err=6.2, a_err=0.029)
     assert _fit_label(fit) == "v_bl = 265 ± 6 m/s, a = 0.988 ± 0.029, p = 2"
+
+
+def test_unreachable_scheduler_is_a_one_line_error(tmp_path):
+    """--scheduler at an address nothing listens on: exit 2 after the
+    connection timeout, one line naming the address."""
+    import subprocess
+    import sys
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    res = subprocess.run([sys.executable, "-m", "fsph", "sweep", str(deck), "--set",
+                          "body.velocity_z=-40,-50", "--scheduler", "tcp://127.0.0.1:9", "-o",
+                          str(tmp_path / "sweep")], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=300)
+    assert res.returncode == EXIT_DECK, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert "Traceback" not in res.stderr and len(lines) == 1, res.stderr
+    assert "--scheduler tcp://127.0.0.1:9: expected the address of a running Dask scheduler" \
+        in lines[0]
+
+
+def test_ctrl_c_stops_a_sweep_and_its_runs(tmp_path):
+    """SIGINT to a sweep of two long runs on one worker, once the first
+    has started: the run under way stops with its checkpoint, the queued
+    one never starts, the sweep writes its table and exits 4 without a
+    traceback; no run is left behind."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck(control="end_time = 2.0e-3", body="n_radial = 6\n n_axial = 24",
+                             output="n_snapshots = 1000"))
+    out = tmp_path / "sweep"
+    proc = subprocess.Popen([sys.executable, "-m", "fsph", "sweep", str(deck), "--set",
+                             "body.velocity_z=-40,-50", "--workers", "1", "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=tmp_path, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    deadline = time.monotonic() + 120
+    while not list(out.glob("*/summary.json")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=150)
+    assert proc.returncode == 4, stdout + stderr
+    assert "Traceback" not in stdout + stderr
+    frame = pd.read_csv(out / "sweep.csv")
+    assert list(frame["status"]) == ["interrupted", "interrupted"]
+    first, second = sorted(p for p in out.iterdir() if p.is_dir())
+    assert (first / "checkpoint.h5").is_file() and not (first / "fsph.lock").exists()
+    assert json.loads((first / "summary.json").read_text())["status"] == "interrupted"
+    assert not (second / "fsph.h5").exists()
+    assert not (out / "sweep.stopping").exists()
