@@ -1,8 +1,9 @@
 """Checks of the starting state, made before the first cycle: no body
 without mass, no body crossing or behind a rigid plane, no two bodies
-overlapping. Each failure is a DeckError naming the bodies (and the plane),
+overlapping, no gmsh mesh in the wrong units, no bar-wave probe outside its
+bodies. Each failure is a DeckError naming the bodies (and the plane),
 with where it happens; a deck that fails them would otherwise run to its end
-with a large energy error.
+with a large energy error, or fail only once the run is over.
 
 Overlap means that an interior point of one body (an element's centroid or
 a particle's centre) lies inside another body: inside one of its triangles,
@@ -18,9 +19,17 @@ from scipy.spatial import cKDTree
 
 from .errors import DeckError
 from .mesh import Mesh, ring_volume
+from .metrics import joined_bodies
 
 #: Relative tolerance of "behind a plane", a fraction of the body's size [-].
 PLANE_TOLERANCE = 1e-9
+#: A gmsh body this many times larger than every generated body has its
+#: coordinates in other units than mesh_scale says (millimetres read as
+#: metres make it 1000 times larger) [-].
+MESH_UNITS_RATIO = 100.0
+#: A gmsh body larger than this, with no generated body to compare, is
+#: warned about: impact bodies are millimetres to a metre or so [m].
+LARGE_BODY = 10.0
 
 
 def _where(x):
@@ -107,12 +116,56 @@ def _check_overlap(path, a, b):
                             f"{_where(first)}")
 
 
+def _check_mesh_units(path, bodies, specs, warnings):
+    """A gmsh body MESH_UNITS_RATIO times larger than the largest generated
+    body is an error naming its mesh_scale; one larger than LARGE_BODY
+    with no generated body beside it, a warning."""
+    read = [b for b in bodies if specs[b.index]["geometry"] == "gmsh"]
+    made = [b for b in bodies if specs[b.index]["geometry"] != "gmsh"]
+    for g in read:
+        scale = specs[g.index]["mesh_scale"]
+        if made:
+            ref = max(made, key=lambda b: b.size)
+            if g.size > MESH_UNITS_RATIO * ref.size:
+                raise DeckError(path, g.label, "mesh_scale",
+                                f"a scale giving '{g.name}' a size like the other bodies' (file "
+                                "coordinates in millimetres need mesh_scale = 1e-3)",
+                                f"{scale:g}: the mesh spans {g.size:.4g} m, "
+                                f"{g.size / ref.size:.0f} times '{ref.name}' ({ref.size:.4g} m)")
+        elif g.size > LARGE_BODY:
+            warnings.append(f"&{g.label} ('{g.name}'): the gmsh mesh spans {g.size:.4g} m with "
+                            f"mesh_scale = {scale:g}; file coordinates in millimetres need "
+                            "mesh_scale = 1e-3")
+
+
+def _check_probe(path, deck, bodies):
+    """A bar-wave probe radius inside every body it samples (the metric's
+    body and those joined to it): outside, the profile would be empty or
+    taken from the nearest edge."""
+    met = deck["metrics"]
+    if met["kind"] != "bar_wave":
+        return
+    names = [b["name"] for b in deck["body"]]
+    sampled = joined_bodies(deck, names.index(met["body"]) if met["body"] else 0)
+    r = met["probe_radius"]
+    for body in bodies:
+        if body.index in sampled and not body.lo[0] <= r <= body.hi[0]:
+            raise DeckError(path, "metrics", "probe_radius",
+                            f"a radius inside the body it samples ('{body.name}' spans r = "
+                            f"{1e3 * body.lo[0]:.4g} to {1e3 * body.hi[0]:.4g} mm)",
+                            f"{1e3 * r:.4g} mm")
+
+
 def check_starting_state(deck, discretisations):
     """Raise a DeckError if a body has no mass, lies behind or across a
-    rigid plane, or overlaps another body. discretisations: (body index,
-    Mesh or ParticleLattice) for every body."""
+    rigid plane, overlaps another body, is a gmsh mesh in the wrong units,
+    or a bar-wave probe lies outside the bodies it samples; a gmsh body of
+    implausible size adds to deck["warnings"]. discretisations: (body
+    index, Mesh or ParticleLattice) for every body."""
     path = deck.get("path", "deck")
     bodies = [_Body(ib, deck["body"][ib], disc) for ib, disc in discretisations]
+    _check_mesh_units(path, bodies, deck["body"], deck.setdefault("warnings", []))
+    _check_probe(path, deck, bodies)
     for body in bodies:
         _check_mass(path, body)
         _check_planes(path, body, deck["boundary"])

@@ -87,6 +87,10 @@ BAD_DECKS = {
                            "1 mm deep"]),
     "body_behind_plane": (rod_deck(body="z_base = -9.0e-3"),
                           ["&body #1", "'rod' in front of &boundary #1", "all of it behind the plane"]),
+    "probe_outside_body": (rod_deck(metrics="kind = 'bar_wave'\n probe_radius = 5.0e-3\n"
+                                            " plateau_from = 1.0e-3\n plateau_to = 2.0e-3"),
+                           ["&metrics", "'probe_radius'", "inside the body it samples ('rod' "
+                            "spans r = 0 to 1 mm)", "'5 mm'"]),
     "bodies_overlap": (rod_deck() + "&body\n name = 'cap'\n material = 'steel'\n radius = 1.0e-3\n"
                        " length = 1.0e-3\n z_base = 3.5e-3\n n_radial = 3\n n_axial = 3\n/\n",
                        ["&body #1", "'rod' clear of &body #2 ('cap')", "of its cells inside it"]),
@@ -123,6 +127,36 @@ def test_missing_deck_file(tmp_path):
     res = fsph_cli(["run", str(tmp_path / "nowhere.nml")], tmp_path)
     assert res.returncode == 2
     assert "nowhere.nml" in res.stderr and "no such file" in res.stderr
+
+
+def test_gmsh_mesh_in_millimetres(tmp_path):
+    """A gmsh anvil drawn in millimetres read with mesh_scale = 1 is 5000
+    times the rod beside it: exit 2 before the run, naming mesh_scale.
+    Alone, such a body runs with a warning."""
+    import meshio
+    r, z = np.meshgrid(np.linspace(0.0, 20.0, 6), np.linspace(-3.0, -1.0, 3))
+    points = np.column_stack([r.ravel(), z.ravel(), np.zeros(r.size)])
+    quads = [(j * 6 + i, j * 6 + i + 1, (j + 1) * 6 + i + 1, (j + 1) * 6 + i)
+             for j in range(2) for i in range(5)]
+    triangles = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    meshio.write(tmp_path / "anvil_mm.msh", meshio.Mesh(points, [("triangle", triangles)]),
+                 file_format="gmsh22", binary=False)
+    anvil = ("&body\n name = 'anvil'\n material = 'steel'\n geometry = 'gmsh'\n"
+             " mesh_file = 'anvil_mm.msh'\n/\n")
+    deck = tmp_path / "mm.nml"
+    deck.write_text(rod_deck(boundary=False) + anvil)
+    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "out")], tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+    for fragment in ("mm.nml: &body #2 key 'mesh_scale'", "millimetres need mesh_scale = 1e-3",
+                     "the mesh spans 20 m, 5000 times 'rod' (0.004 m)"):
+        assert fragment in res.stderr, res.stderr
+    alone = rod_deck(boundary=False)
+    alone = alone[:alone.index("&body")] + anvil + alone[alone.index("&output"):]
+    deck.write_text(alone.replace("end_time = 1.0e-6", "end_time = 1.0e-9"))
+    res = fsph_cli(["run", str(deck), "-o", str(tmp_path / "alone")], tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "the gmsh mesh spans 20 m with mesh_scale = 1" in res.stdout
 
 
 def test_deck_path_that_is_a_folder(tmp_path):

@@ -14,7 +14,8 @@ R, L = 1.0e-3, 4.0e-3
 
 
 def _deck(names, boundaries=()):
-    return {"path": "deck.nml", "body": [{"name": n} for n in names], "boundary": list(boundaries)}
+    return {"path": "deck.nml", "body": [{"name": n, "geometry": "rod"} for n in names],
+            "boundary": list(boundaries), "metrics": {"kind": "none"}}
 
 
 def _pair(lower, upper):
