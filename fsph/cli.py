@@ -1,5 +1,6 @@
-"""Command line: `fsph run DECK [-o DIR]`, `fsph sweep DECK --set KEY=VALUES`,
-`fsph plot DIR`, `fsph report`, `fsph decks-reference`, `fsph info`.
+"""Command line: `fsph run DECK [-o DIR]`, `fsph check DECK`, `fsph sweep DECK
+--set KEY=VALUES`, `fsph plot DIR`, `fsph report`, `fsph decks-reference`,
+`fsph info`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
 to the last good snapshot are kept; sweep: a variant did not complete); 4
@@ -30,6 +31,11 @@ def _parser():
                         "and lines otherwise (auto, the default)")
     r.add_argument("--restart", help="continue from this checkpoint (checkpoint.h5 of a run "
                                      "of the same deck)")
+    ck = sub.add_parser("check", help="validate a deck and its starting state without running "
+                                       "it; print the bodies' counts and smallest cells, the "
+                                       "first time step and an estimate of the cycles and wall "
+                                       "time (a few cycles are timed)")
+    ck.add_argument("deck", help="namelist deck (.nml)")
     sw = sub.add_parser("sweep", help="run variants of a deck as Dask tasks (ranges and lists "
                                       "of deck keys, their Cartesian product) and gather "
                                       "their results in DIR/sweep.csv and sweep.h5 "
@@ -78,6 +84,23 @@ def _parser():
 PLOT_FORMATS = (".png", ".pdf", ".svg")
 #: the resolutions `fsph plot --dpi` accepts [dots per inch]
 PLOT_DPI = (10, 2400)
+
+
+def _check(deck_path):
+    """`fsph check`: the deck validated and set up (DeckError: exit 2),
+    then its sizes and the estimate of its cost."""
+    from . import deck as deck_module
+    from . import estimate
+    from .simulation import Simulation, threads
+    deck = deck_module.load(deck_path)
+    sim = Simulation(deck)
+    estimate.check_reachable(sim)
+    print(f"fsph check: {deck_path}: the deck and its starting state are valid")
+    for text in deck.get("warnings", []):
+        print(f"fsph: warning: {text}")
+    for line in estimate.report_lines(sim, threads()):
+        print(line)
+    return EXIT_OK
 
 
 def _plot_times(text):
@@ -132,6 +155,8 @@ def main(argv=None):
                           progress=args.progress)
             return {"failed": EXIT_RUN_FAILED, "interrupted": EXIT_INTERRUPTED}.get(
                 summary["status"], EXIT_OK)
+        if args.command == "check":
+            return _check(args.deck)
         if args.command == "sweep":
             from .sweep import sweep
             if args.threads < 1 or (args.workers is not None and args.workers < 1):

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import checkpoint as checkpoint_module
 from . import deck as deck_module
+from . import estimate
 from . import layouts
 from . import metrics as metrics_module
 from . import references
@@ -225,6 +226,7 @@ def _set_up(deck_path, outdir, restart):
     books = {}
     if restart is not None:
         outdir, books = _restart(sim, deck, restart, outdir)
+    estimate.check_reachable(sim)
     outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
     lock = FolderLock(outdir)
     try:
@@ -253,6 +255,8 @@ def _print_banner(say, setup, restart, lines):
         f"end time {ctrl['end_time'] * 1e6:g} us")
     if restart is not None:
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
+    say(f"fsph: first time step {sim.dt * 1e9:.4g} ns: at least "
+        f"{estimate.cycles_at_first_step(sim)} cycles to the end time")
     if setup.lock.stale:
         say(f"fsph: warning: took over the lock of a run that is gone (pid {setup.lock.stale}) "
             f"in {setup.outdir}")

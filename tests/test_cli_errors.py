@@ -159,6 +159,49 @@ def test_gmsh_mesh_in_millimetres(tmp_path):
     assert "the gmsh mesh spans 20 m with mesh_scale = 1" in res.stdout
 
 
+def test_check_prints_sizes_step_and_cost_without_running(tmp_path):
+    """`fsph check`: exit 0, the counts, the first step and the cycles at
+    that step of the Simulation the deck sets up, a wall-time estimate; no
+    output folder."""
+    import math
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    res = fsph_cli(["check", str(deck)], tmp_path)
+    assert res.returncode == 0, res.stderr
+    sim = fsph.Simulation.from_deck(deck)
+    cycles = math.ceil(1.0e-6 / sim.dt)
+    for text in ("the deck and its starting state are valid",
+                 f"{sim.n_elements} elements, {sim.n_nodes} nodes, 0 particles",
+                 f"first time step {sim.dt * 1e9:.4g} ns", f"at least {cycles} cycles",
+                 "wall time: about"):
+        assert text in res.stdout, res.stdout
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["unknown_key", "bodies_overlap", "probe_outside_body"])
+def test_check_refuses_what_run_refuses(name, tmp_path):
+    text, fragments = BAD_DECKS[name]
+    deck = tmp_path / f"{name}.nml"
+    deck.write_text(text)
+    res = fsph_cli(["check", str(deck)], tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and res.stdout == ""
+    for frag in fragments:
+        assert frag in res.stderr
+
+
+@pytest.mark.parametrize("command", ["run", "check"])
+def test_end_time_beyond_max_cycles_is_refused(command, tmp_path):
+    """An end time of 999 s would take 1e10 cycles: refused at set-up."""
+    deck = tmp_path / "long.nml"
+    deck.write_text(rod_deck(control="end_time = 999.0").replace("end_time = 1.0e-6\n", ""))
+    res = fsph_cli([command, str(deck), *(["-o", str(tmp_path / "out")] if command == "run" else [])],
+                   tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    assert "&control key 'end_time': expected an end time max_cycles = 50000000 cycles can reach" \
+        in res.stderr
+
+
 def test_deck_path_that_is_a_folder(tmp_path):
     (tmp_path / "decks").mkdir()
     res = fsph_cli(["run", str(tmp_path / "decks")], tmp_path)
