@@ -240,7 +240,8 @@ def bar_wave(snap, body_indices, probe_radius, plateau_from, plateau_to, interfa
     [mm]: the farthest initial distance from the face where the compressive
     stress still reaches half the plateau (linear interpolation). With an
     interface distance [m] (coupled bar), also the jump of the mean stress
-    across it: means over 3 mm on either side, relative to the plateau."""
+    across it: means over 3 mm on either side, relative to the plateau
+    (None while the plateau carries no compression)."""
     dist, szz = bar_profile(snap, body_indices, probe_radius)
     comp = -szz
     window = (dist >= plateau_from) & (dist <= plateau_to)
@@ -259,7 +260,8 @@ def bar_wave(snap, body_indices, probe_radius, plateau_from, plateau_to, interfa
         below = comp[(dist >= interface - span) & (dist < interface)].mean()
         beyond = comp[(dist >= interface) & (dist <= interface + span)].mean()
         out["interface_mm"] = interface * 1e3
-        out["interface_jump"] = float(abs(beyond - below) / plateau)
+        # none before the wave has arrived (a running summary at t = 0)
+        out["interface_jump"] = float(abs(beyond - below) / plateau) if plateau > 0.0 else None
     return out
 
 
