@@ -56,7 +56,10 @@ class OutputError(FsphError):
 class SimulationError(FsphError):
     """A run went bad (tangled mesh, NaN, collapsing time step...).
 
-    Attributes name what failed, which element or node, where and when.
+    Attributes name what failed, which element or node, where and when:
+    location is the (r, z) [m] of the element or particle at fault (a node:
+    where it started), None when that position is unknown (not finite, or
+    far outside the bodies).
     """
 
     def __init__(self, message, *, code, index=0, time=0.0, cycle=0, location=None):

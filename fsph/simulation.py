@@ -24,6 +24,11 @@ STATUS_OK = layouts.status_code("ok")
 STATUS_MAX_CYCLES = layouts.status_code("max_cycles")
 STATUS_BAD_INPUT = layouts.status_code("bad_input")
 NODE_FAULTS = {code for code, _, index, _ in layouts.STATUS if index == "node"}
+# where a failure's position may be (Simulation._plausible): the bodies'
+# box at set-up widened by this many box sizes [-] and by the distance covered
+# at this speed [m/s] since t = 0
+PLAUSIBLE_SIZES = 100.0
+PLAUSIBLE_SPEED = 1.0e5
 PHASES = tuple(name for name, _ in layouts.PHASES)
 
 
@@ -89,6 +94,8 @@ class Simulation:
                 (ib, b, geometry, mat))
 
         check_starting_state(deck, [(ib, geometry) for ib, _, geometry, _ in elem_bodies + part_bodies])
+        # the bodies' box at set-up: a failure's position is reported only inside its reach
+        self._box0 = _bounding_box([geometry.x for _, _, geometry, _ in elem_bodies + part_bodies])
         if elem_bodies:
             self._set_elements(elem_bodies)
         if part_bodies:
@@ -208,33 +215,82 @@ class Simulation:
 
     def _failure(self, ierr, ifault, during="run"):
         """The SimulationError of status ierr, naming where the element,
-        particle (ifault < 0) or node at fault is."""
+        particle (ifault < 0) or node at fault is. A position is given only
+        when it is finite and within reach of the bodies (_plausible);
+        otherwise the diagnostic says the position is unknown and gives where
+        the element or particle started, and the error's location is None."""
         time, cycle = self.time, self.cycle
         text = layouts.status_text(int(ierr))
         where, location = "", None
         raw = self._raw_snapshot()
         if ifault < 0:
             k = int(python_index(-ifault))
-            location = raw["particle_fields"][k, _PF["x_r"]:_PF["x_r"] + 2]
-            body = python_index(raw["particle_ids"][k, _ID["body"]])
-            where = (f"; particle {-ifault} of body '{self.body_names[body]}' "
-                     f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
+            fields = raw["particle_fields"]
+            if 0 <= k < len(fields):
+                where, location = self._placed(
+                    f"particle {-ifault}{self._of_body(raw['particle_ids'][k])}",
+                    fields[k:k + 1, _PF["x_r"]:_PF["x_r"] + 2], fields[k:k + 1, _PF["x0_r"]:_PF["x0_r"] + 2])
+            else:
+                where = f"; particle {-ifault} (not among the run's {len(fields)} particles)"
         elif ifault > 0 and ierr in NODE_FAULTS:
-            location = raw["node_fields"][int(python_index(ifault)), _NF["x0_r"]:_NF["x0_r"] + 2]
-            where = (f"; node {ifault} (initially at r = {location[0] * 1e3:.4g} mm, "
-                     f"z = {location[1] * 1e3:.4g} mm)")
+            k = int(python_index(ifault))
+            nodes = raw["node_fields"]
+            start = nodes[k, _NF["x0_r"]:_NF["x0_r"] + 2] if 0 <= k < len(nodes) else None
+            if start is not None and self._plausible(start):
+                location = start
+                where = (f"; node {ifault} (initially at r = {start[0] * 1e3:.4g} mm, "
+                         f"z = {start[1] * 1e3:.4g} mm)")
+            else:
+                where = f"; node {ifault} (position unknown)"
         elif ifault > 0 and ierr != STATUS_BAD_INPUT:
             k = int(python_index(ifault))
-            corners = python_index(raw["conn"][k])
-            location = raw["node_fields"][corners, _NF["x_r"]:_NF["x_r"] + 2].mean(axis=0)
-            body = python_index(raw["element_ids"][k, _ID["body"]])
-            where = (f"; element {ifault} of body '{self.body_names[body]}' "
-                     f"at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm")
+            nodes = raw["node_fields"]
+            if 0 <= k < len(raw["conn"]) and np.all((raw["conn"][k] >= 1) & (raw["conn"][k] <= len(nodes))):
+                corners = python_index(raw["conn"][k])
+                where, location = self._placed(
+                    f"element {ifault}{self._of_body(raw['element_ids'][k])}",
+                    nodes[corners, _NF["x_r"]:_NF["x_r"] + 2], nodes[corners, _NF["x0_r"]:_NF["x0_r"] + 2])
+            else:
+                where = f"; element {ifault} (not among the run's {len(raw['conn'])} elements)"
         elif ifault > 0:
             where = f"; index {ifault}"
         msg = f"{during} stopped at t = {time * 1e6:.6g} us, cycle {cycle}: {text}{where}"
         return SimulationError(msg, code=int(ierr), index=int(ifault), time=float(time),
                                cycle=int(cycle), location=location)
+
+    def _of_body(self, ids):
+        """' of body NAME' for a row of snapshot ids ('' for a body index
+        the deck does not have)."""
+        body = int(python_index(ids[_ID["body"]]))
+        return f" of body '{self.body_names[body]}'" if 0 <= body < len(self.body_names) else ""
+
+    def _placed(self, what, points, starts):
+        """The diagnostic's '; WHAT at r = .., z = ..' and the location (r, z)
+        [m]: the mean of `points` (k, 2) [m] (an element's corners, a
+        particle) when every one is plausible; else '; WHAT, position
+        unknown' with the mean of their initial positions `starts` [m], and
+        no location."""
+        if all(self._plausible(p) for p in points):
+            location = points.mean(axis=0)
+            return f"; {what} at r = {location[0] * 1e3:.4g} mm, z = {location[1] * 1e3:.4g} mm", location
+        where = f"; {what}, position unknown (not finite or far outside the bodies)"
+        if all(self._plausible(p) for p in starts):
+            start = starts.mean(axis=0)
+            where += f", initially at r = {start[0] * 1e3:.4g} mm, z = {start[1] * 1e3:.4g} mm"
+        return where, None
+
+    def _plausible(self, point):
+        """Whether (r, z) [m] can be where part of a body is: finite and
+        inside the bodies' box at set-up widened on every side by
+        PLAUSIBLE_SIZES box sizes and the distance covered at
+        PLAUSIBLE_SPEED since t = 0. A finite position farther out is a
+        node or particle flung off by a runaway force, not a place."""
+        r_lo, r_hi, z_lo, z_hi = self._box0
+        time = self.time if math.isfinite(self.time) and self.time > 0.0 else 0.0
+        reach = PLAUSIBLE_SIZES * max(r_hi - r_lo, z_hi - z_lo) + PLAUSIBLE_SPEED * time
+        r, z = (float(c) for c in point)
+        return (math.isfinite(r) and math.isfinite(z)
+                and r_lo - reach <= r <= r_hi + reach and z_lo - reach <= z <= z_hi + reach)
 
     # ------------------------------------------------------------------
     def advance(self, t, max_cycles=None, land=True, partial=False):
@@ -423,6 +479,12 @@ def _cauchy_stress(fields, rows, pressure):
     stress = fields[:, rows["s_rr"]:rows["s_tt"] + 1].copy()
     stress[:, [0, 1, 3]] -= pressure[:, None]
     return stress
+
+
+def _bounding_box(points):
+    """(r_lo, r_hi, z_lo, z_hi) [m] of a list of (k, 2) position arrays [m]."""
+    x = np.vstack(points) if points else np.zeros((1, 2))
+    return (float(x[:, 0].min()), float(x[:, 0].max()), float(x[:, 1].min()), float(x[:, 1].max()))
 
 
 def _element_snapshot(raw):
