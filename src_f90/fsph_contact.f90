@@ -176,14 +176,17 @@ contains
     ct%grid%cell = max(l_sum/ct%n_seg, 2.0_wp*r_max, tiny(1.0_wp))
     ! a non-finite position (the run is about to stop on it): no search
     ct%grid%ok = all(abs(lo) <= huge(1.0_wp)) .and. all(abs(hi) <= huge(1.0_wp)) .and. &
-              abs(ct%grid%cell) <= huge(1.0_wp)
+              all(abs(hi - lo) <= huge(1.0_wp)) .and. abs(ct%grid%cell) <= huge(1.0_wp)
     if (.not. ct%grid%ok) return
+    ! the cell counts in reals until they fit: a node flung far off (a
+    ! runaway the run is about to stop on) must not overflow the integers
     do
-      ct%grid%nr = int((hi(1) - lo(1))/ct%grid%cell) + 1
-      ct%grid%nz = int((hi(2) - lo(2))/ct%grid%cell) + 1
-      if (real(ct%grid%nr, wp)*real(ct%grid%nz, wp) <= real(cells_per_segment*ct%n_seg + 1024, wp)) exit
+      if ((aint((hi(1) - lo(1))/ct%grid%cell) + 1.0_wp)*(aint((hi(2) - lo(2))/ct%grid%cell) + 1.0_wp) &
+          <= real(cells_per_segment*ct%n_seg + 1024, wp)) exit
       ct%grid%cell = 2.0_wp*ct%grid%cell
     end do
+    ct%grid%nr = int((hi(1) - lo(1))/ct%grid%cell) + 1
+    ct%grid%nz = int((hi(2) - lo(2))/ct%grid%cell) + 1
     ct%grid%origin = lo
     n_cells = ct%grid%nr*ct%grid%nz
     call reserve(ct%cell_start, n_cells + 1)

@@ -110,6 +110,10 @@ contains
       end if
       cell = 2.0_wp*work%level_reach(l)
       cell = max(cell, sqrt((r_hi(l) + cell)*(z_hi(l) - z_lo(l) + cell)/(cells_per_point*count(l))))
+      ! nor more than about cells_per_point cells per point along either
+      ! side: a point flung far off along one side (a runaway the run is
+      ! about to stop on) must not overflow the cell count
+      cell = max(cell, max(r_hi(l), z_hi(l) - z_lo(l))/(cells_per_point*count(l)))
       work%level_cell(l) = cell
       work%level_z0(l) = z_lo(l)
       work%level_nr(l) = int(max(r_hi(l), 0.0_wp)/cell) + 1
@@ -316,10 +320,12 @@ contains
         if (work%level_nr(l) == 0) cycle
         cell = work%level_cell(l)
         big = reach_i + work%level_reach(l)      ! farthest a neighbour of this level can be
-        jr_lo = max(floor((ri - big)/cell), 0)
-        jr_hi = min(floor((ri + big)/cell), work%level_nr(l) - 1)
-        jz_lo = max(floor((zi - big - work%level_z0(l))/cell), 0)
-        jz_hi = min(floor((zi + big - work%level_z0(l))/cell), work%level_nz(l) - 1)
+        ! clamped before the conversion to integer: a point far outside
+        ! this level's grid gives an empty range, not an overflow
+        jr_lo = floor(min(max((ri - big)/cell, 0.0_wp), real(work%level_nr(l), wp)))
+        jr_hi = floor(max(min((ri + big)/cell, real(work%level_nr(l) - 1, wp)), -1.0_wp))
+        jz_lo = floor(min(max((zi - big - work%level_z0(l))/cell, 0.0_wp), real(work%level_nz(l), wp)))
+        jz_hi = floor(max(min((zi + big - work%level_z0(l))/cell, real(work%level_nz(l) - 1, wp)), -1.0_wp))
         ! a point beyond this level's grid (farther out than its points) has
         ! no candidate in it; cell_start(row + jr_lo) would lie past the row
         if (jr_lo > jr_hi) cycle
@@ -373,7 +379,7 @@ contains
     integer, intent(inout) :: n_one
     integer :: kk, last
     real(wp) :: d2, reach
-    last = work%cell_start(row + min(floor((big - ri)/work%level_cell(l)), work%level_nr(l) - 1) + 1) - 1
+    last = work%cell_start(row + floor(min((big - ri)/work%level_cell(l), real(work%level_nr(l) - 1, wp))) + 1) - 1
     do kk = work%cell_start(row), last
       d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
       reach = reach_i + work%reach_s(kk)
