@@ -596,6 +596,8 @@ def _run(say, setup, restart, kind, stream, t_wall0):
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None
     _advance(say, setup, books, checkpoints, bar, kind == "lines", t_wall0)
+    if books.failure is None or books.failure.code != layouts.status_code("output"):
+        setup.writer.flush()
     books.ended = True
     summary = _summary(setup, books, t_wall0)
     write_summary(setup.outdir, summary)

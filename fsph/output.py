@@ -149,7 +149,7 @@ class RunWriter:
     fsph.h5 is opened for each write and closed after it, so other
     processes can read it while the run goes on (between writes; HDF5's
     file locking is off for the writer: the folder's lock file keeps other
-    writers out). Every failed write is an OutputError; before a snapshot,
+    writers out). The history is written with each snapshot. Every failed write is an OutputError; before a snapshot,
     check_room refuses to start one the disk or the file size limit has no
     room for, so the last complete snapshot stays readable.
     """
@@ -166,6 +166,7 @@ class RunWriter:
                                     chunks=(4096,))
             h5.create_group("snapshots")
         self.n_snapshots = 0
+        self._history = []          # history rows not yet written
         self.last_snapshot_bytes = 0
         self.energy0 = None
         self.max_energy_error = 0.0
@@ -215,7 +216,9 @@ class RunWriter:
         """records: (k, len(HISTORY_FIELDS)) rows. Also tracks the largest
         departure of the total energy (kinetic + internal + the work of the
         contact corrections + the energy erosion removed + the energy the
-        rigid planes removed, summed by the solver) from its first value."""
+        rigid planes removed, summed by the solver) from its first value.
+        The rows are written with the next snapshot (one opening of fsph.h5
+        each), or by flush()."""
         if len(records) == 0:
             return
         total = records[:, HISTORY_FIELDS.index("total")]
@@ -227,19 +230,33 @@ class RunWriter:
             if abs(error) > abs(self.max_energy_error):
                 self.max_energy_error = float(error)
                 self.max_energy_error_time = float(records[worst, HISTORY_FIELDS.index("time")])
-        with self._h5() as h5:
-            hist = h5["history"]
-            n0 = hist["time"].shape[0]
-            n1 = n0 + len(records)
-            for j, name in enumerate(HISTORY_FIELDS):
-                hist[name].resize((n1,))
-                hist[name][n0:n1] = records[:, j]
+        self._history.append(np.asarray(records, dtype=float))
+
+    def _write_history(self, h5):
+        """Append the rows kept since the last write to /history of the open h5."""
+        if not self._history:
+            return
+        records = np.concatenate(self._history)
+        hist = h5["history"]
+        n0 = hist["time"].shape[0]
+        n1 = n0 + len(records)
+        for j, name in enumerate(HISTORY_FIELDS):
+            hist[name].resize((n1,))
+            hist[name][n0:n1] = records[:, j]
+        self._history = []
+
+    def flush(self):
+        """Write the history rows kept since the last snapshot."""
+        if self._history:
+            with self._h5() as h5:
+                self._write_history(h5)
 
     def write_snapshot(self, snap):
         """Write snap into fsph.h5 (under PARTIAL_SNAPSHOT, renamed NNNNN
         once complete) and the vtu series."""
         before = self._bytes_written()
         with self._h5() as h5:
+            self._write_history(h5)
             snapshots = h5["snapshots"]
             if PARTIAL_SNAPSHOT in snapshots:
                 del snapshots[PARTIAL_SNAPSHOT]
@@ -304,6 +321,7 @@ class RunWriter:
 
     def mark_failure(self, message):
         with self._h5() as h5:
+            self._write_history(h5)
             h5.attrs["failure"] = message
 
 
