@@ -408,8 +408,10 @@ def _snapshot(setup, books, t_wall0, checkpoints=None):
 def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
     """Advance the run through its output times to &control end_time: the
     history after each, a snapshot (and checkpoint) and a progress line
-    (lines: True) where due. A SimulationError ends it as a failure,
-    SIGINT or SIGTERM as an interruption (books.failure, .interrupted)."""
+    (lines: True) where due; the history still kept is written at the end.
+    A SimulationError ends it as a failure, an OutputError as a failure
+    that writes nothing more, SIGINT or SIGTERM as an interruption
+    (books.failure, .interrupted)."""
     sim, deck, writer = setup.sim, setup.deck, setup.writer
     ctrl, out = deck["control"], deck["output"]
     try:
@@ -430,6 +432,7 @@ def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
                               checkpoints if checkpoints.enabled else None)
                 if progress_due and lines:
                     say(_progress_line(sim, t_wall0))
+        writer.flush()
     except SimulationError as err:
         _record_failure(say, err, sim, writer, books, bar)
     except OutputError as err:
@@ -596,8 +599,6 @@ def _run(say, setup, restart, kind, stream, t_wall0):
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None
     _advance(say, setup, books, checkpoints, bar, kind == "lines", t_wall0)
-    if books.failure is None or books.failure.code != layouts.status_code("output"):
-        setup.writer.flush()
     books.ended = True
     summary = _summary(setup, books, t_wall0)
     write_summary(setup.outdir, summary)

@@ -41,7 +41,7 @@ class DeckError(InputError):
         msg = f"{where}: expected {expected}"
         if got is not None:
             msg += f", got {got!r}"
-        FsphError.__init__(self, _one_line(msg))
+        super().__init__(msg)
 
 
 class OutputError(FsphError):

@@ -83,8 +83,8 @@ def _duration(seconds):
 
 
 def report_lines(sim, threads):
-    """The lines of `fsph check` for a freshly set-up `sim` (it is advanced
-    by the timed cycles)."""
+    """The lines of `fsph check` for a freshly set-up `sim` that passed
+    check_reachable (it is advanced by the timed cycles)."""
     ctrl = sim.control
     lines = [f"  mode {ctrl['mode']}, {sim.n_elements} elements, {sim.n_nodes} nodes, "
              f"{sim.n_particles} particles"]
@@ -98,7 +98,7 @@ def report_lines(sim, threads):
                      f"{row['smallest_particle_radius_m'] * 1e3:.4g} mm")
         lines.append(text)
     dt = sim.dt
-    cycles = check_reachable(sim)
+    cycles = cycles_at_first_step(sim)
     lines.append(f"  first time step {dt * 1e9:.4g} ns; end time {ctrl['end_time'] * 1e6:.6g} us: "
                  f"at least {cycles} cycles at that step (an impact usually shrinks it)")
     n, per_cycle = time_cycles(sim)

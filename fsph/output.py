@@ -78,9 +78,9 @@ class FolderLock:
     a folder in use are InputErrors (exit 2) before the run starts."""
 
     def __init__(self, outdir):
-        self.path = Path(outdir) / LOCK_NAME
-        self.stale = None
         outdir = Path(outdir)
+        self.path = outdir / LOCK_NAME
+        self.stale = None
         if outdir.exists() and not outdir.is_dir():
             raise InputError(f"{outdir}: expected an output folder, got a file of that name "
                              f"(give another -o)")
@@ -109,11 +109,7 @@ class FolderLock:
 
     def _refuse_or_clear(self):
         """Remove a stale lock (its process gone, on this host) or raise."""
-        try:
-            pid_text, host = self.path.read_text().split()
-            pid = int(pid_text)
-        except (OSError, ValueError):
-            pid, host = None, "?"
+        pid, host = lock_owner(self.path.parent) or (None, "?")
         if pid is not None and host == socket.gethostname() and not _pid_alive(pid):
             self.stale = pid
             self.path.unlink(missing_ok=True)
@@ -124,6 +120,16 @@ class FolderLock:
 
     def release(self):
         self.path.unlink(missing_ok=True)
+
+
+def lock_owner(folder):
+    """(pid, host) of the run holding folder's lock, None without a
+    readable lock."""
+    try:
+        pid_text, host = (Path(folder) / LOCK_NAME).read_text().split()
+        return int(pid_text), host
+    except (OSError, ValueError):
+        return None
 
 
 def _file_size_limit():
@@ -149,9 +155,10 @@ class RunWriter:
     fsph.h5 is opened for each write and closed after it, so other
     processes can read it while the run goes on (between writes; HDF5's
     file locking is off for the writer: the folder's lock file keeps other
-    writers out). The history is written with each snapshot. Every failed write is an OutputError; before a snapshot,
-    check_room refuses to start one the disk or the file size limit has no
-    room for, so the last complete snapshot stays readable.
+    writers out). The history is written with each snapshot. Every failed
+    write is an OutputError; before a snapshot, check_room refuses to start
+    one the disk or the file size limit has no room for, so the last
+    complete snapshot stays readable.
     """
 
     def __init__(self, outdir, deck_text, title, vtu=True):
@@ -183,13 +190,10 @@ class RunWriter:
         with writing_errors(self.h5_path), h5py.File(self.h5_path, mode, locking=False) as h5:
             yield h5
 
-    def _bytes_written(self):
-        """Bytes of fsph.h5 and the vtu folder [B]."""
-        with writing_errors(self.outdir):
-            total = self.h5_path.stat().st_size
-            if self.vtu:
-                total += sum(f.stat().st_size for f in (self.outdir / "vtu").iterdir())
-        return total
+    def _h5_bytes(self):
+        """Size of fsph.h5 [B]."""
+        with writing_errors(self.h5_path):
+            return self.h5_path.stat().st_size
 
     def check_room(self, time, other_bytes=0):
         """Raise OutputError if the disk, or the file size limit, leaves no
@@ -199,12 +203,13 @@ class RunWriter:
         need = ROOM_FACTOR * self.last_snapshot_bytes
         if not need:
             return
-        free = shutil.disk_usage(self.outdir).free
+        with writing_errors(self.outdir):
+            free = shutil.disk_usage(self.outdir).free
         where = f"the disk of {self.outdir} has {free / 2**20:.1f} MiB free"
         limit = _file_size_limit()
         short = free < need + other_bytes
         if limit is not None and not short:
-            largest = max(self.h5_path.stat().st_size + need, other_bytes)
+            largest = max(self._h5_bytes() + need, other_bytes)
             short = largest > limit
             where = f"the file size limit (ulimit -f) is {limit / 2**20:.1f} MiB"
         if short:
@@ -254,7 +259,7 @@ class RunWriter:
     def write_snapshot(self, snap):
         """Write snap into fsph.h5 (under PARTIAL_SNAPSHOT, renamed NNNNN
         once complete) and the vtu series."""
-        before = self._bytes_written()
+        before = self._h5_bytes()
         with self._h5() as h5:
             self._write_history(h5)
             snapshots = h5["snapshots"]
@@ -277,12 +282,13 @@ class RunWriter:
                     pg[name] = values
                 pg["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
             snapshots.move(PARTIAL_SNAPSHOT, f"{self.n_snapshots:05d}")
-        if self.vtu:
-            self._write_vtu(snap)
+        vtu_bytes = self._write_vtu(snap) if self.vtu else 0
         self.n_snapshots += 1
-        self.last_snapshot_bytes = max(self._bytes_written() - before, 0)
+        self.last_snapshot_bytes = max(self._h5_bytes() - before, 0) + vtu_bytes
 
     def _write_vtu(self, snap):
+        """The snapshot's .vtu files; returns their bytes [B]."""
+        written = 0
         if "conn" in snap:
             cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
             for j, comp in enumerate(STRESS_COMPONENTS):
@@ -290,7 +296,7 @@ class RunWriter:
             mesh = meshio.Mesh(_points3(snap["x"]), [("triangle", snap["conn"])],
                                point_data={"velocity": _points3(snap["velocity"])},
                                cell_data=cell_data)
-            self._add_series("elements", snap["time"], mesh)
+            written += self._add_series("elements", snap["time"], mesh)
         if "particles" in snap:
             part = snap["particles"]
             n = len(part["x"])
@@ -301,15 +307,18 @@ class RunWriter:
                 point_data[f"stress_{comp}"] = part["stress"][:, j]
             mesh = meshio.Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
                                point_data=point_data)
-            self._add_series("particles", snap["time"], mesh)
+            written += self._add_series("particles", snap["time"], mesh)
+        return written
 
     def _add_series(self, kind, time, mesh):
-        """One .vtu per snapshot and kind; the .pvd collection rewritten."""
+        """One .vtu per snapshot and kind; the .pvd collection rewritten.
+        Returns the bytes of the .vtu [B]."""
         name = f"vtu/{kind}_{self.n_snapshots:05d}.vtu"
         # uncompressed binary: double-precision fields hardly compress, and
         # zlib was the largest output cost of a short run
         with writing_errors(self.outdir / name):
             meshio.write(self.outdir / name, mesh, binary=True, compression=None)
+            written = (self.outdir / name).stat().st_size
         entries = self.pvd_entries.setdefault(kind, [])
         entries.append((time, name))
         rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="0" file="{f}"/>'
@@ -318,6 +327,7 @@ class RunWriter:
         _atomic_write_text(self.outdir / pvd,
                            '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
                            f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
+        return written
 
     def mark_failure(self, message):
         with self._h5() as h5:

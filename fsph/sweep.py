@@ -45,7 +45,7 @@ from . import references
 from . import metrics as metrics_module
 from .ballistics import fit_recht_ipson
 from .errors import DeckError, FsphError, InputError
-from .output import LOCK_NAME
+from .output import lock_owner
 
 #: What a --set looks like, for error messages.
 SET_SYNTAX = ("GROUP.KEY=VALUES, GROUP(I).KEY=VALUES or GROUP(NAME).KEY=VALUES with VALUES "
@@ -623,7 +623,7 @@ def _run_all(todo, scheduler, workers, threads, say):
     SIGINT (Ctrl-C) stops the sweep: runs under way are asked to stop (they
     write their checkpoints), queued ones are cancelled; both are
     'interrupted', and the same command resumes the sweep."""
-    from distributed import as_completed, wait
+    from distributed import as_completed
     with _client(scheduler, workers) as client:
         where = (f"scheduler {scheduler}" if scheduler else
                  f"local cluster of {workers} worker(s)")
@@ -684,9 +684,9 @@ def _stop_runs(variants):
     pids are in their folders' lock files); they stop with a checkpoint."""
     import socket
     for v in variants:
-        try:
-            pid, host = (v.folder / LOCK_NAME).read_text().split()
-            if host == socket.gethostname():
-                os.kill(int(pid), signal.SIGINT)
-        except (OSError, ValueError):
-            pass        # not started, already ended, or elsewhere
+        owner = lock_owner(v.folder)
+        if owner and owner[1] == socket.gethostname():
+            try:
+                os.kill(owner[0], signal.SIGINT)
+            except OSError:
+                pass        # ended meanwhile
