@@ -662,9 +662,9 @@ contains
         if (pt%n_mirror > 0) call mirror_fill_stress(n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%rho_mid, &
                                                      pt%sig_mid)
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
-        call sph_energy_rate(n, ntot, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, pt%wgt, &
-                             pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
-                             pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
+        call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, &
+                             pt%wgt, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
         call timer_stop(sim%timers, phase_sph_sums)
         call timer_start(sim%timers, phase_particle_update)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &

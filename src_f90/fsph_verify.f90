@@ -60,8 +60,8 @@ contains
                              sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
                              pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
       ! the energy equation with the stress, viscosity and velocities of this state
-      call sph_energy_rate(np, ntot, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%nbr_ptr, &
-                           pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%pair_hg, &
+      call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%tie_a, &
+                           pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%pair_hg, &
                            pt%pair_force, pt%nbr_grad, pt%pair_work, de)
     end associate
     ierr = status_ok
