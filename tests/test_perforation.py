@@ -56,7 +56,7 @@ def test_adaptive_conserves_momentum(adaptive):
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "measured 12.8 % of a segment (30 to 50 us): plate particles converted at the axis ride "
+    "measured 7.4 % of a segment (30 to 50 us): plate particles converted at the axis ride "
     "ahead of the rod's tip, where the tip's slanted bottom pushes them onto the particles' "
     "axis wall, and pile up there inside the tip's contact thickness; before the axis fix "
     "they drifted off the axis (docs/validation.md)"))
