@@ -55,7 +55,8 @@ def _format_peaks(peaks):
 def _warnings(ctrl, energies, writer):
     """What a user must not miss about a run that completed: an energy
     error beyond &control energy_error_warning (the largest during the run
-    or the final one). A list of {kind, message, value, limit}."""
+    or the final one), snapshots written while a reader held fsph.h5. A list
+    of {kind, message[, value, limit]}."""
     out = []
     limit = ctrl["energy_error_warning"]
     worst = writer.max_energy_error
@@ -67,6 +68,8 @@ def _warnings(ctrl, energies, writer):
                                f"{100 * limit:g} %: the run lost its energy balance and its "
                                f"results should not be trusted (energy_error_limit makes this "
                                f"a hard stop)"})
+    if writer.lock_warning:
+        out.append({"kind": "output", "message": writer.lock_warning})
     return out
 
 

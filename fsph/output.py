@@ -6,6 +6,7 @@ import os
 import resource
 import shutil
 import socket
+import time
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -28,6 +29,10 @@ LOCK_NAME = "fsph.lock"
 PARTIAL_SNAPSHOT = "writing"
 #: a snapshot needs room for this many times the bytes of the last one
 ROOM_FACTOR = 2.0
+#: how long a write of fsph.h5 waits for readers to close it [s], and how
+#: often it tries again [s]; after that it writes without HDF5's lock
+LOCK_WAIT_S = 10.0
+LOCK_RETRY_S = 0.02
 
 
 def _points3(xy):
@@ -153,9 +158,13 @@ class RunWriter:
     snapshots for ParaView (points at (r, z, 0)).
 
     fsph.h5 is opened for each write and closed after it, so other
-    processes can read it while the run goes on (between writes; HDF5's
-    file locking is off for the writer: the folder's lock file keeps other
-    writers out). The history is written with each snapshot. Every failed
+    processes can read it while the run goes on: each write holds HDF5's
+    exclusive file lock, so a reader with HDF5's default locking gets an
+    OSError ("unable to lock file") during a write instead of a half-written
+    file, and a write waits for readers to close it (LOCK_WAIT_S; after that
+    it writes without the lock and says so in `lock_warning`). The folder's
+    lock file keeps other writers out. The history is written with each
+    snapshot. Every failed
     write is an OutputError; before a snapshot, check_room refuses to start
     one the disk or the file size limit has no room for, so the last
     complete snapshot stays readable.
@@ -164,6 +173,8 @@ class RunWriter:
     def __init__(self, outdir, deck_text, title, vtu=True):
         self.outdir = Path(outdir)
         self.h5_path = self.outdir / "fsph.h5"
+        self.lock_warning = ""      # set once a write could not wait for a reader
+        self._file_locks = True     # False on a file system without locks
         with self._h5("w") as h5:
             h5.attrs["title"] = title
             h5["deck"] = deck_text
@@ -186,9 +197,35 @@ class RunWriter:
 
     @contextmanager
     def _h5(self, mode="a"):
-        """fsph.h5 open for one write (OSError -> OutputError)."""
-        with writing_errors(self.h5_path), h5py.File(self.h5_path, mode, locking=False) as h5:
+        """fsph.h5 open for one write, under HDF5's exclusive lock when the
+        readers let it have it within LOCK_WAIT_S (OSError -> OutputError)."""
+        with writing_errors(self.h5_path), self._locked_file(mode) as h5:
             yield h5
+
+    def _locked_file(self, mode):
+        """h5py.File(mode) with HDF5's file lock, tried again while a
+        reader holds the file; unlocked (lock_warning set) once it has
+        waited LOCK_WAIT_S. Other errors pass through."""
+        if self.lock_warning or not self._file_locks:
+            return h5py.File(self.h5_path, mode, locking=False)
+        deadline = time.monotonic() + LOCK_WAIT_S
+        while True:
+            try:
+                return h5py.File(self.h5_path, mode, locking=True)
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    break
+                time.sleep(LOCK_RETRY_S)
+            except OSError:
+                # a file system without locks (or another fault, which the
+                # unlocked open raises again)
+                self._file_locks = False
+                return h5py.File(self.h5_path, mode, locking=False)
+        self.lock_warning = (f"{self.h5_path} was held open by another process for more than "
+                             f"{LOCK_WAIT_S:g} s: later snapshots are written without waiting "
+                             f"for it, and a program that keeps it open may read them torn "
+                             f"(close the file between reads)")
+        return h5py.File(self.h5_path, mode, locking=False)
 
     def _h5_bytes(self):
         """Size of fsph.h5 [B]."""

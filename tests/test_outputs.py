@@ -13,6 +13,7 @@ import sys
 import time
 
 import h5py
+import numpy as np
 import pytest
 
 from conftest import rod_deck
@@ -102,7 +103,9 @@ def test_a_run_is_readable_while_it_writes_and_its_folder_is_locked(tmp_path):
             try:
                 times = complete_snapshots(out / "fsph.h5")
             except (OSError, KeyError):
-                times = []      # between the file's creation and its first snapshot
+                # during a write (the writer holds HDF5's lock: OSError), or
+                # between the file's creation and its first snapshot
+                times = []
         summary = json.loads((out / "summary.json").read_text())
         assert summary["status"] == "running" and summary["metrics_time_s"] > 0
         second = subprocess.run([sys.executable, "-m", "fsph", "run", str(deck), "-o", str(out)],
@@ -125,6 +128,44 @@ def test_a_run_is_readable_while_it_writes_and_its_folder_is_locked(tmp_path):
     assert f"took over the lock of a run that is gone (pid {first.pid})" in again.stdout
     assert not (out / "fsph.lock").exists()
     assert json.loads((out / "summary.json").read_text())["status"] == "completed"
+
+
+_HOLD_OPEN = """
+import sys, time, h5py
+with h5py.File(sys.argv[1], "r") as h5:
+    print("open", flush=True)
+    time.sleep(float(sys.argv[2]))
+"""
+
+
+def _reader_holding(path, seconds):
+    """A process that holds `path` open with HDF5's default (shared) lock
+    for `seconds`; returned once it has the file open."""
+    reader = subprocess.Popen([sys.executable, "-c", _HOLD_OPEN, str(path), str(seconds)],
+                              stdout=subprocess.PIPE, text=True)
+    assert reader.stdout.readline().strip() == "open"
+    return reader
+
+
+@pytest.mark.parametrize("hold_s, wait_s, warned", [(0.5, 20.0, False), (5.0, 0.5, True)])
+def test_a_write_waits_for_a_reader_then_goes_on(tmp_path, monkeypatch, hold_s, wait_s, warned):
+    """A write of fsph.h5 takes HDF5's exclusive lock, so a reader never
+    sees a half-written file: it waits for a reader that holds the file
+    open, up to LOCK_WAIT_S, then writes without the lock and says so."""
+    from fsph import output
+    monkeypatch.setattr(output, "LOCK_WAIT_S", wait_s)
+    writer = output.RunWriter(tmp_path, "&control /", "t", vtu=False)
+    row = [[0.0] * len(output.HISTORY_FIELDS)]
+    reader = _reader_holding(tmp_path / "fsph.h5", hold_s)
+    start = time.monotonic()
+    writer.append_history(np.array(row))
+    writer.flush()
+    waited = time.monotonic() - start
+    reader.wait()
+    assert bool(writer.lock_warning) == warned, writer.lock_warning
+    assert waited >= (wait_s if warned else 0.8 * hold_s) - 0.1
+    with h5py.File(tmp_path / "fsph.h5", "r") as h5:
+        assert h5["history/time"].shape == (1,)
 
 
 def test_lock_of_another_host_is_not_taken_over(tmp_path):
