@@ -332,6 +332,16 @@ SCHEMA = {
                                   "cost of the search against that of the extra pairs "
                                   "(docs/performance.md).",
                                   lower=0.0, upper=1.0),
+            "particle_contact": Key("str", "potential", "-",
+                                    "Contact between particles of different bodies. riemann: "
+                                    "pairwise contact pressures p* >= 0 of the acoustic Riemann "
+                                    "problem along each pair's line of centres (Wang, Xu & Yang "
+                                    "2022), acting as a pressure in the SPH momentum sums; it "
+                                    "does not depend on the time step, so it holds at 100 GPa. "
+                                    "potential: a contact potential of each particle's kernel "
+                                    "filling by the other bodies (contact_penalty). "
+                                    "docs/method.md compares them.",
+                                    choices=tuple(name for name, _ in layouts.PARTICLE_CONTACTS)),
             "contact_penalty": Key("float", 0.03, "-",
                                    "Particle-particle contact between bodies: a particle's "
                                    "filling by the other bodies' kernels beyond its value at "

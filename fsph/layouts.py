@@ -168,6 +168,12 @@ CONVERSION_CRITERIA = (
     ("equivalent_stress", "equivalent stress"),
 )
 
+# contact between particles of different bodies (fsph_particles)
+PARTICLE_CONTACTS = (
+    ("riemann", "pairwise Riemann pressures, p* >= 0"),
+    ("potential", "potential of the kernel filling by the other bodies"),
+)
+
 # ---- rows of a snapshot (fsph_api get_snapshot) ---------------------------
 NODE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass")
 # the material state elements and particles share, in both in this order
@@ -272,13 +278,15 @@ def fortran_source():
     out.append("  ! history variables of a material point hist(n_hist)")
     out += _constants("hist_", [n for n, _, _ in MATERIAL_HISTORY],
                       [f"{d} [{u}]" for _, u, d in MATERIAL_HISTORY], count="n_hist")
-    out.append("  ! strength and EOS model ids, conversion criteria")
+    out.append("  ! strength and EOS model ids, conversion criteria, particle contacts")
     out += _constants("strength_", [n for n, _ in STRENGTH_MODELS], [d for _, d in STRENGTH_MODELS],
                       count="n_strength_models")
     out += _constants("eos_", [n for n, _ in EOS_MODELS], [d for _, d in EOS_MODELS],
                       count="n_eos_models")
     out += _constants("criterion_", [n for n, _ in CONVERSION_CRITERIA],
                       [d for _, d in CONVERSION_CRITERIA])
+    out += _constants("particle_contact_", [n for n, _ in PARTICLE_CONTACTS],
+                      [d for _, d in PARTICLE_CONTACTS])
     out.append("  ! rows of a snapshot")
     out += _constants("nf_", NODE_FIELDS, count="n_node_fields")
     out += _constants("ms_", MATERIAL_STATE_FIELDS, count="n_material_state_fields")

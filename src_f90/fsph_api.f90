@@ -102,14 +102,16 @@ contains
   end subroutine set_control
 
   !> SPH parameters: viscosity coefficients [-] and the particle contact:
+  !> its model (Riemann pressures or a potential) and the potential's
   !> penalty (fraction of an approach pushed back per step), other-body
   !> filling at touching and its rate per spacing of approach [-]; the
   !> debris density fraction [-]; the neighbour lists' skin as a fraction
   !> of the smallest kernel support (0: lists rebuilt every cycle) [-].
-  subroutine set_sph_control(run, c_q, c_l, c_hg, contact_penalty, contact_touch, contact_slope, debris_ratio, &
-                             neighbour_skin)
+  subroutine set_sph_control(run, c_q, c_l, c_hg, particle_contact, contact_penalty, contact_touch, contact_slope, &
+                             debris_ratio, neighbour_skin)
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
+    integer, intent(in) :: particle_contact !< contact between particle bodies (fsph.layouts PARTICLE_CONTACTS, 1-based)
     real(wp), intent(in) :: c_q, c_l, contact_penalty, contact_touch, contact_slope
     real(wp), intent(in) :: c_hg          !< hourglass viscosity coefficient [-]
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
@@ -120,6 +122,7 @@ contains
     sim%control%sph_c_q = c_q
     sim%control%sph_c_l = c_l
     sim%control%sph_c_hg = c_hg
+    sim%control%particle_contact = particle_contact
     sim%control%contact_penalty = contact_penalty
     sim%control%contact_touch = contact_touch
     sim%control%contact_slope = contact_slope

@@ -25,7 +25,8 @@
 !> the pair (j, i) in j's row. Entries come in the order of the scan
 !> (cells, then points), which depends on the positions only. Contact candidates, particles of
 !> another body within the support (docs/method.md, "Contact"), have a separate full list
-!> (cnt_ptr, cnt_list). SPH sums never cross continuum boundaries.
+!> (cnt_ptr, cnt_list), mirror images across the axis as -j. SPH sums never
+!> cross continuum boundaries.
 module fsph_neighbours
   use fsph_kinds, only: wp
   use fsph_kernel, only: kernel_support
@@ -357,7 +358,8 @@ contains
             end if
           end do
           ! ghosts, for points whose reach crosses the axis
-          if (big > ri) call scan_mirrors(work, l, row, ii, ri, zi, reach_i, big, bi, width, n_one)
+          if (big > ri) call scan_mirrors(work, l, row, ii, nq, ri, zi, reach_i, big, bi, width, n_one, &
+                                          cwidth, n_cnt)
         end do
       end do
       work%n_half(ii) = n_half
@@ -371,20 +373,29 @@ contains
   !> Mirror images (-r_j, z_j) across the axis in grid row `row` of level
   !> l for query point ii at (ri, zi) (reach reach_i, level reach big, body
   !> bi): the same-body points within reach of the axis side, written to
-  !> ii's one-way row as -j and counted in n_one (row width as scan_points).
-  subroutine scan_mirrors(work, l, row, ii, ri, zi, reach_i, big, bi, width, n_one)
+  !> ii's one-way row as -j and counted in n_one (row width as scan_points);
+  !> the real points (j <= nq) of other bodies, the same way, to its contact
+  !> row (n_cnt, width cwidth): a contact near the axis feels the other
+  !> body's ring all round, as the SPH sums feel their own.
+  subroutine scan_mirrors(work, l, row, ii, nq, ri, zi, reach_i, big, bi, width, n_one, cwidth, n_cnt)
     type(neighbour_work_t), intent(inout) :: work
-    integer, intent(in) :: l, row, ii, bi, width
+    integer, intent(in) :: l, row, ii, nq, bi, width, cwidth
     real(wp), intent(in) :: ri, zi, reach_i, big
-    integer, intent(inout) :: n_one
-    integer :: kk, last
+    integer, intent(inout) :: n_one, n_cnt
+    integer :: kk, last, near, same
     real(wp) :: d2, reach
     last = work%cell_start(row + floor(min((big - ri)/work%level_cell(l), real(work%level_nr(l) - 1, wp))) + 1) - 1
     do kk = work%cell_start(row), last
       d2 = (ri + work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
       reach = reach_i + work%reach_s(kk)
+      near = merge(1, 0, d2 < reach*reach)
+      same = merge(1, 0, work%body_s(kk) == bi)
       work%one_row(min(n_one + 1, width + 1), ii) = -work%item(kk)
-      n_one = n_one + merge(1, 0, d2 < reach*reach)*merge(1, 0, work%body_s(kk) == bi)
+      n_one = n_one + near*same
+      if (near > same .and. work%item(kk) <= nq) then
+        n_cnt = n_cnt + 1
+        if (n_cnt <= cwidth) work%cnt_row(n_cnt, ii) = -work%item(kk)
+      end if
     end do
   end subroutine scan_mirrors
 

@@ -1,19 +1,20 @@
 !> Particle-wise updates that are not SPH sums: density, energy and stress
-!> update after the rates, and the penalty contact between particles of
-!> different bodies.
+!> update after the rates, and the contact between particles of different
+!> bodies (a contact potential, or pairwise Riemann pressures).
 module fsph_particles
-  use fsph_kinds, only: wp, two_pi
+  use fsph_kinds, only: wp, pi, two_pi
   use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
                          status_particle_axis
   use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc
   use fsph_material, only: material_update, eos_pressure, sound_speed
   use fsph_ordered, only: first_fault
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use fsph_kernel, only: kernel_w, kernel_dwdr, in_support
+  use fsph_kernel, only: kernel_w, kernel_dwdr, kernel_gradient_factor, in_support
   implicit none
   private
 
   public :: particle_state_update, particle_energy_update, particle_contact_accelerations
+  public :: riemann_contact_accelerations, riemann_contact_heat, riemann_contact_density_rate
 
 contains
 
@@ -168,6 +169,7 @@ contains
       if (cnt_ptr(i + 1) == cnt_ptr(i)) cycle
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = cnt_list(k)
+        if (j < 0) cycle     ! mirror images across the axis: Riemann contact only
         dx = x(:, i) - x(:, j)
         ! candidates beyond the support (the lists' skin) add nothing, by the
         ! search's own test
@@ -184,6 +186,7 @@ contains
       f = 0.0_wp
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = cnt_list(k)
+        if (j < 0) cycle
         if (excess(i) == 0.0_wp .and. excess(j) == 0.0_wp) cycle
         dx = x(:, i) - x(:, j)
         if (.not. in_support(dx(1)**2 + dx(2)**2, h(i), h(j))) cycle
@@ -196,5 +199,198 @@ contains
     end do
     !$omp end parallel do
   end subroutine particle_contact_accelerations
+
+  !> Contact between particles of different bodies by pairwise Riemann
+  !> pressures (Wang, Xu & Yang 2022, eqs 20-23; the acoustic Riemann
+  !> solver of Godunov SPH, Inutsuka 2002, J. Comput. Phys. 179:238). For
+  !> each pair of particles of different continua within the kernel support
+  !> (and the mirror images of the other body across the axis), the 1D
+  !> problem along the line of centres (riemann_pair) gives the contact
+  !> pressure p* >= 0 and the interface velocity u*. p* acts in the pair
+  !> sums of the momentum equation as a pressure on both sides, in the form
+  !> of Wang, Xu & Yang's pair force -2 m_i m_j p*/(rho_i rho_j) grad W
+  !> carried to r-z with full-ring masses:
+  !>   a_i += -2 pi m_j p* (u_i + u_j) grad_i W,  u = 1/(4 pi^2 r rho_i rho_j),
+  !> equal and opposite pair by pair (momentum to round-off). With
+  !> 1/(rho_i rho_j), not the 1/rho^2 weights of the SPH stress sums, a
+  !> neighbour counts by its volume, not its mass: with 1/rho^2 the copper
+  !> particles of a copper-aluminium interface pushed the aluminium ones 3.3
+  !> times (the density ratio) harder than the aluminium behind them held
+  !> them, and the bodies stood two particle spacings apart with a velocity
+  !> jump of 900 m/s across the gap. Unlike a penalty the force does not
+  !> depend on the time step: at a 100 GPa impact it is the interface
+  !> pressure itself. A mirror image of the other body is an entry of the
+  !> odd extension, as in the SPH sums: the equilibrium part p_e acts with
+  !> the signed weights (-u_i + u_j), the rest p* - p_e with (u_i + u_j), as
+  !> the pairwise viscosity does. force(:, k) keeps each entry's
+  !> acceleration per unit partner mass, u_star(k) the interface velocity
+  !> along e (riemann_contact_heat).
+  subroutine riemann_contact_accelerations(n, x, v, mass, rho, c, sig, h, cnt_ptr, cnt_list, acc, force, u_star)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(2, n), v(2, n), mass(n), rho(n), c(n), h(n)
+    real(wp), intent(in) :: sig(4, n)    !< total stress s - p I (rr, zz, rz, tt) [Pa]
+    integer, intent(in) :: cnt_ptr(n + 1), cnt_list(*)
+    real(wp), intent(inout) :: acc(2, n) !< [m/s^2]
+    real(wp), intent(out) :: force(2, *) !< acceleration of i per unit mass of entry k [m/(kg s^2)]
+    real(wp), intent(out) :: u_star(*)   !< interface velocity along e, i towards j [m/s]
+    integer :: i, k, j
+    real(wp) :: sg, dx(2), dist2, e(2), p_eq, p_star, us, f(2), a(2), ui, uj, rho2, grad(2)
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x, v, mass, rho, c, sig, h, cnt_ptr, cnt_list, acc, force, u_star) &
+    !$omp private(i, k, j, sg, dx, dist2, e, p_eq, p_star, us, f, a, ui, uj, rho2, grad)
+    do i = 1, n
+      a = 0.0_wp
+      do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
+        j = abs(cnt_list(k))
+        sg = merge(-1.0_wp, 1.0_wp, cnt_list(k) < 0)
+        force(:, k) = 0.0_wp
+        u_star(k) = 0.0_wp
+        dx = [x(1, i) - sg*x(1, j), x(2, i) - x(2, j)]
+        dist2 = dx(1)**2 + dx(2)**2
+        if (.not. (in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp)) cycle
+        call riemann_pair(dx, dist2, v(:, i), rho(i), c(i), sig(:, i), v(:, j), rho(j), c(j), sig(:, j), sg, &
+                          e, p_eq, p_star, us)
+        if (p_star == 0.0_wp) cycle
+        rho2 = 4.0_wp*pi*pi*(rho(i)*rho(j))
+        ui = 1.0_wp/(rho2*x(1, i))
+        uj = 1.0_wp/(rho2*x(1, j))
+        grad = kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j)))*dx
+        if (sg > 0.0_wp) then
+          f = -two_pi*p_star*(ui + uj)*grad
+        else
+          f = -two_pi*(p_eq*(uj - ui) + (p_star - p_eq)*(ui + uj))*grad
+        end if
+        force(:, k) = f
+        u_star(k) = us
+        a = a + mass(j)*f
+      end do
+      acc(:, i) = acc(:, i) + a
+    end do
+    !$omp end parallel do
+  end subroutine riemann_contact_accelerations
+
+  !> The acoustic Riemann problem of one contact pair along the line of
+  !> centres: separation dx = x_i - x_j (dist2 = |dx|^2 > 0), unit vector
+  !> e from i to j; left state (Z_i = rho_i c_i, u_i = v_i.e, p_i =
+  !> -e.sig_i.e), right state likewise for j (seen with sign sg: a mirror
+  !> image has -v_r and -sigma_rz). Contact pressure
+  !>   p* = max(0, [Z_i p_j + Z_j p_i + Z_i Z_j (u_i - u_j)]/(Z_i + Z_j))
+  !> (bodies push, never pull), its equilibrium part p_eq = (Z_i p_j +
+  !> Z_j p_i)/(Z_i + Z_j) and the interface velocity
+  !>   u* = [Z_i u_i + Z_j u_j + (p_i - p_j)]/(Z_i + Z_j).
+  !> Written so that the pair seen from j gives the same p* and -u* to the
+  !> last bit.
+  pure subroutine riemann_pair(dx, dist2, vi, rho_i, c_i, sig_i, vj, rho_j, c_j, sig_j, sg, e, p_eq, p_star, &
+                               u_star)
+    real(wp), intent(in) :: dx(2), dist2, vi(2), rho_i, c_i, sig_i(4), vj(2), rho_j, c_j, sig_j(4), sg
+    real(wp), intent(out) :: e(2), p_eq, p_star, u_star
+    real(wp) :: zi, zj, pi_n, pj_n, ui, uj
+    e = -dx/sqrt(dist2)
+    zi = rho_i*c_i
+    zj = rho_j*c_j
+    ui = vi(1)*e(1) + vi(2)*e(2)
+    uj = sg*vj(1)*e(1) + vj(2)*e(2)
+    pi_n = -normal_stress(sig_i, 1.0_wp, e)
+    pj_n = -normal_stress(sig_j, sg, e)
+    p_eq = (zi*pj_n + zj*pi_n)/(zi + zj)
+    p_star = max(p_eq + zi*zj*(ui - uj)/(zi + zj), 0.0_wp)
+    u_star = (zi*ui + zj*uj + (pi_n - pj_n))/(zi + zj)
+  end subroutine riemann_pair
+
+  !> Normal stress e.sig.e [Pa] of an in-plane direction e for a stress
+  !> (rr, zz, rz, tt), its rz component seen with sign sg (a mirror image
+  !> across the axis: -1).
+  pure real(wp) function normal_stress(sig, sg, e) result(snn)
+    real(wp), intent(in) :: sig(4), sg, e(2)
+    snn = sig(1)*e(1)*e(1) + 2.0_wp*sg*sig(3)*e(1)*e(2) + sig(2)*e(2)*e(2)
+  end function normal_stress
+
+  !> Heat of the Riemann contact [J/(kg s)], added to de: the kinetic
+  !> energy its pair forces remove, charged at the velocities v_bar (the
+  !> mean of the velocities before and after the kick, under which the
+  !> central difference balances kinetic energy). A pair of particles
+  !> shares its work as Godunov SPH does: each particle takes the work of
+  !> p* on its own motion towards the interface, -m_j f . (v_i - u* e)
+  !> (f is along -e), so the particle that moves more against the
+  !> interface (the softer material) is heated more, and the two shares add
+  !> up to the work of the pair exactly. A mirror image is not a particle
+  !> of its own: the heat of its entry is minus the work of its force on
+  !> the particle.
+  subroutine riemann_contact_heat(n, v_bar, mass, cnt_ptr, cnt_list, force, u_star, de)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: v_bar(2, n), mass(n)
+    integer, intent(in) :: cnt_ptr(n + 1), cnt_list(*)
+    real(wp), intent(in) :: force(2, *), u_star(*)
+    real(wp), intent(inout) :: de(n)
+    integer :: i, k, j
+    real(wp) :: heat
+    !$omp parallel do default(none) schedule(dynamic, 64) shared(n, v_bar, mass, cnt_ptr, cnt_list, force, u_star, de) &
+    !$omp private(i, k, j, heat)
+    do i = 1, n
+      heat = 0.0_wp
+      do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
+        j = abs(cnt_list(k))
+        if (cnt_list(k) < 0) then
+          heat = heat - mass(j)*(force(1, k)*v_bar(1, i) + force(2, k)*v_bar(2, i))
+        else
+          heat = heat - mass(j)*((force(1, k)*v_bar(1, i) + force(2, k)*v_bar(2, i)) &
+                                 + sqrt(force(1, k)**2 + force(2, k)**2)*u_star(k))
+        end if
+      end do
+      de(i) = de(i) + heat
+    end do
+    !$omp end parallel do
+  end subroutine riemann_contact_heat
+
+  !> The contact's part of the density rate [kg/(m^3 s)], added to drho:
+  !> the other body fills part of a particle's kernel and moves at the
+  !> interface velocity u* (riemann_pair, at these positions and
+  !> velocities), so while the bodies press (p* > 0) the particle is
+  !> compressed by its approach to the interface as by a neighbour of its
+  !> own material of the same volume:
+  !>   d eta_i/dt += sum_j 2 pi rho_i A_j (r_i + r_j) (u_i - u*) (e . grad_i W),
+  !> eta = 2 pi r rho (the planar-density continuity of the SPH sums,
+  !> fsph_sph), A_j the planar area of j; a mirror image has r_j -> -r_j,
+  !> the odd extension, so that next to the axis a particle's image pairs
+  !> add up to its planar compression. In one material u* is the mean of
+  !> the pair's velocities and, for r_i = r_j, this is the continuity sum
+  !> m_j (v_i - v_j) . grad W of a neighbour; across an interface the
+  !> softer side takes the larger share of the compression. Its p* dv work
+  !> is, pair by pair, the heat riemann_contact_heat books for the pair's
+  !> force (ring-weighted with (r_i + r_j)/2 as that force). Without it the particles next to the interface were not
+  !> compressed by the other body and the contact acted as a dashpot: in a
+  !> steel plate striking an aluminium one at 100 m/s the interface rows
+  !> kept a velocity jump of 15 m/s and 25 % less stress than the bulk.
+  subroutine riemann_contact_density_rate(n, x, v, mass, rho, c, sig, h, cnt_ptr, cnt_list, drho)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(2, n), v(2, n), mass(n), rho(n), c(n), h(n)
+    real(wp), intent(in) :: sig(4, n)    !< total stress of the start of the step [Pa]
+    integer, intent(in) :: cnt_ptr(n + 1), cnt_list(*)
+    real(wp), intent(inout) :: drho(n)   !< [kg/(m^3 s)]
+    integer :: i, k, j
+    real(wp) :: sg, dx(2), dist2, e(2), p_eq, p_star, us, g(2), deta
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x, v, mass, rho, c, sig, h, cnt_ptr, cnt_list, drho) &
+    !$omp private(i, k, j, sg, dx, dist2, e, p_eq, p_star, us, g, deta)
+    do i = 1, n
+      deta = 0.0_wp
+      do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
+        j = abs(cnt_list(k))
+        sg = merge(-1.0_wp, 1.0_wp, cnt_list(k) < 0)
+        dx = [x(1, i) - sg*x(1, j), x(2, i) - x(2, j)]
+        dist2 = dx(1)**2 + dx(2)**2
+        if (.not. (in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp)) cycle
+        call riemann_pair(dx, dist2, v(:, i), rho(i), c(i), sig(:, i), v(:, j), rho(j), c(j), sig(:, j), sg, &
+                          e, p_eq, p_star, us)
+        if (p_star == 0.0_wp) cycle
+        g = kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j)))*dx
+        ! 2 pi rho_i A_j (r_i + r_j), A_j = m_j/(2 pi r_j rho_j) the planar area of j
+        deta = deta + rho(i)*mass(j)/(x(1, j)*rho(j))*(x(1, i) + sg*x(1, j)) &
+                      *((v(1, i)*e(1) + v(2, i)*e(2)) - us)*(e(1)*g(1) + e(2)*g(2))
+      end do
+      drho(i) = drho(i) + deta/(two_pi*x(1, i))
+    end do
+    !$omp end parallel do
+  end subroutine riemann_contact_density_rate
 
 end module fsph_particles

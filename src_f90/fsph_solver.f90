@@ -11,7 +11,7 @@ module fsph_solver
                           eos_hjc, history_columns, hcol_time, hcol_cycle, hcol_dt, energy_first, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
-                          phase_integrate, phase_conversion, phase_time_step
+                          phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
   use fsph_material, only: eos_pressure, sound_speed
   use fsph_element, only: element_geometry, element_corner_forces, gather_corner_forces, &
                           element_update, element_time_step
@@ -23,7 +23,8 @@ module fsph_solver
   use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
                          mirror_fill_stress
   use fsph_particles, only: particle_state_update, particle_energy_update, &
-                            particle_contact_accelerations
+                            particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
+                            riemann_contact_density_rate
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
                            association_reach
@@ -394,10 +395,15 @@ contains
         call timer_stop(sim%timers, phase_sph_sums)
         call timer_start(sim%timers, phase_particle_contact)
         call update_particle_radius(sim)
-        ! planar areas of pair_weights, from the positions and densities of this stage
-        call particle_contact_accelerations(n, pt%x, pt%mass, pt%planar_area, pt%h, pt%cnt_ptr, pt%cnt_list, &
-                                            dt_step, sim%control%contact_penalty, sim%control%contact_touch, &
-                                            sim%control%contact_slope, pt%contact_excess, pt%acc)
+        if (sim%control%particle_contact == particle_contact_riemann) then
+          call riemann_contact_accelerations(n, pt%x, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, &
+                                             pt%cnt_ptr, pt%cnt_list, pt%acc, pt%cnt_force, pt%cnt_ustar)
+        else
+          ! planar areas of pair_weights, from the positions and densities of this stage
+          call particle_contact_accelerations(n, pt%x, pt%mass, pt%planar_area, pt%h, pt%cnt_ptr, pt%cnt_list, &
+                                              dt_step, sim%control%contact_penalty, sim%control%contact_touch, &
+                                              sim%control%contact_slope, pt%contact_excess, pt%acc)
+        end if
         call timer_stop(sim%timers, phase_particle_contact)
         if (el%n > 0) then
           call timer_start(sim%timers, phase_coupling)
@@ -447,6 +453,8 @@ contains
       call reserve(pt%pair_hg, 2, size(pt%nbr_list))
       call reserve(pt%pair_work, size(pt%nbr_list))
       call reserve(pt%pair_in, size(pt%nbr_list))
+      call reserve(pt%cnt_force, 2, size(pt%cnt_list))
+      call reserve(pt%cnt_ustar, size(pt%cnt_list))
     end associate
   end subroutine prepare_particle_sums
 
@@ -644,6 +652,9 @@ contains
       call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
                      pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
                      pt%d, pt%spin, pt%grad_v)
+      if (sim%control%particle_contact == particle_contact_riemann) &
+        call riemann_contact_density_rate(n, pt%x_mid, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, pt%cnt_ptr, &
+                                          pt%cnt_list, pt%drho)
       call timer_stop(sim%timers, phase_sph_sums)
       call timer_start(sim%timers, phase_particle_update)
       pt%e_old(1:n) = pt%e(1:n)
@@ -665,6 +676,9 @@ contains
         call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, &
                              pt%wgt, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
+        if (sim%control%particle_contact == particle_contact_riemann) &
+          call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_ustar, &
+                                    pt%de)
         call timer_stop(sim%timers, phase_sph_sums)
         call timer_start(sim%timers, phase_particle_update)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &

@@ -117,6 +117,8 @@ module fsph_state
     logical, allocatable :: pair_in(:)    !< entry within the kernel support at the start of the cycle
     real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
     real(wp), allocatable :: contact_excess(:) !< work: particle contact stiffness times excess filling
+    real(wp), allocatable :: cnt_force(:, :) !< Riemann contact: acceleration per unit partner mass per contact entry [m/(kg s^2)]
+    real(wp), allocatable :: cnt_ustar(:) !< Riemann contact: interface velocity along the pair per contact entry [m/s]
     real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
     real(wp), allocatable :: wgt(:)       !< work: stress weight 1/(4 pi^2 r rho^2) per entry [m^5/kg^2]
     real(wp), allocatable :: planar_area(:) !< work: planar area m/(2 pi r rho) per entry [m^2]
@@ -213,6 +215,7 @@ module fsph_state
     real(wp) :: sph_c_q = 1.0_wp      !< SPH quadratic viscosity coefficient [-]
     real(wp) :: sph_c_l = 0.2_wp      !< SPH linear viscosity coefficient [-]
     real(wp) :: sph_c_hg = 0.1_wp     !< SPH hourglass viscosity coefficient [-]
+    integer :: particle_contact = 1   !< contact between particle bodies (fsph_layouts particle_contact_*)
     real(wp) :: contact_penalty = 0.03_wp !< particle contact: approach fraction pushed back per step [-]
     real(wp) :: contact_touch = 0.2367_wp !< particle contact: other-body filling C at touching [-]
     real(wp) :: contact_slope = 0.45_wp  !< particle contact: dC per spacing of approach at touching [-]
