@@ -8,6 +8,7 @@ module fsph_particles
   use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc
   use fsph_material, only: material_update, eos_pressure, sound_speed
   use fsph_ordered, only: first_fault
+  use fsph_sph, only: ghost_work
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use fsph_kernel, only: kernel_w, kernel_dwdr, kernel_gradient_factor, in_support
   implicit none
@@ -315,7 +316,7 @@ contains
   !> interface (the softer material) is heated more, and the two shares add
   !> up to the work of the pair exactly. A mirror image is not a particle
   !> of its own: the heat of its entry is minus the work of its force on
-  !> the particle.
+  !> the particle, axially relative to the image (fsph_sph ghost_work).
   subroutine riemann_contact_heat(n, v_bar, mass, cnt_ptr, cnt_list, force, u_star, de)
     integer, intent(in) :: n
     real(wp), intent(in) :: v_bar(2, n), mass(n)
@@ -331,7 +332,7 @@ contains
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = abs(cnt_list(k))
         if (cnt_list(k) < 0) then
-          heat = heat - mass(j)*(force(1, k)*v_bar(1, i) + force(2, k)*v_bar(2, i))
+          heat = heat - mass(j)*ghost_work(force(:, k), v_bar(:, i), v_bar(2, j))
         else
           heat = heat - mass(j)*((force(1, k)*v_bar(1, i) + force(2, k)*v_bar(2, i)) &
                                  + sqrt(force(1, k)**2 + force(2, k)**2)*u_star(k))

@@ -76,7 +76,7 @@ module fsph_sph
   private
 
   public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
-  public :: compression_switch
+  public :: compression_switch, ghost_work
 
   !> Softening of the pairwise strain rate, times h^2 [-].
   real(wp), parameter :: visc_softening = 0.01_wp
@@ -165,6 +165,24 @@ contains
     real(wp) :: g(2, 2)
     g(1, 1) = gv(1); g(2, 1) = sg*gv(2); g(1, 2) = sg*gv(3); g(2, 2) = gv(4)
   end function entry_gradient
+
+  !> Work rate per unit masses [m^2/(kg s^3)] of a mirror image's force f on
+  !> particle i (velocity v_i), booked as i's heat: radially f_r v_r,i
+  !> (the axis is at rest), axially half of f_z (v_z,i - v_z,j) with v_z,j
+  !> the image's axial velocity. The image pairs (i, j') and (j, i') come
+  !> together, and their forces' axial parts are mirror images where they
+  !> derive from velocity differences (the viscosity, the hourglass term,
+  !> the contact's dissipation): half the relative velocity each is then
+  !> exactly their work, and unlike f_z v_z,i it does not depend on the
+  !> frame. Charged at v_z,i, the axial force of the images, which the axis
+  !> takes without a partner, traded the kinetic energy of a fast fragment
+  !> for internal energy of its particles next to the axis: in a copper rod
+  !> bouncing off an anvil at 4.4 km/s an axis particle fell to -16.6 MJ/kg
+  !> within 2 us (its stress part alone: -2.5e15 W/kg in 0.2 us).
+  pure real(wp) function ghost_work(f, v_i, vz_j) result(w)
+    real(wp), intent(in) :: f(2), v_i(2), vz_j
+    w = f(1)*v_i(1) + 0.5_wp*f(2)*(v_i(2) - vz_j)
+  end function ghost_work
 
   !> Compression switch of the pairwise viscosity, per particle:
   !> f = |div v|/(|div v| + |D'| + 1e-4 c/h), from the strain rates d
@@ -462,9 +480,10 @@ contains
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         j = abs(nbr_list(k))
         if (nbr_list(k) < 0) then
-          ! a ghost: the work of its force on the particle becomes heat
+          ! a ghost: the work of its force on the particle becomes heat,
+          ! axially at the velocity relative to the image (ghost_work)
           pair_work_k(k) = 0.0_wp
-          sum_e = sum_e - mass(j)*(pair_force(1, k)*v_visc(1, i) + pair_force(2, k)*v_visc(2, i))
+          sum_e = sum_e - mass(j)*ghost_work(pair_force(:, k), v_visc(:, i), v_visc(2, j))
           cycle
         end if
         if (tie(i) /= 0 .and. j > n .and. j <= n + n_imag) then
