@@ -24,7 +24,7 @@ module fsph_solver
                          mirror_fill_stress
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
-                            riemann_contact_density_rate
+                            riemann_contact_density_rate, contact_normals, contact_pairs_in
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
                            association_reach
@@ -396,8 +396,10 @@ contains
         call timer_start(sim%timers, phase_particle_contact)
         call update_particle_radius(sim)
         if (sim%control%particle_contact == particle_contact_riemann) then
-          call riemann_contact_accelerations(n, pt%x, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, &
-                                             pt%cnt_ptr, pt%cnt_list, pt%acc, pt%cnt_force, pt%cnt_ustar)
+          call contact_pairs_in(n, pt%x, pt%h, pt%cnt_ptr, pt%cnt_list, pt%cnt_in)
+          call contact_normals(n, pt%x, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%cnt_normal)
+          call riemann_contact_accelerations(n, pt%x, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, pt%cnt_normal, &
+                                             pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%acc, pt%cnt_force, pt%cnt_vstar)
         else
           ! planar areas of pair_weights, from the positions and densities of this stage
           call particle_contact_accelerations(n, pt%x, pt%mass, pt%planar_area, pt%h, pt%cnt_ptr, pt%cnt_list, &
@@ -454,7 +456,9 @@ contains
       call reserve(pt%pair_work, size(pt%nbr_list))
       call reserve(pt%pair_in, size(pt%nbr_list))
       call reserve(pt%cnt_force, 2, size(pt%cnt_list))
-      call reserve(pt%cnt_ustar, size(pt%cnt_list))
+      call reserve(pt%cnt_vstar, 2, size(pt%cnt_list))
+      call reserve(pt%cnt_normal, 2, n)
+      call reserve(pt%cnt_in, size(pt%cnt_list))
     end associate
   end subroutine prepare_particle_sums
 
@@ -652,9 +656,11 @@ contains
       call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
                      pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
                      pt%d, pt%spin, pt%grad_v)
-      if (sim%control%particle_contact == particle_contact_riemann) &
-        call riemann_contact_density_rate(n, pt%x_mid, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, pt%cnt_ptr, &
-                                          pt%cnt_list, pt%drho)
+      if (sim%control%particle_contact == particle_contact_riemann) then
+        call contact_normals(n, pt%x_mid, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%cnt_normal)
+        call riemann_contact_density_rate(n, pt%x_mid, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, pt%cnt_normal, &
+                                          pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%drho)
+      end if
       call timer_stop(sim%timers, phase_sph_sums)
       call timer_start(sim%timers, phase_particle_update)
       pt%e_old(1:n) = pt%e(1:n)
@@ -677,7 +683,7 @@ contains
                              pt%wgt, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
         if (sim%control%particle_contact == particle_contact_riemann) &
-          call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_ustar, &
+          call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_vstar, &
                                     pt%de)
         call timer_stop(sim%timers, phase_sph_sums)
         call timer_start(sim%timers, phase_particle_update)

@@ -118,7 +118,9 @@ module fsph_state
     real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
     real(wp), allocatable :: contact_excess(:) !< work: particle contact stiffness times excess filling
     real(wp), allocatable :: cnt_force(:, :) !< Riemann contact: acceleration per unit partner mass per contact entry [m/(kg s^2)]
-    real(wp), allocatable :: cnt_ustar(:) !< Riemann contact: interface velocity along the pair per contact entry [m/s]
+    real(wp), allocatable :: cnt_vstar(:, :) !< Riemann contact: interface velocity u* n per contact entry [m/s]
+    real(wp), allocatable :: cnt_normal(:, :) !< Riemann contact: each particle's contact normal [1/m]
+    logical, allocatable :: cnt_in(:)     !< Riemann contact: entry within the kernel support at the start of the cycle
     real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
     real(wp), allocatable :: wgt(:)       !< work: stress weight 1/(4 pi^2 r rho^2) per entry [m^5/kg^2]
     real(wp), allocatable :: planar_area(:) !< work: planar area m/(2 pi r rho) per entry [m^2]

@@ -81,30 +81,44 @@ def impedance(e, nu, rho):
     return np.sqrt(rho * (k + 4.0 * g / 3.0))
 
 
+#: Bar of the 1D impedance match [-]: the stress of one SPH body behind a
+#: plane elastic wave is itself 2.2 % above 1D theory (the elastic bar in
+#: docs/validation.md, held there to 5 %); the contact must not add to it.
+STRESS_BAR = 0.03
+#: Bar of the interface velocity and of the stress continuity [-].
+MATCH_BAR = 0.02
+
+
 def test_impedance_match_of_two_elastic_plates(write_deck):
     """Steel at 100 m/s onto aluminium: behind the two shocks, near the axis
-    (before the release from the rim arrives), the axial stress and the
-    particle velocity are those of the 1D impedance match,
-    sigma = Z_s Z_a v/(Z_s + Z_a), u = Z_s v/(Z_s + Z_a), within 2 %."""
+    (before the release from the rim arrives), averaged over 0.2-0.3 us
+    (the SPH wave's ringing), the particle velocity is the 1D impedance
+    match u = Z_s v/(Z_s + Z_a) within 2 % in both plates, their axial
+    stresses agree within 2 % (the contact carries the traction) and are
+    sigma = Z_s Z_a v/(Z_s + Z_a) within 3 %."""
     v = 100.0
     sim = simulation(write_deck, two_plates(-v))
-    sim.advance(0.25e-6)
-    part = sim.snapshot()["particles"]
     z_s, z_a = impedance(206.0e9, 0.3, 7850.0), impedance(69.0e9, 0.33, 2700.0)
     sigma = z_s * z_a * v / (z_s + z_a)
     u = z_s * v / (z_s + z_a)
-    r, z0 = part["x0"][:, 0], part["x0"][:, 1]
-    # a band 0.2-1 mm either side of the interface, within 1.5 mm of the
-    # axis; the shocks have run 1.5 mm into each plate
-    for body, band in ((0, (0.25e-3, 1.05e-3)), (1, (-0.95e-3, -0.15e-3))):
-        sel = (part["body"] == body) & (r < 1.5e-3) & (z0 > band[0]) & (z0 < band[1])
-        assert sel.sum() > 50
-        got_sigma = -part["stress"][sel, 1].mean()
-        got_u = -part["velocity"][sel, 1].mean()
-        if body == 0:
-            got_u = v - (v + part["velocity"][sel, 1].mean())
-        assert got_sigma == pytest.approx(sigma, rel=0.02), (body, got_sigma, sigma)
-        assert got_u == pytest.approx(u, rel=0.02), (body, got_u, u)
+    stress = {0: [], 1: []}
+    speed = {0: [], 1: []}
+    for t in np.linspace(0.20e-6, 0.30e-6, 11):
+        sim.advance(t)
+        part = sim.snapshot()["particles"]
+        r, z0 = part["x0"][:, 0], part["x0"][:, 1]
+        # 0.15-1.05 mm from the interface (z = 0) on either side, within
+        # 1.5 mm of the axis; the shocks have run 1.2-1.8 mm into each plate
+        depth = np.where(part["body"] == 0, z0, -z0) - 0.05e-3
+        for body in (0, 1):
+            sel = (part["body"] == body) & (r < 1.5e-3) & (depth > 0.15e-3) & (depth < 1.05e-3)
+            assert sel.sum() > 100
+            stress[body].append(-part["stress"][sel, 1].mean())
+            speed[body].append(-part["velocity"][sel, 1].mean())
+    for body in (0, 1):
+        assert np.mean(speed[body]) == pytest.approx(u, rel=MATCH_BAR), (body, np.mean(speed[body]), u)
+        assert np.mean(stress[body]) == pytest.approx(sigma, rel=STRESS_BAR), (body, np.mean(stress[body]), sigma)
+    assert np.mean(stress[0]) == pytest.approx(np.mean(stress[1]), rel=MATCH_BAR)
 
 
 def test_contact_conserves_momentum_to_round_off(write_deck):
