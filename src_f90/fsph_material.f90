@@ -40,7 +40,7 @@ module fsph_material
   integer, parameter :: return_max_iterations = 60
   !> Temperature to which the Steinberg-Guinan shear modulus and yield
   !> stress are referred (Steinberg, Cochran & Guinan 1980, J. Appl. Phys.
-  !> 51:1498, eqs 1-2: the term B (T - 300)) [K].
+  !> 51:1498: the term B (T - 300) of G and Y) [K].
   real(wp), parameter :: sg_reference_temperature = 300.0_wp
   !> Largest magnitude of the argument D3 sigma* of the exponential in the
   !> Johnson-Cook strain to fracture: far inside the range of exp() (which
@@ -211,7 +211,7 @@ contains
 
   !> Melting temperature at density rho [K]: constant T_m0, or the
   !> Lindemann law in the Steinberg-Guinan form (Steinberg, Cochran &
-  !> Guinan 1980, eq 5)
+  !> Guinan 1980)
   !>   T_m = T_m0 exp(2a (1 - rho0/rho)) (rho/rho0)^(2 (Gamma0 - a - 1/3))
   !> in compression; below the reference density T_m = T_m0 (the law is a
   !> fit to compressed states; a separating fragment's density falls with
@@ -324,7 +324,7 @@ contains
 
   !> Shear modulus of a point [Pa]: Steinberg-Guinan
   !>   G = G0 [1 + A p (rho/rho0)^(-1/3) - B (T - 300 K)]
-  !> (Steinberg, Cochran & Guinan 1980 eq 1), not below zero and zero at
+  !> (Steinberg, Cochran & Guinan 1980), not below zero and zero at
   !> and above melt; the constant G of every other model. The elastic
   !> trial and the sound speed use it.
   pure function shear_modulus(props, istrength, rho, p, temp) result(g)
