@@ -531,13 +531,7 @@ contains
         dsy = flow_slope(props, istrength, eps_p + x, x*inv_dt, inv_dt, rate_factor, thermal_factor)
         f = seq_trial - g3*x - sy
         df = -(g3 + dsy)
-        if (f > 0.0_wp) then
-          lo = x
-        else
-          hi = x
-        end if
-        dx = -f/df
-        if (x + dx <= lo .or. x + dx >= hi) dx = 0.5_wp*(lo + hi) - x
+        call bracketed_newton_step(f, df, x, lo, hi, dx)
         x = x + dx
         if (abs(dx) <= return_tolerance*max(x, return_tolerance)) exit
       end do
@@ -546,6 +540,23 @@ contains
     sy = flow_stress(props, istrength, eps_p + deps_p, deps_p*inv_dt, rate_factor, thermal_factor)
     s = s*(sy/seq_trial)
   end subroutine radial_return
+
+  !> One safeguarded Newton step on a decreasing function f of v: the
+  !> bracket [lo, hi] of the root shrinks to v on the side f's sign shows,
+  !> then the Newton step -f/df, or bisection where it would leave the
+  !> bracket.
+  pure subroutine bracketed_newton_step(f, df, v, lo, hi, dv)
+    real(wp), intent(in) :: f, df, v       !< function, its derivative and the point
+    real(wp), intent(inout) :: lo, hi      !< bracket of the root
+    real(wp), intent(out) :: dv            !< step
+    if (f > 0.0_wp) then
+      lo = v
+    else
+      hi = v
+    end if
+    dv = -f/df
+    if (v + dv <= lo .or. v + dv >= hi) dv = 0.5_wp*(lo + hi) - v
+  end subroutine bracketed_newton_step
 
   !> Plastic strain increment of the power-law return [-]: the root of
   !> f = seq_trial - 3G x - sy(eps_p + x, x/dt) by safeguarded Newton in
@@ -575,13 +586,7 @@ contains
       dsy = flow_slope(props, strength_power_law, eps_p + x, x*inv_dt, inv_dt, rate_factor, thermal_factor)
       f = seq_trial - g3*x - sy
       df = -(g3 + dsy)*x
-      if (f > 0.0_wp) then
-        z_lo = z
-      else
-        z_hi = z
-      end if
-      dz = -f/df
-      if (z + dz <= z_lo .or. z + dz >= z_hi) dz = 0.5_wp*(z_lo + z_hi) - z
+      call bracketed_newton_step(f, df, z, z_lo, z_hi, dz)
       z = z + dz
       if (abs(dz) <= return_tolerance) exit
     end do
