@@ -21,8 +21,10 @@ import numpy as np
 
 from . import layouts
 from .errors import DeckError
-from .materials import (EOS_MODELS, HJC_KEYS, LIBRARY, STRENGTH_MODELS, elastic_moduli,
-                        hjc_lock_strain)
+from .materials import (EOS_MODELS, HJC_KEYS, JC_EFMIN_DEFAULT, JC_FAILURE_KEYS, LIBRARY,
+                        MELT_MODELS, POWER_LAW_KEYS, RATE_FORMS, STEINBERG_GUINAN_KEYS,
+                        STRENGTH_MODELS, TEMPERATURE_MODELS, elastic_moduli,
+                        hjc_lock_strain, temperature_model)
 
 REQUIRED = object()
 
@@ -36,13 +38,15 @@ MAX_OUTPUTS = 100_000
 #: problem, close enough that a garbled number (1e154 m) is caught here
 #: rather than overflowing in the solver.
 UNIT_LIMITS = {"m": 1.0e3, "s": 1.0e3, "kg/m^3": 1.0e6, "Pa": 1.0e14, "m/s": 1.0e5,
-               "K": 1.0e6, "J/(kg K)": 1.0e6, "1/s": 1.0e12, "-": 1.0e6, "deg": 360.0}
+               "K": 1.0e6, "J/(kg K)": 1.0e6, "1/s": 1.0e12, "-": 1.0e6, "deg": 360.0,
+               "1/Pa": 1.0e-6, "1/K": 1.0}
 #: Largest integer any key may hold (the solver counts in 32-bit integers).
 MAX_INT = 1_000_000_000
 #: Smallest value a strictly positive quantity of each unit may have (a
 #: denormal density would give an infinite sound speed and a zero step).
 UNIT_FLOORS = {"m": 1.0e-9, "s": 1.0e-15, "kg/m^3": 1.0e-3, "Pa": 1.0, "m/s": 1.0e-6,
-               "K": 1.0e-3, "J/(kg K)": 1.0e-3, "1/s": 1.0e-12, "-": 1.0e-12}
+               "K": 1.0e-3, "J/(kg K)": 1.0e-3, "1/s": 1.0e-12, "-": 1.0e-12, "1/Pa": 1.0e-20,
+               "1/K": 1.0e-12}
 
 
 @dataclass(frozen=True)
@@ -161,15 +165,47 @@ SCHEMA = {
             "jc_m": _pos("Johnson-Cook thermal-softening exponent m.", "-", None),
             "jc_ref_strain_rate": _pos("Reference strain rate of the Johnson-Cook and HJC "
                                        "rate terms.", "1/s", 1.0),
-            "melt_temperature": _pos("Melting temperature T_melt (Johnson-Cook).", "K", None),
+            "melt_temperature": _pos("Melting temperature: T_m (melt_model 'constant') or T_m0 "
+                                     "(melt_model 'lindemann'). A point at or above its melting "
+                                     "temperature carries no deviatoric stress, whatever its "
+                                     "strength model (snapshot field `melted`); Johnson-Cook, "
+                                     "power_law and steinberg_guinan soften to zero there.",
+                                     "K", None),
+            "melt_model": Key("str", "constant", "-",
+                              "Melting temperature: constant (melt_temperature), or the "
+                              "Lindemann law of Steinberg, Cochran & Guinan 1980, "
+                              "T_m = T_m0 exp(2 a (1 - rho0/rho)) (rho/rho0)^(2 (gamma0 - a - 1/3)) "
+                              "above the reference density and T_m0 below it (needs eos "
+                              "'mie_gruneisen' for gamma0, and lindemann_a).",
+                              choices=tuple(MELT_MODELS)),
+            "lindemann_a": Key("float", None, "-",
+                               "Lindemann exponent a of melt_model 'lindemann' (Steinberg's "
+                               "tables: 1.5 for copper and aluminium).", lower=0.0),
             "room_temperature": _pos("Room and initial temperature.", "K", 293.15),
-            "specific_heat": _pos("Specific heat c of the adiabatic heating of Johnson-Cook, "
-                                  "dT = taylor_quinney dW_p/(rho c). The solids' tables "
-                                  "(Johnson & Cook 1983 among them) give c_p, at constant "
-                                  "pressure; give that: for metals c_p - c_v is 2-3 % at room "
-                                  "temperature, well inside the scatter of the constants, and "
-                                  "the Mie-Grueneisen energy term does not use it.",
+            "specific_heat": _pos("Specific heat c of the temperature models: "
+                                  "dT = taylor_quinney dW_p/(rho c) ('plastic_work') or "
+                                  "T = T_s(rho) + (e - e_s(rho))/c ('internal_energy'). The "
+                                  "solids' tables (Johnson & Cook 1983 among them) give c_p, at "
+                                  "constant pressure; give that: for metals c_p - c_v is 2-3 % at "
+                                  "room temperature, well inside the scatter of the constants, "
+                                  "and the Mie-Grueneisen energy term does not use it. Needed by "
+                                  "johnson_cook, power_law, steinberg_guinan and by any "
+                                  "melt_temperature.",
                                   "J/(kg K)", None),
+            "temperature": Key("str", None, "-",
+                               "Temperature model. plastic_work: adiabatic heating by plastic "
+                               "work only, dT = taylor_quinney dW_p/(rho c). internal_energy: "
+                               "T = T_s(rho) + (e - e_s(rho))/c from the thermodynamic state, "
+                               "shock and viscous heating included, about the reference "
+                               "isentrope through (rho0, e = 0, room_temperature), "
+                               "T_s = T_room exp(gamma0 (1 - rho0/rho)) (eos 'mie_gruneisen' "
+                               "with s > 1 and specific_heat; all plastic work is heat, "
+                               "taylor_quinney unused). Unset: internal_energy for strength "
+                               "power_law and steinberg_guinan with eos mie_gruneisen (the "
+                               "hypervelocity models: the heat is mostly the shock's), "
+                               "plastic_work otherwise (the Johnson-Cook cases were validated "
+                               "with it; docs/method.md).",
+                               choices=tuple(TEMPERATURE_MODELS)),
             "taylor_quinney": Key("float", 0.9, "-",
                                   "Fraction of plastic work turned into heat (Taylor-Quinney).",
                                   lower=0.0, upper=1.0),
@@ -177,9 +213,61 @@ SCHEMA = {
             "s": _pos("Mie-Grueneisen Us-up slope s.", "-", None),
             "gamma0": Key("float", None, "-", "Grueneisen coefficient Gamma0.", lower=0.0),
             "p_min": Key("float", None, "Pa",
-                         "Pressure cut-off (spall): pressure never falls below p_min (<= 0). "
-                         "Unset: no cut-off. Not used by hjc (its tensile limit is "
-                         "-hjc_t (1 - D)).", upper=0.0),
+                         "Pressure cut-off (spall) of eos 'linear' and 'mie_gruneisen': the "
+                         "pressure never falls below p_min (<= 0); the p dv work of the step "
+                         "is done at p_min. Unset: no cut-off. Not with eos 'hjc' (its tensile "
+                         "limit is -hjc_t (1 - D)). A failed point carries no tension at all "
+                         "(p >= 0).", upper=0.0),
+            "pl_sigma0": _pos("power_law (Liao et al. 2022 eq 13): quasi-static yield stress "
+                              "sigma0 of sigma_y = sigma0 (1 + eps_p/pl_eps0)^pl_n R "
+                              "(1 - (T - T_room)/(T_m - T_room))^pl_l, zero at and above melt.",
+                              "Pa", None),
+            "pl_eps0": _pos("power_law: reference plastic strain eps_p0.", "-", None),
+            "pl_rate0": _pos("power_law: reference plastic strain rate of the rate term R.",
+                             "1/s", None),
+            "pl_n": Key("float", None, "-", "power_law: hardening exponent n.", lower=0.0),
+            "pl_m": Key("float", None, "-", "power_law: rate exponent m.", lower=0.0),
+            "pl_l": _pos("power_law: thermal softening exponent l.", "-", None),
+            "pl_rate_form": Key("str", None, "-",
+                                "power_law: rate term R of the plastic strain rate (the "
+                                "return mapping solves for it): printed, "
+                                "R = 1 + (rate/pl_rate0)^pl_m (Liao et al. 2022 eq 13 as "
+                                "printed: R = 2 at the reference rate), or power, "
+                                "R = (1 + rate/pl_rate0)^pl_m (the usual form of "
+                                "optimal-transportation meshfree codes: R = 1 at rest). "
+                                "No default: the two differ by a factor near 2 at ordinary "
+                                "rates.", choices=tuple(RATE_FORMS)),
+            "sg_y0": _pos("steinberg_guinan (Steinberg, Cochran & Guinan 1980): yield stress Y0 of "
+                          "Y = min(Y0 [1 + sg_beta (eps_p + sg_eps_i)]^sg_n, sg_ymax) "
+                          "G(p, T)/G0; G = G0 [1 + sg_a p (rho0/rho)^(1/3) - sg_b (T - 300 K)], "
+                          "G0 the shear modulus; both zero at and above melt.", "Pa", None),
+            "sg_ymax": _pos("steinberg_guinan: largest work-hardened yield stress Ymax "
+                            "(>= sg_y0).", "Pa", None),
+            "sg_beta": Key("float", None, "-", "steinberg_guinan: hardening constant beta.",
+                           lower=0.0),
+            "sg_n": Key("float", None, "-", "steinberg_guinan: hardening exponent n.", lower=0.0),
+            "sg_eps_i": Key("float", 0.0, "-", "steinberg_guinan: initial plastic strain eps_i.",
+                            lower=0.0),
+            "sg_a": Key("float", None, "1/Pa", "steinberg_guinan: pressure derivative of the "
+                        "shear modulus over G0, A = G'_p/G0 (Steinberg's tables give it per "
+                        "Mbar: 2.83 /Mbar = 2.83e-11 /Pa).", lower=0.0),
+            "sg_b": Key("float", None, "1/K", "steinberg_guinan: temperature derivative of the "
+                        "shear modulus over G0, B = -G'_T/G0.", lower=0.0),
+            "jc_d1": Key("float", None, "-",
+                         "Johnson-Cook failure (Johnson & Cook 1985), with any plastic strength "
+                         "model: D += d eps_p / eps_f, eps_f = [jc_d1 + jc_d2 exp(jc_d3 sigma*)] "
+                         "[1 + jc_d4 ln eps_dot*] [1 + jc_d5 T*] >= jc_efmin, sigma* = -p/sigma_eq, "
+                         "eps_dot* = plastic rate/jc_ref_strain_rate taken >= 1, "
+                         "T* = (T - T_room)/(T_m - T_room) in [0, 1]. At D = 1 the point has "
+                         "failed: no deviatoric stress, no tension (snapshot field `failed`), "
+                         "its mass and momentum kept. jc_d1 to jc_d5 go together; unset: off."),
+            "jc_d2": Key("float", None, "-", "Johnson-Cook failure D2.", lower=0.0),
+            "jc_d3": Key("float", None, "-", "Johnson-Cook failure D3."),
+            "jc_d4": Key("float", None, "-", "Johnson-Cook failure D4."),
+            "jc_d5": Key("float", None, "-", "Johnson-Cook failure D5."),
+            "jc_efmin": _pos("Johnson-Cook failure: smallest strain to fracture, so eps_f stays "
+                             "positive where the formula is not (failure at once there, as it "
+                             "means; LS-DYNA's default EFMIN).", "-", JC_EFMIN_DEFAULT),
             "hjc_a": _pos("HJC normalised cohesive strength A (strength and eos 'hjc', "
                           "Holmquist, Johnson & Cook 1993: sigma* = [A (1 - D) + B P*^N] "
                           "[1 + C ln(rate/jc_ref_strain_rate)] <= S_max, sigma* = sigma/f_c, "
@@ -734,6 +822,8 @@ def _check_material_keys(path, label, m):
         "epp": ("yield_stress",),
         "bilinear": ("yield_stress", "tangent_modulus"),
         "johnson_cook": ("jc_a", "jc_b", "jc_n", "jc_c", "jc_m", "melt_temperature"),
+        "power_law": POWER_LAW_KEYS + ("melt_temperature",),
+        "steinberg_guinan": STEINBERG_GUINAN_KEYS + ("melt_temperature",),
         "hjc": (),
         "elastic": (),
     }[m["strength"]]
@@ -813,7 +903,9 @@ def _check_hjc(path, label, m):
 def _validate_material(path, label, m):
     """The material's models have the keys they need, consistent elastic
     constants and admissible values across keys (label names it in
-    errors, e.g. 'material #1')."""
+    errors, e.g. 'material #1'). Fills in the temperature model of an
+    unset `temperature`."""
+    m["temperature"] = temperature_model(m)
     _check_material_keys(path, label, m)
     _check_elastic_constants(path, label, m)
     if m["strength"] == "bilinear":
@@ -823,15 +915,89 @@ def _validate_material(path, label, m):
                             f"a value below Young's modulus E = {e:.4g} Pa", m["tangent_modulus"])
     if m["eos"] == "hjc":
         _check_hjc(path, label, m)
-    if m["strength"] == "johnson_cook":
+    if m["strength"] in ("johnson_cook", "power_law", "steinberg_guinan"):
         if m["specific_heat"] is None:
             raise DeckError(path, label, "specific_heat",
-                            "a value (Johnson-Cook adiabatic heating needs the specific heat c_p)", "missing key")
-        if not m["melt_temperature"] > m["room_temperature"]:
-            raise DeckError(path, label, "melt_temperature",
-                            f"a value above room_temperature = {m['room_temperature']} K",
-                            m["melt_temperature"])
+                            f"a value (strength '{m['strength']}' softens with the temperature, "
+                            "which needs the specific heat c_p)", "missing key")
+    if m["melt_temperature"] is not None:
+        _check_melting(path, label, m)
+    if m["strength"] == "steinberg_guinan" and not m["sg_ymax"] >= m["sg_y0"]:
+        raise DeckError(path, label, "sg_ymax", f"a value of at least sg_y0 = {m['sg_y0']} Pa",
+                        m["sg_ymax"])
+    _check_temperature(path, label, m)
+    _check_jc_failure(path, label, m)
+    if m["eos"] == "hjc" and m["p_min"] is not None:
+        raise DeckError(path, label, "p_min", "no value for eos 'hjc' (its tensile limit is "
+                        "-hjc_t (1 - D))", m["p_min"])
 
+
+def _check_melting(path, label, m):
+    """A melting temperature above room temperature, a temperature that
+    can reach it, and the Lindemann law's needs."""
+    if not m["melt_temperature"] > m["room_temperature"]:
+        raise DeckError(path, label, "melt_temperature",
+                        f"a value above room_temperature = {m['room_temperature']} K",
+                        m["melt_temperature"])
+    if m["specific_heat"] is None:
+        raise DeckError(path, label, "specific_heat", "a value (a melting temperature needs a "
+                        "temperature that changes, hence the specific heat c_p)", "missing key")
+    if m["strength"] == "elastic" and temperature_model(m) == "plastic_work":
+        raise DeckError(path, label, "melt_temperature",
+                        "no value for an elastic material with temperature 'plastic_work' (it "
+                        "never heats; temperature 'internal_energy' heats it)",
+                        m["melt_temperature"])
+    if m["melt_model"] == "lindemann":
+        if m["eos"] != "mie_gruneisen":
+            raise DeckError(path, label, "melt_model", "'constant' unless eos is "
+                            "'mie_gruneisen' (the Lindemann law uses gamma0)", m["melt_model"])
+        if m["lindemann_a"] is None:
+            raise DeckError(path, label, "lindemann_a",
+                            "a value (needed by melt_model 'lindemann')", "missing key")
+
+
+def _check_temperature(path, label, m):
+    """Temperature 'internal_energy' has its EOS and specific heat; no
+    Lindemann exponent without the Lindemann law."""
+    if m["lindemann_a"] is not None and m["melt_model"] != "lindemann":
+        raise DeckError(path, label, "lindemann_a", "no value unless melt_model is 'lindemann'",
+                        m["lindemann_a"])
+    if temperature_model(m) != "internal_energy":
+        return
+    if m["eos"] != "mie_gruneisen":
+        raise DeckError(path, label, "temperature", "'plastic_work' unless eos is "
+                        "'mie_gruneisen' (internal_energy measures the energy from its "
+                        "isentrope)", m["temperature"])
+    if m["specific_heat"] is None:
+        raise DeckError(path, label, "specific_heat",
+                        "a value (needed by temperature 'internal_energy')", "missing key")
+    if not m["s"] > 1.0:
+        raise DeckError(path, label, "s", "a value above 1 for temperature 'internal_energy' "
+                        "(its isentrope table runs up to the EOS's pole at mu = 1/(s - 1))",
+                        m["s"])
+
+
+def _check_jc_failure(path, label, m):
+    """Johnson-Cook failure: its five constants together, with a plastic
+    strength model that is not HJC (HJC has its own damage)."""
+    given = [k for k in JC_FAILURE_KEYS if m.get(k) is not None]
+    if not given:
+        return
+    for k in JC_FAILURE_KEYS:
+        if m.get(k) is None:
+            raise DeckError(path, label, k, "a value (jc_d1 to jc_d5 go together; "
+                            f"{given[0]} is given)", "missing key")
+    if m["strength"] in ("elastic", "hjc"):
+        raise DeckError(path, label, "jc_d1",
+                        f"no value with strength '{m['strength']}' (Johnson-Cook failure "
+                        "accumulates plastic strain; hjc has its own damage)", m["jc_d1"])
+
+
+#: A power-law material whose rate term exceeds RATE_WARNING_FACTOR at the
+#: plastic strain rate RATE_WARNING_RATE [1/s] gets a warning: the rates
+#: of the shocked zone of a hypervelocity impact are 1e5-1e7 1/s.
+RATE_WARNING_RATE = 1.0e5
+RATE_WARNING_FACTOR = 10.0
 
 #: Largest relative difference between the bulk modulus of (E, nu) and the
 #: Mie-Grueneisen rho0 c0^2 that passes without a warning [-].
@@ -839,11 +1005,21 @@ BULK_MISMATCH_WARNING = 0.05
 
 
 def _material_warnings(label, m):
-    """Messages about a valid material that a user should read: with the
-    Mie-Grueneisen EOS, a bulk modulus implied by youngs_modulus and
-    poisson_ratio more than BULK_MISMATCH_WARNING from rho0 c0^2 (the EOS
-    uses rho0 c0^2; E and nu then set the shear modulus only)."""
+    """Messages about a valid material that a user should read: a
+    power-law rate term above RATE_WARNING_FACTOR at RATE_WARNING_RATE;
+    with the Mie-Grueneisen EOS, a bulk modulus implied by youngs_modulus
+    and poisson_ratio more than BULK_MISMATCH_WARNING from rho0 c0^2 (the
+    EOS uses rho0 c0^2; E and nu then set the shear modulus only)."""
     out = []
+    if m["strength"] == "power_law":
+        rate = RATE_WARNING_RATE / m["pl_rate0"]
+        factor = (1.0 + rate ** m["pl_m"] if m["pl_rate_form"] == "printed"
+                  else (1.0 + rate) ** m["pl_m"])
+        if factor > RATE_WARNING_FACTOR:
+            out.append(f"{label} '{m['name']}': the power-law rate term multiplies the flow stress "
+                       f"by {factor:.3g} at a plastic strain rate of {RATE_WARNING_RATE:g} 1/s "
+                       f"(pl_m = {m['pl_m']:g}, pl_rate_form '{m['pl_rate_form']}'): where the "
+                       "material is strained that fast it stays close to elastic")
     if m["eos"] == "mie_gruneisen" and m.get("youngs_modulus") is not None:
         e, nu = m["youngs_modulus"], m["poisson_ratio"]
         k_e = e / (3.0 * (1.0 - 2.0 * nu))

@@ -464,11 +464,14 @@ def _final_metrics(books, deck, reference):
 
 
 def _peaks(last_good, deck):
-    """Peak plastic strain, and temperature where Johnson-Cook heats, of
+    """Peak plastic strain, and temperature where a material heats, of
     the last good snapshot (metrics.field_peaks)."""
-    # temperature only changes where Johnson-Cook heats adiabatically; a run
-    # without it reports no temperature peak rather than room temperature
-    heated = {m["name"] for m in deck["material"] if m["strength"] == "johnson_cook"}
+    # temperature only changes where plastic work heats a material with a
+    # specific heat, or where it comes from the internal energy; a run
+    # without either reports no temperature peak rather than room temperature
+    heated = {m["name"] for m in deck["material"]
+              if m.get("temperature") == "internal_energy"
+              or (m["strength"] not in ("elastic", "hjc") and m.get("specific_heat") is not None)}
     peak_fields = ["plastic_strain"]
     if any(b["material"] in heated for b in deck["body"]):
         peak_fields.append("temperature")

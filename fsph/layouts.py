@@ -142,12 +142,61 @@ PROPERTIES = (
     ("hjc_k2", "Pa", "HJC fully dense EOS K2"),
     ("hjc_k3", "Pa", "HJC fully dense EOS K3"),
     ("hjc_muplock", "-", "HJC strain where the fully dense curve reaches P_lock"),
+    # temperature and melting (fsph_material state_temperature, melting_temperature)
+    ("temp_model", "-", "temperature model id (TEMPERATURE_MODELS)"),
+    ("melt_model", "-", "melting-temperature model id (MELT_MODELS)"),
+    ("melt_a", "-", "Lindemann exponent a of the Steinberg-Guinan melting law"),
+    # J2 power-law viscoplasticity (Liao et al. 2022 eq 13)
+    ("pl_sigma0", "Pa", "power law: quasi-static yield stress sigma0"),
+    ("pl_eps0", "-", "power law: reference plastic strain eps_p0"),
+    ("pl_rate0", "1/s", "power law: reference plastic strain rate"),
+    ("pl_n", "-", "power law: hardening exponent n"),
+    ("pl_m", "-", "power law: rate exponent m"),
+    ("pl_l", "-", "power law: thermal softening exponent l"),
+    ("pl_rate_form", "-", "power law: rate term id (RATE_FORMS)"),
+    # Steinberg-Guinan (Steinberg, Cochran & Guinan 1980); G0 is shear
+    ("sg_y0", "Pa", "Steinberg-Guinan yield stress Y0"),
+    ("sg_ymax", "Pa", "Steinberg-Guinan largest work-hardened yield stress Ymax"),
+    ("sg_beta", "-", "Steinberg-Guinan hardening constant beta"),
+    ("sg_n", "-", "Steinberg-Guinan hardening exponent n"),
+    ("sg_eps_i", "-", "Steinberg-Guinan initial plastic strain eps_i"),
+    ("sg_a", "1/Pa", "Steinberg-Guinan G'_p/G0 (A)"),
+    ("sg_b", "1/K", "Steinberg-Guinan G'_T/G0 (B)"),
+    # Johnson-Cook failure (Johnson & Cook 1985)
+    ("jcf_on", "-", "Johnson-Cook failure: 1 on, 0 off"),
+    ("jc_d1", "-", "Johnson-Cook failure D1"),
+    ("jc_d2", "-", "Johnson-Cook failure D2"),
+    ("jc_d3", "-", "Johnson-Cook failure D3"),
+    ("jc_d4", "-", "Johnson-Cook failure D4"),
+    ("jc_d5", "-", "Johnson-Cook failure D5"),
+    ("jc_efmin", "-", "Johnson-Cook failure: smallest strain to fracture"),
+    # the reference isentrope e_s(mu) of a Mie-Grueneisen material
+    # (fsph.materials.isentrope_table): tension nodes uniform in mu from
+    # ise_mu_lo to 0; compression nodes uniform in
+    # u = -ln(1 - (s-1) mu) + ise_beta (s-1) mu from 0 to ise_u_top
+    ("ise_mu_lo", "-", "isentrope table: volumetric strain of its tension end"),
+    ("ise_beta", "-", "isentrope table: linear weight beta of the compression coordinate u"),
+    ("ise_u_top", "-", "isentrope table: compression coordinate u of its last node"),
 )
+#: Intervals of the two parts of the isentrope table (tension, compression).
+ISENTROPE_TABLE = (("tension_intervals", 16), ("compression_intervals", 64))
+_N_TENSION = ISENTROPE_TABLE[0][1] + 1
+_N_COMPRESSION = ISENTROPE_TABLE[1][1] + 1
+PROPERTIES = PROPERTIES + tuple(
+    (f"ise_{part}{k:02d}", unit, f"isentrope table: {what} at node {k}")
+    for part, n, unit, what in (
+        ("tw", _N_TENSION, "J/kg", "tension e_s"),
+        ("tdw", _N_TENSION, "J/kg", "tension de_s/dmu"),
+        ("cw", _N_COMPRESSION, "J/kg", "compression e_s (1 - (s-1) mu)"),
+        ("cdw", _N_COMPRESSION, "J/kg", "compression d(e_s (1 - (s-1) mu))/du"))
+    for k in range(n))
 PROPERTY_NAMES = tuple(name for name, _, _ in PROPERTIES)
 # history variables of a material point hist(n_hist)
 MATERIAL_HISTORY = (
-    ("damage", "-", "damage D in [0, 1] (HJC)"),
+    ("damage", "-", "damage D in [0, 1] (HJC, Johnson-Cook failure)"),
     ("mu_max", "-", "largest volumetric strain reached (HJC)"),
+    ("failed", "-", "1 once the point has failed (no deviator, no tension), else 0"),
+    ("melted", "-", "1 while the point is at or above its melting temperature, else 0"),
 )
 STRENGTH_MODELS = (
     ("elastic", "elastic"),
@@ -155,11 +204,30 @@ STRENGTH_MODELS = (
     ("bilinear", "linear isotropic hardening"),
     ("johnson_cook", "Johnson-Cook"),
     ("hjc", "Holmquist-Johnson-Cook (with eos hjc)"),
+    ("power_law", "J2 power-law viscoplasticity (Liao et al. 2022 eq 13)"),
+    ("steinberg_guinan", "Steinberg-Guinan (Steinberg, Cochran & Guinan 1980)"),
 )
 EOS_MODELS = (
     ("linear", "linear in the volumetric strain"),
     ("mie_gruneisen", "Mie-Grueneisen"),
     ("hjc", "HJC three-phase p(mu) with unloading"),
+)
+TEMPERATURE_MODELS = (
+    ("plastic_work", "adiabatic heating by plastic work, dT = chi dW_p/(rho c)"),
+    ("internal_energy", "T from density and internal energy about the reference isentrope"),
+)
+MELT_MODELS = (
+    ("constant", "constant melting temperature"),
+    ("lindemann", "Lindemann law in the Steinberg-Guinan form"),
+)
+RATE_FORMS = (
+    ("printed", "1 + (rate/rate0)^m, Liao et al. 2022 eq 13 as printed"),
+    ("power", "(1 + rate/rate0)^m"),
+)
+#: Real constants both languages use: (name, value, unit, meaning).
+REAL_CONSTANTS = (
+    ("mg_denominator_floor", 1.0e-3, "-",
+     "smallest Mie-Grueneisen denominator 1 - (s-1) mu before the state is out of range"),
 )
 # element-to-particle conversion criteria (fsph_convert)
 CONVERSION_CRITERIA = (
@@ -178,7 +246,7 @@ PARTICLE_CONTACTS = (
 NODE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass")
 # the material state elements and particles share, in both in this order
 MATERIAL_STATE_FIELDS = ("s_rr", "s_zz", "s_rz", "s_tt", "p", "eps_p", "rho", "e", "temp", "c",
-                         "damage")
+                         "damage", "failed", "melted")
 ELEMENT_FIELDS = MATERIAL_STATE_FIELDS + ("q", "area", "mass")
 PARTICLE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass", "h", "radius") + MATERIAL_STATE_FIELDS
 # material and body of an element or particle
@@ -259,7 +327,8 @@ def fortran_source():
            "!> Layouts shared with Python (fsph/layouts.py): phases, history columns,",
            "!> checkpoint arrays and scalars, material properties, history and",
            "!> model ids, conversion criteria, snapshot rows.",
-           "module fsph_layouts", "  implicit none", "  private",
+           "module fsph_layouts", "  use, intrinsic :: iso_fortran_env, only: real64",
+           "  implicit none", "  private",
            f"  !> digest of the layouts (fsph.layouts.digest), checked by Python at set-up",
            f"  integer, parameter, public :: layout_digest = {digest()}",
            "  ! timed phases of the cycle"]
@@ -278,11 +347,21 @@ def fortran_source():
     out.append("  ! history variables of a material point hist(n_hist)")
     out += _constants("hist_", [n for n, _, _ in MATERIAL_HISTORY],
                       [f"{d} [{u}]" for _, u, d in MATERIAL_HISTORY], count="n_hist")
-    out.append("  ! strength and EOS model ids, conversion criteria, particle contacts")
+    out.append("  ! strength, EOS, temperature, melting and rate-form model ids, conversion criteria,")
+    out.append("  ! particle contacts")
     out += _constants("strength_", [n for n, _ in STRENGTH_MODELS], [d for _, d in STRENGTH_MODELS],
                       count="n_strength_models")
     out += _constants("eos_", [n for n, _ in EOS_MODELS], [d for _, d in EOS_MODELS],
                       count="n_eos_models")
+    out += _constants("temperature_", [n for n, _ in TEMPERATURE_MODELS],
+                      [d for _, d in TEMPERATURE_MODELS])
+    out += _constants("melt_", [n for n, _ in MELT_MODELS], [d for _, d in MELT_MODELS])
+    out += _constants("rate_", [n for n, _ in RATE_FORMS], [d for _, d in RATE_FORMS])
+    out.append("  ! intervals of the isentrope table")
+    out += [f"  integer, parameter, public :: ise_{name} = {n}" for name, n in ISENTROPE_TABLE]
+    out.append("  ! real constants")
+    out += [f"  real(real64), parameter, public :: {name} = {value!r}_real64  !< {doc} [{unit}]"
+            for name, value, unit, doc in REAL_CONSTANTS]
     out += _constants("criterion_", [n for n, _ in CONVERSION_CRITERIA],
                       [d for _, d in CONVERSION_CRITERIA])
     out += _constants("particle_contact_", [n for n, _ in PARTICLE_CONTACTS],

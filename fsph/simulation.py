@@ -501,6 +501,7 @@ def _element_snapshot(raw):
         "q": column["q"], "plastic_strain": column["eps_p"], "density": column["rho"],
         "internal_energy": column["e"], "temperature": column["temp"], "sound_speed": column["c"],
         "area": column["area"], "element_mass": column["mass"], "damage": column["damage"],
+        "failed": column["failed"], "melted": column["melted"],
     }
 
 
@@ -514,6 +515,7 @@ def _particle_snapshot(pf, ids):
         "stress": _cauchy_stress(pf, _PF, column["p"]), "pressure": column["p"],
         "plastic_strain": column["eps_p"], "density": column["rho"], "internal_energy": column["e"],
         "temperature": column["temp"], "sound_speed": column["c"], "damage": column["damage"],
+        "failed": column["failed"], "melted": column["melted"],
     }
 
 

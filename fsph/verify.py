@@ -151,6 +151,28 @@ def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
     return out
 
 
+def material_point_functions(material, rho, e=0.0, p=0.0, temp=None, eps_p=0.0, rate_p=0.0,
+                             rate_eq=0.0, **history):
+    """The pure point functions of fsph_material for one state of a
+    validated material dict: density rho [kg/m^3], specific internal
+    energy e [J/kg], pressure p [Pa], temperature [K] (default: room),
+    plastic strain, plastic strain rate rate_p and total equivalent strain
+    rate rate_eq [1/s], history by name (damage, failed, ...). Returns the
+    melting temperature 't_melt' [K], shear modulus 'g' [Pa], flow stress
+    'sy' [Pa], temperature of the state 'temp' [K], isentrope energy 'e_s'
+    at rho [J/kg] and the pressure the point carries 'p_cut' [Pa]."""
+    props, strength, eos = property_table([material])
+    hist = np.zeros(len(_HISTORY))
+    for name, value in history.items():
+        hist[_HISTORY[name]] = value
+    temp = material["room_temperature"] if temp is None else temp
+    t_melt, g, sy, t_state, e_s, p_cut, ierr = _verify.material_point_functions(
+        props[:, 0], int(strength[0]), int(eos[0]), rho, e, p, temp, eps_p, rate_p, rate_eq, hist)
+    _check(ierr, "material_point_functions: layout mismatch, rebuild the package")
+    return {"t_melt": float(t_melt), "g": float(g), "sy": float(sy), "temp": float(t_state),
+            "e_s": float(e_s), "p_cut": float(p_cut)}
+
+
 def hjc_pressure(material, mu, damage=0.0, mu_max=0.0):
     """HJC pressure of one point of a validated material dict at
     volumetric strain mu with history (damage, mu_max): returns pressure

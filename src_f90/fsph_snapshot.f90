@@ -7,10 +7,11 @@ module fsph_snapshot
   use fsph_kinds, only: wp
   use fsph_state, only: simulation_t, node_set_t, element_set_t, particle_set_t
   use fsph_layouts, only: nf_x_r, nf_x0_r, nf_v_r, nf_mass, ms_s_rr, ms_s_tt, ms_p, ms_eps_p, ms_rho, ms_e, &
-                          ms_temp, ms_c, ms_damage, ef_s_rr, ef_damage, ef_q, ef_area, ef_mass, pf_x_r, &
-                          pf_x0_r, pf_v_r, pf_mass, pf_h, pf_radius, pf_s_rr, pf_damage, id_material, id_body, &
-                          ss_time, ss_cycle, ss_contact_penetration, ss_contact_penetration_relative, &
-                          ss_eroded_momentum_z, hist_damage, prop_rho0
+                          ms_temp, ms_c, ms_damage, ms_failed, ms_melted, n_material_state_fields, ef_s_rr, &
+                          ef_q, ef_area, ef_mass, pf_x_r, pf_x0_r, pf_v_r, pf_mass, pf_h, pf_radius, pf_s_rr, &
+                          id_material, id_body, ss_time, ss_cycle, ss_contact_penetration, &
+                          ss_contact_penetration_relative, ss_eroded_momentum_z, hist_damage, hist_failed, &
+                          hist_melted, prop_rho0
   implicit none
   private
 
@@ -44,7 +45,7 @@ contains
     ids(id_material, :) = el%mat(1:n)
     ids(id_body, :) = el%body(1:n)
     call material_state_rows(n, el%s, el%p, el%eps_p, el%rho, el%e, el%temp, el%c, el%hist, &
-                             fields(ef_s_rr:ef_damage, :))
+                             fields(ef_s_rr:ef_s_rr + n_material_state_fields - 1, :))
     fields(ef_q, :) = el%q(1:n)
     fields(ef_area, :) = el%area(1:n)
     fields(ef_mass, :) = el%mass(1:n)
@@ -74,13 +75,14 @@ contains
       fields(pf_radius, i) = particle_radius(pt%mass(i), pt%x(1, i), max(pt%rho(i), props(prop_rho0, pt%mat(i))))
     end do
     call material_state_rows(n, pt%s, pt%p, pt%eps_p, pt%rho, pt%e, pt%temp, pt%c, pt%hist, &
-                             fields(pf_s_rr:pf_damage, :))
+                             fields(pf_s_rr:pf_s_rr + n_material_state_fields - 1, :))
   end subroutine particle_rows
 
   !> The material state rows (fsph_layouts ms_*) of n points, shared by
   !> elements and particles: deviator (rr, zz, rz, tt) [Pa], pressure [Pa],
   !> plastic strain [-], density [kg/m^3], specific internal energy [J/kg],
-  !> temperature [K], sound speed [m/s], damage [-].
+  !> temperature [K], sound speed [m/s], damage [-], failed and melted
+  !> (1 or 0).
   subroutine material_state_rows(n, s, p, eps_p, rho, e, temp, c, hist, rows)
     integer, intent(in) :: n
     real(wp), intent(in) :: s(:, :), p(:), eps_p(:), rho(:), e(:), temp(:), c(:), hist(:, :)
@@ -93,6 +95,8 @@ contains
     rows(ms_temp, :) = temp(1:n)
     rows(ms_c, :) = c(1:n)
     rows(ms_damage, :) = hist(hist_damage, 1:n)
+    rows(ms_failed, :) = hist(hist_failed, 1:n)
+    rows(ms_melted, :) = hist(hist_melted, 1:n)
   end subroutine material_state_rows
 
   !> Snapshot scalars (fsph_layouts ss_*): time [s], cycle, deepest

@@ -16,7 +16,7 @@ module fsph_verify
   public :: get_particle_rates, get_principal_strains, triangle_principal_strain
   public :: hjc_point_pressure, contact_pair_values, get_particle_ties, convert_now, set_stress_state
   public :: get_forces, set_neighbour_width, get_neighbour_count, get_neighbours
-  public :: get_strain_rates, material_point
+  public :: get_strain_rates, material_point, material_point_functions
 
 contains
 
@@ -298,5 +298,36 @@ contains
     call material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
                          s, p, eps_p, e, temp, hist, c, ierr)
   end subroutine material_point
+
+  !> The pure point functions of fsph_material at one state (unit tests of
+  !> the models): melting temperature [K], shear modulus [Pa], flow stress
+  !> [Pa] (at plastic strain eps_p, plastic strain rate rate_p and total
+  !> equivalent strain rate rate_eq [1/s]), temperature of the state [K],
+  !> energy of the reference isentrope at the state's volumetric strain
+  !> [J/kg] and the pressure the point carries [Pa] (spall cut-off, no
+  !> tension once failed).
+  subroutine material_point_functions(nprop, nh, props, istrength, ieos, rho, e, p, temp, eps_p, rate_p, &
+                                      rate_eq, hist, t_melt, g, sy, t_state, e_s, p_cut, ierr)
+    use fsph_layouts, only: n_props, n_hist, prop_rho0
+    use fsph_material, only: melting_temperature, shear_modulus, flow_stress_at, state_temperature, &
+                             isentrope_energy, cut_pressure
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: nprop, nh
+    real(wp), intent(in) :: props(nprop)
+    integer, intent(in) :: istrength, ieos
+    real(wp), intent(in) :: rho, e, p, temp, eps_p, rate_p, rate_eq, hist(nh)
+    real(wp), intent(out) :: t_melt, g, sy, t_state, e_s, p_cut
+    integer, intent(out) :: ierr
+    t_melt = 0.0_wp; g = 0.0_wp; sy = 0.0_wp; t_state = 0.0_wp; e_s = 0.0_wp; p_cut = 0.0_wp
+    ierr = status_bad_input
+    if (nprop /= n_props .or. nh /= n_hist) return
+    t_melt = melting_temperature(props, rho)
+    g = shear_modulus(props, istrength, rho, p, temp)
+    sy = flow_stress_at(props, istrength, eps_p, rate_p, rate_eq, p, temp, rho)
+    t_state = state_temperature(props, ieos, rho, e, hist, temp)
+    e_s = isentrope_energy(props, rho/props(prop_rho0) - 1.0_wp)
+    p_cut = cut_pressure(props, hist, p)
+    ierr = status_ok
+  end subroutine material_point_functions
 
 end module fsph_verify
