@@ -165,8 +165,9 @@ def ring_edges(r0, ring_width):
     the rings are about ring_width wide; where they are farther apart (a
     graded rim) each column has a ring of its own, reaching halfway to its
     neighbours, so that a column that moves by less than that stays in
-    its ring."""
-    columns = np.unique(r0)
+    its ring. Radii within a millionth of ring_width are one column (a
+    column whose points differ by round-off gets no edge through it)."""
+    columns = np.unique(np.round(np.asarray(r0) / ring_width, 6)) * ring_width
     mid = 0.5 * (columns[:-1] + columns[1:])
     _, first = np.unique(np.floor(mid / ring_width), return_index=True)
     return mid[first]
@@ -175,10 +176,10 @@ def ring_edges(r0, ring_width):
 def intact_plate(target, frame, intact_fraction, ring_width):
     """Which target points are intact plate (mask) and the hole radius
     [m] (the smallest radius of intact material, a particle's centre less
-    its radius; None when nothing is intact): points in the band
-    -T <= s <= 2T in rings (ring_edges) that hold at least intact_fraction
-    of the mass that started in them, from the outermost ring inwards to
-    the first ring that holds less."""
+    its radius; 0 when every ring is intact, None when none is): points in
+    the band -T <= s <= 2T in rings (ring_edges) that hold at least
+    intact_fraction of the mass that started in them, from the outermost
+    ring inwards to the first ring that holds less."""
     s = frame.along(target.x[:, 1])
     band = (s >= -frame.thickness) & (s <= 2.0 * frame.thickness)
     edges = ring_edges(target.x0[:, 0], ring_width)
@@ -188,8 +189,9 @@ def intact_plate(target, frame, intact_fraction, ring_width):
     started = np.bincount(ring0, weights=target.mass, minlength=n_rings)
     held = np.bincount(ring[band], weights=target.mass[band], minlength=n_rings)
     failing = np.nonzero(held < intact_fraction * started)[0]
-    first_intact = failing.max() + 1 if len(failing) else 0
-    intact = band & (ring >= first_intact)
+    if not len(failing):
+        return band, 0.0                    # intact to the axis: no hole
+    intact = band & (ring > failing.max())
     if not intact.any():
         return intact, None
     return intact, float((target.x[intact, 0] - target.radius[intact]).min())
