@@ -516,8 +516,10 @@ def _final_metrics(books, deck, reference):
                 case_metrics["series"]["time_us"], case_metrics["series"]["velocity_z_m_s"]))
         if "debris" in case_metrics:
             from . import debris
-            case_metrics["impedance_match"] = debris.impedance_check(
-                books.last_good, debris.DebrisCase.from_deck(deck), series)
+            match = debris.impedance_check(books.last_good, debris.DebrisCase.from_deck(deck),
+                                           series)
+            if match is not None:           # both materials with a linear Us-up Hugoniot
+                case_metrics["impedance_match"] = match
     comparison = metrics_module.compare(case_metrics, reference) if reference else {}
     return case_metrics, comparison
 

@@ -414,6 +414,25 @@ def test_interface_state_just_after_impact_matches_the_impedance_match(tmp_path)
     assert abs(match["particle_velocity_error_percent"]) < 2.0
 
 
+def test_a_flyer_without_a_us_up_hugoniot_has_no_impedance_match(tmp_path):
+    """A flyer of linear EOS: the debris metrics are there, the impedance
+    match (which needs two linear Us-up Hugoniots) is left out, and the
+    interface entries are empty."""
+    nml = f90nml.read(CASES / "debris_cu_al_1.nml")
+    nml["output"].update({"n_snapshots": 2, "vtu": False, "checkpoint": False})
+    del nml["output"]["reference"]
+    nml["control"]["end_time"] = 0.3e-6
+    nml["material"][0] = {"name": "copper", "library": "steel_elastic_bar"}
+    for index, keys in COARSE_CASE_1:
+        nml["body"][index].update(keys)
+    path = tmp_path / "linear.nml"
+    nml.write(path, force=True)
+    summary = run(path, tmp_path / "out", quiet=True)
+    assert summary["status"] == "completed"
+    assert "debris" in summary["metrics"] and "impedance_match" not in summary["metrics"]
+    assert summary["metrics"]["debris"]["flyer_interface_pressure_GPa"] is None
+
+
 def _metrics_group(text):
     """The case 1 deck with its &metrics group replaced by `text`."""
     def edit(source):
