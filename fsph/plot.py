@@ -296,7 +296,8 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
                    Line2D([], [], color=TARGET_COLOUR, marker="o", ls="",
                           label=f"{rec['target']} ({rec['target_material']})")]
         if experiment:
-            handles += [Line2D([], [], color="0.3", ls="--", label="experiment: fronts"),
+            handles += [Line2D([], [], color="0.3", ls="--",
+                               label="experiment: fronts (by material)"),
                         Line2D([], [], color=MARK_COLOUR, ls=":", label="ejecta height"),
                         Line2D([], [], color=MARK_COLOUR, ls="-.", label="intersection radius"),
                         Line2D([], [], color=MARK_COLOUR, marker="|", ls="", ms=10,
