@@ -575,12 +575,20 @@ SCHEMA = {
                         "whether it has left the target and the hole diameter, with their "
                         "history at every snapshot, and whether the velocity had settled "
                         "(changed by at most 1 % of the striking speed over the last fifth "
-                        "of the run; 'settled').",
-                        choices=("none", "taylor", "bar_wave", "perforation")),
+                        "of the run; 'settled'); debris: a flyer's debris cloud behind a "
+                        "plate (docs/validation.md, Debris clouds): the front of each body's "
+                        "cloud (at front_fraction of the cloud's mass, and at 0.5, 1 and 2 %), "
+                        "their ratio, the back-splash ejecta height, the radius where the "
+                        "clouds meet, the hole diameter, cloud masses and axial momenta, "
+                        "lengths along the flight direction from the plate's front face "
+                        "before impact, at every snapshot (summary.json and /metrics/debris "
+                        "in fsph.h5), with the 1D impedance match of the two Hugoniots "
+                        "against the interface state measured in the run.",
+                        choices=("none", "taylor", "bar_wave", "perforation", "debris")),
             "body": Key("str", None, "-", "Body measured (default: the first body; "
-                        "perforation: the projectile)."),
-            "target": Key("str", None, "-", "perforation: the target body (default: the "
-                          "first body other than the projectile)."),
+                        "perforation: the projectile; debris: the flyer)."),
+            "target": Key("str", None, "-", "perforation and debris: the target body "
+                          "(default: the first body other than the projectile or flyer)."),
             "w_height": _pos("Height above the impact face at which W is measured "
                              "(default 0.2 L0 of the body).", "m", None),
             "probe_radius": _pos("Radius of the bar_wave sampling line.", "m", None),
@@ -592,6 +600,21 @@ SCHEMA = {
                              "bar_wave: initial distance from the face of an element-particle "
                              "interface; the jump of the mean stress across it (3 mm either "
                              "side, relative to the plateau) is reported.", lower=0.0),
+            "front_fraction": Key("float", 0.01, "-",
+                                  "debris: the front of a cloud is the position along the "
+                                  "flight direction beyond which lies this fraction of the "
+                                  "cloud's own mass (a few stray particles do not move it; "
+                                  "the fronts at 0.5, 1 and 2 % are reported beside it). "
+                                  "The same fraction gives the ejecta height and the "
+                                  "intersection radius.",
+                                  lower=0.0, upper=0.5, lower_open=True),
+            "intact_fraction": Key("float", 0.5, "-",
+                                   "debris: a ring of the plate (twice the plate's spacing "
+                                   "wide) is intact while the plate's band (its initial "
+                                   "thickness widened by one thickness on each side) holds "
+                                   "at least this fraction of the mass that started in it; "
+                                   "the hole is inside the intact rings counted from the "
+                                   "rim.", lower=0.0, upper=1.0, lower_open=True),
         },
     ),
 }
@@ -1231,19 +1254,38 @@ def _check_materials(path, deck):
                             "the name of a &material: " + ", ".join(names), b["material"])
 
 
-def _check_metrics(path, met, bodies):
+def _check_debris(path, met, bodies):
+    """kind 'debris': the flyer (body, default the first) and the target
+    (default the first other body) are two bodies, the flyer moving
+    towards the target along the axis (bodies: the &body groups)."""
+    names = [b["name"] for b in bodies]
+    flyer = names.index(met["body"]) if met["body"] else 0
+    target = names.index(met["target"]) if met["target"] else (1 if flyer == 0 else 0)
+    if flyer == target:
+        raise DeckError(path, "metrics", "body", "a flyer other than the target "
+                        f"'{names[target]}' (kind 'debris')", names[flyer])
+    if bodies[flyer]["velocity_z"] == bodies[target]["velocity_z"]:
+        raise DeckError(path, "metrics", "body", f"a flyer moving relative to the target "
+                        f"'{names[target]}' (kind 'debris': the flight direction is that of "
+                        f"its velocity_z)", names[flyer])
+
+
+def _check_metrics(path, met, deck_bodies):
     """&metrics names existing bodies (the target another than the body)
-    and has what its kind needs (bodies: the body names)."""
+    and has what its kind needs (deck_bodies: the &body groups)."""
+    bodies = [b["name"] for b in deck_bodies]
     if met["target"] is not None and (met["target"] not in bodies
                                       or met["target"] == met["body"]):
         raise DeckError(path, "metrics", "target", "the name of another &body: "
                         + ", ".join(bodies), met["target"])
-    if met["kind"] == "perforation" and len(bodies) < 2:
+    if met["kind"] in ("perforation", "debris") and len(bodies) < 2:
         raise DeckError(path, "metrics", "kind", "a deck with a projectile and a target body "
-                        "for kind 'perforation'", met["kind"])
+                        f"for kind '{met['kind']}'", met["kind"])
     if met["body"] is not None and met["body"] not in bodies:
         raise DeckError(path, "metrics", "body", "the name of a &body: " + ", ".join(bodies),
                         met["body"])
+    if met["kind"] == "debris":
+        _check_debris(path, met, deck_bodies)
     if met["kind"] == "bar_wave":
         for k in ("probe_radius", "plateau_from", "plateau_to"):
             if met[k] is None:
@@ -1299,7 +1341,7 @@ def _cross_check(path, deck):
         if bc["normal"][0] == 0.0 and bc["normal"][1] == 0.0:
             raise DeckError(path, f"boundary #{i + 1}", "normal", "a non-zero vector",
                             list(bc["normal"]))
-    _check_metrics(path, deck["metrics"], [b["name"] for b in deck["body"]])
+    _check_metrics(path, deck["metrics"], deck["body"])
     _check_output(path, deck)
 
 

@@ -45,6 +45,58 @@ def _format_metrics(comparison, metrics):
     return lines
 
 
+#: The debris quantities printed one to a line, with the reference where
+#: it has them.
+_DEBRIS_LINES = ("flyer_front_mm", "target_front_mm", "front_ratio", "ejecta_height_mm",
+                 "intersection_radius_mm", "hole_diameter_mm")
+
+
+def _format_debris(metrics, comparison):
+    """Printed lines of a debris run: the fronts at the tabulated
+    fractions, the quantities compared with the experiment, the clouds'
+    masses and momenta, the impedance match against the run."""
+    from .debris import FRONT_FRACTIONS, fraction_tag
+    rec = metrics["debris"]
+
+    def mm(value):
+        return f"{value:9.2f}" if value is not None else f"{'-':>9s}"
+    lines = [f"  debris at t = {rec['time_us']:.4g} us (lengths along the flight direction from "
+             f"the plate's front face; fronts at {100 * rec['front_fraction']:g} % of each "
+             f"cloud's mass)",
+             f"    front [mm] at   {rec['flyer']} ({rec['flyer_material']})   "
+             f"{rec['target']} ({rec['target_material']})"]
+    for q in FRONT_FRACTIONS:
+        tag = fraction_tag(q)
+        lines.append(f"    {100 * q:6.3g} %      {mm(rec[f'flyer_front_{tag}_mm'])}   "
+                     f"{mm(rec[f'target_front_{tag}_mm'])}")
+    for key in _DEBRIS_LINES:
+        value = rec[key]
+        text = f"  debris.{key:<24s} " + (f"{value:10.4g}" if value is not None else f"{'none':>10s}")
+        cmp = comparison.get("debris", {}).get(key)
+        if cmp:
+            text += f"   reference {cmp['reference']:.4g}   error {cmp['error_percent']:+.1f} %"
+        lines.append(text)
+    lines.append(f"  cloud mass [g] / axial momentum [kg m/s]: {rec['flyer']} "
+                 f"{1e3 * rec['flyer_cloud_mass_kg']:.4g} / {rec['flyer_cloud_momentum_z']:.4g}, "
+                 f"{rec['target']} {1e3 * rec['target_cloud_mass_kg']:.4g} / "
+                 f"{rec['target_cloud_momentum_z']:.4g}; ejecta {1e3 * rec['ejecta_mass_kg']:.4g} g")
+    match = metrics.get("impedance_match")
+    if match:
+        text = (f"  impedance match: {match['pressure_GPa']:.4g} GPa, "
+                f"{match['particle_velocity_m_s']:.4g} m/s (1D, analytic); ")
+        if match["measured_pressure_GPa"] is None:
+            text += (f"not measured (no snapshot before the plate's shock reaches its rear face "
+                     f"at {match['target_transit_us']:.3g} us)")
+        else:
+            text += (f"run {match['measured_pressure_GPa']:.4g} GPa "
+                     f"({match['pressure_error_percent']:+.1f} %), "
+                     f"{match['measured_particle_velocity_m_s']:.4g} m/s "
+                     f"({match['particle_velocity_error_percent']:+.1f} %) over "
+                     f"{match['measured_snapshots']} snapshot(s)")
+        lines.append(text)
+    return lines
+
+
 def _format_peaks(peaks):
     """Printed lines of the peak fields (metrics.field_peaks)."""
     units = {"plastic_strain": "", "temperature": " K"}
@@ -293,11 +345,14 @@ class _Books:
     ended: bool = False
 
     def record(self, sim, deck, writer):
-        """Take a snapshot of `sim`, write it and keep its metric record."""
+        """Take a snapshot of `sim`, write it with its metric record (and
+        that record's history in fsph.h5 for the kinds that keep one) and
+        keep the record."""
         snap = sim.snapshot()
-        writer.write_snapshot(snap)
-        self.last_good = snap
         record = metrics_module.snapshot_series(snap, deck)
+        units = metrics_module.series_units(deck)
+        writer.write_snapshot(snap, (deck["metrics"]["kind"], record, units) if units else None)
+        self.last_good = snap
         if record:
             self.series.append(record)
 
@@ -459,6 +514,12 @@ def _final_metrics(books, deck, reference):
         if "perforation" in case_metrics:
             case_metrics["perforation"].update(metrics_module.perforation_settling(
                 case_metrics["series"]["time_us"], case_metrics["series"]["velocity_z_m_s"]))
+        if "debris" in case_metrics:
+            from . import debris
+            match = debris.impedance_check(books.last_good, debris.DebrisCase.from_deck(deck),
+                                           series)
+            if match is not None:           # both materials with a linear Us-up Hugoniot
+                case_metrics["impedance_match"] = match
     comparison = metrics_module.compare(case_metrics, reference) if reference else {}
     return case_metrics, comparison
 
@@ -561,7 +622,12 @@ def _print_summary(say, summary, outdir):
         say(f"fsph: not compared with the reference ({ref['source']}): "
             f"{ref['not_applied_because']}")
     comparison = ref.get("comparison", {})
-    for line in _format_metrics(comparison, summary["metrics"]):
+    metrics = summary["metrics"]
+    if "debris" in metrics:
+        for line in _format_debris(metrics, comparison):
+            say(line)
+        metrics = {k: v for k, v in metrics.items() if k not in ("debris", "impedance_match")}
+    for line in _format_metrics(comparison, metrics):
         say(line)
     for line in _format_peaks(summary["peaks"]):
         say(line)

@@ -393,10 +393,24 @@ def perforation_settling(time_us, velocity_z, window=SETTLING_WINDOW,
 
 def snapshot_series(snap, deck):
     """Per-snapshot record of the case metric that has a history
-    (perforation: velocity, penetration, hole), or None."""
-    if deck["metrics"]["kind"] != "perforation" or len(deck["body"]) < 2:
+    (perforation: velocity, penetration, hole; debris: fronts, hole,
+    ejecta, intersection, masses and momenta), or None."""
+    kind = deck["metrics"]["kind"]
+    if kind not in ("perforation", "debris") or len(deck["body"]) < 2:
         return None
+    if kind == "debris":
+        from . import debris
+        return debris.debris(snap, debris.DebrisCase.from_deck(deck))
     return perforation(snap, *_projectile_and_target(deck))
+
+
+def series_units(deck):
+    """Units of the per-snapshot record's keys, for the kinds whose history
+    fsph.h5 keeps under /metrics/<kind> (debris), or None."""
+    if deck["metrics"]["kind"] != "debris":
+        return None
+    from . import debris
+    return debris.UNITS
 
 
 def case_metrics(snap, deck):
@@ -410,6 +424,19 @@ def case_metrics(snap, deck):
                                  met["w_height"])}
     if met["kind"] == "perforation":
         return {"perforation": perforation(snap, *_projectile_and_target(deck))}
+    if met["kind"] == "debris":
+        from . import debris
+        case = debris.DebrisCase.from_deck(deck)
+        record = debris.debris(snap, case)
+        record.update({"flyer": case.flyer_name, "flyer_material": case.flyer_material,
+                       "target": case.target_name, "target_material": case.target_material,
+                       "materials": [m["name"] for m in deck["material"]],
+                       "front_fraction": case.front_fraction,
+                       "intact_fraction": case.intact_fraction,
+                       "flight_direction": case.direction,
+                       "plate_front_face_z_mm": case.frame(
+                           debris.body_points(snap, case.target)).z_face * 1e3})
+        return {"debris": record}
     if met["kind"] == "bar_wave":
         return {"bar_wave": bar_wave(snap, joined, met["probe_radius"], met["plateau_from"],
                                      met["plateau_to"], met["interface"])}

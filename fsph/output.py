@@ -153,7 +153,10 @@ class RunWriter:
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
     fields; attributes time [s] and cycle; particles, if any, in
     /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
-    pressure, ...). The deck text is stored in /deck. vtu/ with fsph.pvd
+    pressure, ...); the case metrics that have a history (&metrics kind
+    debris) in /metrics/<kind>/<key>, one value per snapshot (NaN where
+    undefined) with its unit in the attribute `units`. The deck text is
+    stored in /deck. vtu/ with fsph.pvd
     (elements) and fsph_particles.pvd (particles as vertices): the same
     snapshots for ParaView (points at (r, z, 0)).
 
@@ -293,12 +296,16 @@ class RunWriter:
             with self._h5() as h5:
                 self._write_history(h5)
 
-    def write_snapshot(self, snap):
+    def write_snapshot(self, snap, metrics=None):
         """Write snap into fsph.h5 (under PARTIAL_SNAPSHOT, renamed NNNNN
-        once complete) and the vtu series."""
+        once complete) and the vtu series; metrics: (kind, record, units),
+        a per-snapshot record of the case metrics appended to their
+        history (_append_metrics), or None."""
         before = self._h5_bytes()
         with self._h5() as h5:
             self._write_history(h5)
+            if metrics is not None:
+                _append_metrics(h5, *metrics)
             snapshots = h5["snapshots"]
             if PARTIAL_SNAPSHOT in snapshots:
                 del snapshots[PARTIAL_SNAPSHOT]
@@ -370,6 +377,21 @@ class RunWriter:
         with self._h5() as h5:
             self._write_history(h5)
             h5.attrs["failure"] = message
+
+
+def _append_metrics(h5, kind, record, units):
+    """Append one row to /metrics/<kind>/<key> of the open h5 for each key
+    of `units` (a dict key -> unit): the record's value, NaN where it has
+    None; each dataset carries its unit in the attribute `units`."""
+    group = h5.require_group(f"metrics/{kind}")
+    for key, unit in units.items():
+        if key not in group:
+            group.create_dataset(key, shape=(0,), maxshape=(None,), dtype="f8", chunks=(256,))
+            group[key].attrs["units"] = unit
+        value = record.get(key)
+        data = group[key]
+        data.resize((data.shape[0] + 1,))
+        data[-1] = np.nan if value is None else value
 
 
 def write_summary(outdir, summary):

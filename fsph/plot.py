@@ -4,6 +4,7 @@ particles in different colours, with the experimental Taylor lengths marked
 summary.json); matplotlib with the Agg backend, no display needed."""
 
 import json
+import textwrap
 from pathlib import Path
 
 import h5py
@@ -102,7 +103,8 @@ def _shapes_legend(fig, experiment):
 
 def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi=150):
     """Write a PNG with one panel per requested time (the nearest snapshot),
-    the body mirrored about the axis; returns the PNG path."""
+    the body mirrored about the axis; returns the PNG path. A debris run
+    (&metrics kind 'debris') gets debris_cloud's picture instead."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -110,6 +112,8 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
     run_dir = Path(run_dir)
     output = Path(output) if output else run_dir / "shapes.png"
     summary = json.loads((run_dir / "summary.json").read_text())
+    if "debris" in summary.get("metrics", {}):
+        return debris_cloud(run_dir, times_us, output, dpi)
     experiment, w_height, frame = _shape_marks(summary)
 
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
@@ -138,6 +142,171 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
         fig.tight_layout(rect=(0, 0.02, 1, 0.9))
         # equal aspect shrinks the axes after the layout: save what is drawn
         fig.savefig(output, dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+    return output
+
+
+#: Colours of the debris picture: the flyer's material, the target's,
+#: any other; the experiment's marks.
+FLYER_COLOUR = "#c46a1b"
+TARGET_COLOUR = "#3f6fb0"
+OTHER_COLOUR = "#888888"
+MARK_COLOUR = "k"
+
+
+def _material_colours(materials, rec):
+    """Colour of each material index (0-based, in deck order: `materials`
+    the material names) for the debris picture."""
+    return [FLYER_COLOUR if name == rec["flyer_material"] else
+            TARGET_COLOUR if name == rec["target_material"] else OTHER_COLOUR
+            for name in materials]
+
+
+def _draw_materials(ax, g, colours, points_per_mm):
+    """Elements (filled triangles) and particles (discs of their radius,
+    at points_per_mm [pt/mm], at least a fraction of a point) of snapshot
+    g, coloured by material and mirrored about the axis [mm]."""
+    from matplotlib.collections import PolyCollection
+
+    for side in (1.0, -1.0):
+        if "connectivity" in g:
+            tri = g["nodes"][...][g["connectivity"][...]] * 1e3
+            tri[..., 0] *= side
+            ax.add_collection(PolyCollection(tri, facecolors=np.take(colours, g["material"][...]),
+                                             edgecolors="none"))
+        if "particles" in g:
+            xp = g["particles/x"][...] * 1e3
+            size = np.maximum(2e3 * g["particles/radius"][...] * points_per_mm, 0.5) ** 2
+            ax.scatter(side * xp[:, 0], xp[:, 1], s=size, linewidths=0,
+                       c=np.take(colours, g["particles/material"][...]))
+
+
+def _experiment_marks(ax, experiment, z_face, direction, half_width):
+    """The experiment's positions on the panel [mm]: the fronts (dashed,
+    in their material's colour), the ejecta height (dotted), the hole
+    (ticks on the front face) and the intersection radius (dash-dotted)."""
+    def z_at(s):
+        return z_face + direction * s
+    for key, colour in (("target_front_mm", TARGET_COLOUR), ("flyer_front_mm", FLYER_COLOUR)):
+        if key in experiment:
+            ax.axhline(z_at(experiment[key]), color=colour, ls="--", lw=1.0)
+    if "ejecta_height_mm" in experiment:
+        ax.axhline(z_at(-experiment["ejecta_height_mm"]), color=MARK_COLOUR, ls=":", lw=1.0)
+    if "hole_diameter_mm" in experiment:
+        hole = experiment["hole_diameter_mm"] / 2
+        ax.plot([-hole, hole], [z_face, z_face], "|", color=MARK_COLOUR, ms=14, mew=1.8)
+    if "intersection_radius_mm" in experiment:
+        for side in (1.0, -1.0):
+            ax.axvline(side * experiment["intersection_radius_mm"], color=MARK_COLOUR, ls="-.",
+                       lw=0.8)
+    ax.set_xlim(-half_width, half_width)
+
+
+def _debris_table(ax, rec, experiment):
+    """A box of the run's values beside the experiment's [mm]."""
+    rows = [(f"{rec['target']} front", "target_front_mm"),
+            (f"{rec['flyer']} front", "flyer_front_mm"),
+            ("ratio", "front_ratio"), ("ejecta", "ejecta_height_mm"),
+            ("intersection r", "intersection_radius_mm"), ("hole D", "hole_diameter_mm")]
+    lines = [f"{'':15s}{'fsph':>7s}{'exp.':>7s}"]
+    for label, key in rows:
+        value = rec.get(key)
+        ref = experiment.get(key)
+        lines.append(f"{label:15s}{value if value is not None else float('nan'):7.3g}"
+                     f"{ref if ref is not None else float('nan'):7.3g}")
+    ax.text(0.02, 0.02, "\n".join(lines), transform=ax.transAxes, family="monospace",
+            fontsize=6.5, va="bottom", ha="left",
+            bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"})
+
+
+def _debris_extent(series, index, experiment, z_face, direction):
+    """Half-width and (z_low, z_high) of a debris panel [mm]: the clouds'
+    2 %-fronts and radii, the ejecta and the experiment's marks, with a
+    margin."""
+    def get(key):
+        value = series.get(key, [None] * (index + 1))[index]
+        return value if value is not None else 0.0
+    ahead = max(get("target_front_0p5pct_mm"), get("flyer_front_0p5pct_mm"),
+                experiment.get("target_front_mm", 0.0), experiment.get("flyer_front_mm", 0.0))
+    behind = max(get("ejecta_height_mm"), experiment.get("ejecta_height_mm", 0.0), 3.0)
+    width = max(get("target_cloud_radius_mm"), get("flyer_cloud_radius_mm"),
+                experiment.get("intersection_radius_mm", 0.0),
+                0.75 * experiment.get("hole_diameter_mm", 0.0),
+                0.75 * (get("hole_diameter_mm")), 5.0)
+    ends = sorted([z_face + direction * 1.1 * ahead, z_face - direction * 1.5 * behind])
+    return 1.2 * width, ends
+
+
+def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
+    """Write a PNG of a debris run (&metrics kind 'debris'): the cloud at
+    the requested times (the nearest snapshots, each once; default the
+    snapshot of the metrics), coloured by material and mirrored about the
+    axis, each panel titled with its snapshot's exact time; the panel of
+    the metrics' snapshot carries the experiment's fronts, ejecta height,
+    hole and intersection radius (where the reference applies) and a box
+    of the run's values beside them. Returns the PNG path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    run_dir = Path(run_dir)
+    output = Path(output) if output else run_dir / "shapes.png"
+    summary = json.loads((run_dir / "summary.json").read_text())
+    metrics = summary["metrics"]
+    rec = metrics["debris"]
+    series = metrics.get("series", {})
+    experiment = {key: cmp["reference"] for key, cmp in
+                  summary.get("reference", {}).get("comparison", {}).get("debris", {}).items()}
+    z_face, direction = rec["plate_front_face_z_mm"], rec["flight_direction"]
+    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+        snaps = _snapshots(h5)
+        colours = _material_colours(rec["materials"], rec)
+        if times_us is None:
+            times_us = [summary["metrics_time_s"] * 1e6]
+        chosen = []
+        for snap in _nearest_snapshots(snaps, times_us):
+            if all(snap[1].name != c[1].name for c in chosen):
+                chosen.append(snap)
+        panel_inches = 4.6
+        fig, axes = plt.subplots(1, len(chosen), figsize=(panel_inches * len(chosen), 6.4),
+                                 squeeze=False)
+        axes = axes[0]
+        series_times = series.get("time_us", [])
+        for ax, (time, g) in zip(axes, chosen):
+            index = int(np.argmin(np.abs(np.asarray(series_times) - time * 1e6))) \
+                if series_times else 0
+            at_metrics = abs(time - summary["metrics_time_s"]) <= 1e-12 * max(time, 1e-30)
+            marks = experiment if at_metrics else {}
+            half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction)
+            # about four fifths of the panel's width is the axes' [pt/mm]
+            _draw_materials(ax, g, colours, 72.0 * 0.8 * panel_inches / (2.0 * half_width))
+            if marks:
+                _experiment_marks(ax, marks, z_face, direction, half_width)
+            if at_metrics:
+                _debris_table(ax, rec, marks)
+            ax.set_xlim(-half_width, half_width)
+            ax.set_ylim(z_low, z_high)
+            ax.set_aspect("equal")
+            ax.set_title(f"t = {time * 1e6:.3f} µs")
+            ax.set_xlabel("r [mm]")
+        axes[0].set_ylabel("z [mm]")
+        handles = [Line2D([], [], color=FLYER_COLOUR, marker="o", ls="",
+                          label=f"{rec['flyer']} ({rec['flyer_material']})"),
+                   Line2D([], [], color=TARGET_COLOUR, marker="o", ls="",
+                          label=f"{rec['target']} ({rec['target_material']})")]
+        if experiment:
+            handles += [Line2D([], [], color="0.3", ls="--",
+                               label="experiment: fronts (by material)"),
+                        Line2D([], [], color=MARK_COLOUR, ls=":", label="ejecta height"),
+                        Line2D([], [], color=MARK_COLOUR, ls="-.", label="intersection radius"),
+                        Line2D([], [], color=MARK_COLOUR, marker="|", ls="", ms=10,
+                               label="hole")]
+        fig.suptitle(textwrap.fill(summary.get("title") or summary.get("case", ""),
+                                   width=int(12 * panel_inches * len(chosen))), fontsize=10)
+        fig.legend(handles=handles, loc="lower center", ncol=3, frameon=False, fontsize=8)
+        fig.tight_layout(rect=(0, 0.08, 1, 0.96))
+        fig.savefig(output, dpi=dpi)
         plt.close(fig)
     return output
 
