@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from .hugoniot import ShockMaterial, impedance_match
-from .metrics import _node_radii
+from .metrics import _node_radii, state_masses
 
 #: Fractions of a cloud's mass at which the fronts are tabulated [-].
 FRONT_FRACTIONS = (0.005, 0.01, 0.02)
@@ -51,6 +51,8 @@ def _units():
                   "flyer_cloud_mass_kg": "kg", "target_cloud_mass_kg": "kg", "ejecta_mass_kg": "kg",
                   "flyer_cloud_momentum_z": "kg m/s", "target_cloud_momentum_z": "kg m/s",
                   "flyer_mass_kg": "kg", "target_mass_kg": "kg", "momentum_z": "kg m/s",
+                  "flyer_failed_mass_kg": "kg", "target_failed_mass_kg": "kg",
+                  "flyer_melted_mass_kg": "kg", "target_melted_mass_kg": "kg",
                   "flyer_interface_pressure_GPa": "GPa", "target_interface_pressure_GPa": "GPa",
                   "flyer_interface_velocity_m_s": "m/s", "target_interface_velocity_m_s": "m/s"})
     return units
@@ -419,6 +421,10 @@ def debris(snap, case):
         "target_cloud_momentum_z": float(target_cloud.mass @ target_cloud.v[:, 1]),
         "flyer_mass_kg": float(flyer.mass.sum()), "target_mass_kg": float(target.mass.sum()),
         "momentum_z": _momentum_z(snap)})
+    for body, index in (("flyer", case.flyer), ("target", case.target)):
+        state = state_masses(snap, index)
+        record[f"{body}_failed_mass_kg"] = state["failed_mass_kg"]
+        record[f"{body}_melted_mass_kg"] = state["melted_mass_kg"]
     record.update(_interface(snap, case, frame, flyer, target, case.impedance(flyer, frame)))
     return record
 

@@ -268,6 +268,18 @@ SCHEMA = {
             "jc_efmin": _pos("Johnson-Cook failure: smallest strain to fracture, so eps_f stays "
                              "positive where the formula is not (failure at once there, as it "
                              "means; LS-DYNA's default EFMIN).", "-", JC_EFMIN_DEFAULT),
+            "fracture_energy": _pos("Failure by energy release rate (eigenerosion: Pandolfi & "
+                                    "Ortiz 2012; Liao et al. 2022 eq 12) of the material's "
+                                    "particles: critical energy release rate G_c. A particle whose "
+                                    "largest principal stress is tensile fails when "
+                                    "G = eigenerosion_factor 2h sum V_q W_q / sum V_q >= G_c, "
+                                    "the mean over itself and its intact same-body neighbours "
+                                    "within the kernel support (ring volumes V = m/rho) of the "
+                                    "elastic energy density W = s:s/(4G) + p^2/(2K) (the p part "
+                                    "in tension only). A failed particle keeps its mass, momentum "
+                                    "and internal energy and carries no deviatoric stress and no "
+                                    "tension (snapshot field `failed`). Elements do not use it "
+                                    "(mode 'fem' gets a warning); unset: off.", "J/m^2", None),
             "hjc_a": _pos("HJC normalised cohesive strength A (strength and eos 'hjc', "
                           "Holmquist, Johnson & Cook 1993: sigma* = [A (1 - D) + B P*^N] "
                           "[1 + C ln(rate/jc_ref_strain_rate)] <= S_max, sigma* = sigma/f_c, "
@@ -420,6 +432,10 @@ SCHEMA = {
                                   "cost of the search against that of the extra pairs "
                                   "(docs/performance.md).",
                                   lower=0.0, upper=1.0),
+            "eigenerosion_factor": _pos("Geometric factor lambda of the eigenerosion energy "
+                                        "release rate G = lambda 2h <W> of &material "
+                                        "fracture_energy (of order 1; Pandolfi & Ortiz 2012 "
+                                        "leave it to calibration).", "-", 1.0),
             "particle_contact": Key("str", "riemann", "-",
                                     "Contact between particles of different bodies. riemann: "
                                     "pairwise contact pressures p* >= 0 of the acoustic Riemann "
@@ -1247,6 +1263,9 @@ def _check_materials(path, deck):
     for i, m in enumerate(deck["material"]):
         _validate_material(path, f"material #{i + 1}", m)
         deck["warnings"].extend(_material_warnings(f"&material #{i + 1}", m))
+        if m.get("fracture_energy") is not None and deck["control"]["mode"] == "fem":
+            deck["warnings"].append(f"&material #{i + 1} '{m['name']}': fracture_energy acts on "
+                                    "particles only; mode 'fem' has none, so it is not used")
     names = [m["name"] for m in deck["material"]]
     for i, b in enumerate(deck["body"]):
         if b["material"] not in names:

@@ -97,6 +97,20 @@ def _format_debris(metrics, comparison):
     return lines
 
 
+def _format_material_state(states):
+    """Printed line of the failed and molten mass of each body
+    (metrics.state_masses); none when nothing has failed or melted."""
+    if not any(s["failed_mass_kg"] > 0.0 or s["melted_mass_kg"] > 0.0 for s in states.values()):
+        return []
+    parts = []
+    for name, s in states.items():
+        if s["mass_kg"] > 0.0:
+            failed, melted = s["failed_mass_kg"], s["melted_mass_kg"]
+            parts.append(f"{name} {1e3 * failed:.4g} / {1e3 * melted:.4g} g "
+                         f"({100 * failed / s['mass_kg']:.1f} / {100 * melted / s['mass_kg']:.1f} %)")
+    return ["  failed / molten mass: " + ", ".join(parts)]
+
+
 def _format_peaks(peaks):
     """Printed lines of the peak fields (metrics.field_peaks)."""
     units = {"plastic_strain": "", "temperature": " K"}
@@ -588,6 +602,8 @@ def _summary(setup, books, t_wall0):
         "energy": _energy_summary(sim, energies, writer),
         "metrics": case_metrics,
         "peaks": peaks,
+        "material_state": {b["name"]: metrics_module.state_masses(books.last_good, ib)
+                           for ib, b in enumerate(deck["body"])},
         "warnings": warnings,
     }
     if reference:
@@ -630,6 +646,8 @@ def _print_summary(say, summary, outdir):
     for line in _format_metrics(comparison, metrics):
         say(line)
     for line in _format_peaks(summary["peaks"]):
+        say(line)
+    for line in _format_material_state(summary["material_state"]):
         say(line)
     say(f"fsph: outputs in {outdir}/ (fsph.h5, ParaView .pvd series, summary.json)")
 

@@ -170,6 +170,8 @@ PROPERTIES = (
     ("jc_d4", "-", "Johnson-Cook failure D4"),
     ("jc_d5", "-", "Johnson-Cook failure D5"),
     ("jc_efmin", "-", "Johnson-Cook failure: smallest strain to fracture"),
+    # failure by energy release rate (fsph_eigenerosion)
+    ("fracture_energy", "J/m^2", "eigenerosion: critical energy release rate G_c (0: off)"),
     # the reference isentrope e_s(mu) of a Mie-Grueneisen material
     # (fsph.materials.isentrope_table): tension nodes uniform in mu from
     # ise_mu_lo to 0; compression nodes uniform in

@@ -127,13 +127,14 @@ LIBRARY = {
                    "c0 3940 m/s, s 1.489, Gamma0 2.02 (Steinberg 1996); c_p 385 J/(kg K) (CRC "
                    "Handbook of Chemistry and Physics, copper at 298 K); spall strength "
                    "1.35 GPa (J. Appl. Phys. doi:10.1063/1.3607294, as read in the pyko "
-                   "material examples)"),
+                   "material examples); G_c 250 kJ/m^2 for eigenerosion (Liao et al. 2022 table 1)"),
         "strength": "power_law", "eos": "mie_gruneisen", "temperature": "internal_energy",
         "density": 8930.0, "shear_modulus": 129.0e9 / (2.0 * 1.35),
         "pl_sigma0": 120.0e6, "pl_eps0": 0.0278, "pl_rate0": 1.0, "pl_n": 0.45, "pl_m": 1.0,
         "pl_l": 1.0, "pl_rate_form": "power",
         "melt_temperature": 1790.0, "melt_model": "lindemann", "lindemann_a": 1.5,
         "specific_heat": 385.0, "c0": 3940.0, "s": 1.489, "gamma0": 2.02, "p_min": -1.35e9,
+        "fracture_energy": 250.0e3,
     },
     "al_6061_t6_power_law": {
         "source": ("Liao et al. 2022 (Explosion and Shock Waves 42(10)) tables 1-2, Al 6061-T6: "
@@ -145,26 +146,28 @@ LIBRARY = {
                    "Gamma0 1.97 (Steinberg 1996); c_p 896 J/(kg K) (MatWeb 6061-T6 data, as read "
                    "in Sandia's Payette material database); spall strength 1.2 GPa assumed (the "
                    "order of plate-impact values for aluminium alloys; not checked against a "
-                   "6061-T6 measurement)"),
+                   "6061-T6 measurement); G_c 100 kJ/m^2 for eigenerosion (Liao et al. 2022 table 2)"),
         "strength": "power_law", "eos": "mie_gruneisen", "temperature": "internal_energy",
         "density": 2700.0, "shear_modulus": 68.9e9 / (2.0 * 1.33),
         "pl_sigma0": 270.0e6, "pl_eps0": 0.0025, "pl_rate0": 1.0, "pl_n": 0.148, "pl_m": 0.01389,
         "pl_l": 1.0, "pl_rate_form": "power",
         "melt_temperature": 1200.0, "melt_model": "lindemann", "lindemann_a": 1.5,
         "specific_heat": 896.0, "c0": 5240.0, "s": 1.40, "gamma0": 1.97, "p_min": -1.2e9,
+        "fracture_energy": 100.0e3,
     },
     "ofhc_copper_sg": {
         "source": ("Steinberg 1996 tables (OFHC copper; read in Uintah's SCG material data): "
                    "rho 8930 kg/m^3, G0 47.7 GPa, Y0 0.12 GPa, Ymax 0.64 GPa, beta 36, n 0.45, "
                    "G'_p/G0 2.83 /Mbar, G'_T/G0 3.77e-4 /K, T_m0 1790 K, a 1.5; "
                    "Mie-Grueneisen c0 3940 m/s, s 1.489, Gamma0 2.02; c_p 385 J/(kg K) (CRC "
-                   "Handbook); spall strength 1.35 GPa (as ofhc_copper_power_law)"),
+                   "Handbook); spall strength 1.35 GPa and G_c 250 kJ/m^2 (as ofhc_copper_power_law)"),
         "strength": "steinberg_guinan", "eos": "mie_gruneisen", "temperature": "internal_energy",
         "density": 8930.0, "shear_modulus": 47.7e9,
         "sg_y0": 0.12e9, "sg_ymax": 0.64e9, "sg_beta": 36.0, "sg_n": 0.45, "sg_eps_i": 0.0,
         "sg_a": 2.83e-11, "sg_b": 3.77e-4,
         "melt_temperature": 1790.0, "melt_model": "lindemann", "lindemann_a": 1.5,
         "specific_heat": 385.0, "c0": 3940.0, "s": 1.489, "gamma0": 2.02, "p_min": -1.35e9,
+        "fracture_energy": 250.0e3,
     },
     "al_6061_t6_sg": {
         "source": ("Steinberg 1996 tables (6061-T6 aluminium; read in Uintah's SCG material "
@@ -172,13 +175,14 @@ LIBRARY = {
                    "n 0.1, G'_p/G0 6.52 /Mbar, G'_T/G0 6.16e-4 /K, T_m0 1220 K, a 1.5; "
                    "Mie-Grueneisen c0 5240 m/s, s 1.40, Gamma0 1.97; c_p 896 J/(kg K) (as "
                    "al_6061_t6_power_law); spall strength 1.2 GPa assumed (as "
-                   "al_6061_t6_power_law)"),
+                   "al_6061_t6_power_law); G_c 100 kJ/m^2 (as al_6061_t6_power_law)"),
         "strength": "steinberg_guinan", "eos": "mie_gruneisen", "temperature": "internal_energy",
         "density": 2703.0, "shear_modulus": 27.6e9,
         "sg_y0": 0.29e9, "sg_ymax": 0.68e9, "sg_beta": 125.0, "sg_n": 0.1, "sg_eps_i": 0.0,
         "sg_a": 6.52e-11, "sg_b": 6.16e-4,
         "melt_temperature": 1220.0, "melt_model": "lindemann", "lindemann_a": 1.5,
         "specific_heat": 896.0, "c0": 5240.0, "s": 1.40, "gamma0": 1.97, "p_min": -1.2e9,
+        "fracture_energy": 100.0e3,
     },
 }
 
@@ -372,6 +376,7 @@ def _model_rows(m):
         "sg_eps_i": _given(m, "sg_eps_i", 0.0),
         "jcf_on": 1.0 if all(m.get(k) is not None for k in JC_FAILURE_KEYS) else 0.0,
         "jc_efmin": _given(m, "jc_efmin", JC_EFMIN_DEFAULT),
+        "fracture_energy": _given(m, "fracture_energy", 0.0),
     }
     for key in STEINBERG_GUINAN_KEYS + JC_FAILURE_KEYS:
         row[key] = _given(m, key, 0.0)

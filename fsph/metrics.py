@@ -157,6 +157,25 @@ def field_peaks(snap, fields=("plastic_strain", "temperature")):
     return peaks
 
 
+def state_masses(snap, body_index):
+    """Mass [kg] of a body, and of its failed and its molten points
+    (snapshot fields `failed`, `melted`; elements by their mass,
+    particles by theirs; a snapshot without the fields has neither)."""
+    out = {"mass_kg": 0.0, "failed_mass_kg": 0.0, "melted_mass_kg": 0.0}
+
+    def add(fields, mass_key, keep):
+        mass = fields[mass_key][keep]
+        out["mass_kg"] += float(mass.sum())
+        for flag in ("failed", "melted"):
+            if flag in fields:
+                out[f"{flag}_mass_kg"] += float(mass[fields[flag][keep] > 0.5].sum())
+    if "conn" in snap and len(snap["conn"]):
+        add(snap, "element_mass", snap["body"] == body_index)
+    if "particles" in snap:
+        add(snap["particles"], "mass", snap["particles"]["body"] == body_index)
+    return out
+
+
 def _locate(points, x, conn):
     """Index of the triangle (of conn over nodes x) containing each point, -1
     if none (barycentric test, vectorised over points x triangles)."""

@@ -108,7 +108,7 @@ contains
   !> debris density fraction [-]; the neighbour lists' skin as a fraction
   !> of the smallest kernel support (0: lists rebuilt every cycle) [-].
   subroutine set_sph_control(run, c_q, c_l, c_hg, particle_contact, contact_penalty, contact_touch, contact_slope, &
-                             debris_ratio, neighbour_skin)
+                             debris_ratio, neighbour_skin, eigenerosion_factor)
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: particle_contact !< contact between particle bodies (fsph.layouts PARTICLE_CONTACTS, 1-based)
@@ -116,6 +116,7 @@ contains
     real(wp), intent(in) :: c_hg          !< hourglass viscosity coefficient [-]
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
     real(wp), intent(in) :: neighbour_skin
+    real(wp), intent(in) :: eigenerosion_factor !< geometric factor lambda of the eigenerosion release rate [-]
     sim => run_state(run)
     sim%control%neighbour_skin = max(neighbour_skin, 0.0_wp)
     sim%particles%lists_valid = .false.
@@ -127,6 +128,7 @@ contains
     sim%control%contact_touch = contact_touch
     sim%control%contact_slope = contact_slope
     sim%control%debris_ratio = debris_ratio
+    sim%control%eigenerosion_factor = eigenerosion_factor
   end subroutine set_sph_control
 
   !> Particles: positions (r, z) [m], velocities [m/s], ring masses [kg],

@@ -680,6 +680,13 @@ contains
     deps_p = 0.0_wp
     sy = 0.0_wp
     if (istrength == strength_elastic) return
+    if (.not. (g > 0.0_wp)) then
+      ! no shear modulus (Steinberg-Guinan at or above melt, or softened
+      ! to zero): no deviator and no plastic flow; a return would divide
+      ! by 3G = 0 (it made the plastic strain of molten copper NaN)
+      s = 0.0_wp
+      return
+    end if
 
     rate_eq = 0.0_wp
     if (istrength == strength_johnson_cook .and. props(prop_jc_c) /= 0.0_wp) &

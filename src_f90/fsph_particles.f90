@@ -6,7 +6,8 @@ module fsph_particles
   use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
                          status_particle_axis
   use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc
-  use fsph_material, only: material_update, eos_pressure, sound_speed
+  use fsph_material, only: material_update, eos_pressure, sound_speed, cut_pressure, state_temperature, &
+                           melt_update, shear_modulus
   use fsph_ordered, only: first_fault
   use fsph_sph, only: ghost_work
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -86,7 +87,8 @@ contains
       call material_update(props(:, im), istrength(im), ieos(im), dt, d(:, i), spin(i), rho_old, rho(i), &
                            0.0_wp, s(:, i), p(i), eps_p(i), e_local, temp(i), hist(:, i), c(i), ierr_i)
       if (ierr_i /= status_ok) f_eos = min(f_eos, i)
-      if (.not. (ieee_is_finite(p(i)) .and. all(ieee_is_finite(s(:, i))))) f_nan = min(f_nan, i)
+      if (.not. (ieee_is_finite(p(i)) .and. all(ieee_is_finite(s(:, i))) .and. ieee_is_finite(eps_p(i)) &
+                 .and. ieee_is_finite(temp(i)))) f_nan = min(f_nan, i)
     end do
     !$omp end parallel do
     call first_fault(n, [f_axis, f_nan, f_eos], [status_particle_axis, status_nonfinite_particle, status_eos_range], &
@@ -94,25 +96,37 @@ contains
   end subroutine particle_state_update
 
   !> Final internal energy e = e_old + dt de (de from the mid-step stress)
-  !> and the pressure and sound speed that follow from it at the new
-  !> density (the deviator is already final); debris keeps p = 0, HJC
-  !> concrete its energy-independent pressure. ierr/ifault: the first
-  !> particle with a non-finite energy or pressure, or a density beyond the
-  !> range of its equation of state.
-  subroutine particle_energy_update(n, nmat, props, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, c, &
-                                    ierr, ifault)
+  !> and what follows from it at the new density: the pressure (not below
+  !> the point's floor: spall cut-off, no tension once failed), the
+  !> temperature of the state (model internal_energy; a plastic_work
+  !> temperature is already final), melting (a molten point loses its
+  !> deviator) and the sound speed; debris keeps p = 0, HJC concrete its
+  !> energy-independent pressure. ierr/ifault: the first particle with a
+  !> non-finite energy or pressure, or a density beyond the range of its
+  !> equation of state.
+  subroutine particle_energy_update(n, nmat, props, istrength, ieos, mat, dt, debris_ratio, e_old, de, rho, &
+                                    e, p, s, temp, hist, c, ierr, ifault)
     integer, intent(in) :: n, nmat
     real(wp), intent(in) :: props(n_props, nmat)
-    integer, intent(in) :: ieos(nmat), mat(n)
+    integer, intent(in) :: istrength(nmat), ieos(nmat), mat(n)
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
-    real(wp), intent(in) :: dt, e_old(n), de(n), rho(n)
-    real(wp), intent(inout) :: e(n), p(n), c(n)
+    real(wp), intent(in) :: dt            !< time step [s]
+    real(wp), intent(in) :: e_old(n)      !< specific internal energy at the start of the step [J/kg]
+    real(wp), intent(in) :: de(n)         !< its rate [W/kg]
+    real(wp), intent(in) :: rho(n)        !< density at the end of the step [kg/m^3]
+    real(wp), intent(inout) :: e(n)       !< specific internal energy [J/kg]
+    real(wp), intent(inout) :: p(n)       !< pressure [Pa]
+    real(wp), intent(inout) :: s(4, n)    !< deviatoric stress [Pa]
+    real(wp), intent(inout) :: temp(n)    !< temperature [K]
+    real(wp), intent(inout) :: hist(n_hist, n) !< history variables (failed, melted, ...)
+    real(wp), intent(inout) :: c(n)       !< sound speed [m/s]
     integer, intent(out) :: ierr, ifault
     integer :: i, im, ierr_i, f_nan, f_eos
     real(wp) :: a, b, dadrho
     f_nan = n + 1
     f_eos = n + 1
-    !$omp parallel do default(none) shared(n, props, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, c) &
+    !$omp parallel do default(none) &
+    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, s, temp, hist, c) &
     !$omp private(i, im, ierr_i, a, b, dadrho) reduction(min:f_nan, f_eos)
     do i = 1, n
       im = mat(i)
@@ -127,9 +141,12 @@ contains
         f_eos = min(f_eos, i)
         cycle
       end if
-      p(i) = max(a + b*e(i), props(prop_pmin, im))   ! spall cut-off, as for elements
-      c(i) = sound_speed(props(prop_shear, im), dadrho, b, rho(i), p(i))
-      if (.not. (ieee_is_finite(e(i)) .and. ieee_is_finite(p(i)))) f_nan = min(f_nan, i)
+      p(i) = cut_pressure(props(:, im), hist(:, i), a + b*e(i))
+      temp(i) = state_temperature(props(:, im), ieos(im), rho(i), e(i), hist(:, i), temp(i))
+      call melt_update(props(:, im), rho(i), temp(i), s(:, i), hist(:, i))
+      c(i) = sound_speed(shear_modulus(props(:, im), istrength(im), rho(i), p(i), temp(i)), dadrho, b, rho(i), p(i))
+      if (.not. (ieee_is_finite(e(i)) .and. ieee_is_finite(p(i)) .and. ieee_is_finite(temp(i)))) &
+        f_nan = min(f_nan, i)
     end do
     !$omp end parallel do
     call first_fault(n, [f_nan, f_eos], [status_nonfinite_particle, status_eos_range], ierr, ifault)

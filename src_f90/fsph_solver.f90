@@ -5,14 +5,16 @@ module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
-  use fsph_state, only: simulation_t, state_grow_particles
+  use fsph_state, only: simulation_t, particle_set_t, state_grow_particles
   use fsph_arrays, only: reserve
-  use fsph_layouts, only: prop_rho0, prop_shear, prop_t_room, strength_elastic, strength_hjc, eos_linear, &
+  use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
+                          prop_t_room, strength_elastic, &
+                          strength_hjc, eos_linear, &
                           eos_hjc, history_columns, hcol_time, hcol_cycle, hcol_dt, energy_first, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
-  use fsph_material, only: eos_pressure, sound_speed
+  use fsph_material, only: eos_pressure, sound_speed, point_failed
   use fsph_element, only: element_geometry, element_corner_forces, gather_corner_forces, &
                           element_update, element_time_step
   use fsph_boundary, only: apply_axis, apply_rigid_plane
@@ -25,6 +27,7 @@ module fsph_solver
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
                             riemann_contact_density_rate, contact_normals, contact_pairs_in
+  use fsph_eigenerosion, only: eigenerosion_failure
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
                            association_reach
@@ -58,8 +61,8 @@ contains
     ierr = status_bad_input
     if (sim%elements%n < 1 .and. sim%particles%n < 1) return
     if (sim%n_materials < 1) return
-    if (any(sim%istrength < strength_elastic) .or. any(sim%istrength > strength_hjc)) return
-    if (any(sim%ieos < eos_linear) .or. any(sim%ieos > eos_hjc)) return
+    if (any(sim%istrength < 1) .or. any(sim%istrength > n_strength_models)) return
+    if (any(sim%ieos < 1) .or. any(sim%ieos > n_eos_models)) return
     ! the HJC strength and EOS go together
     if (any((sim%istrength == strength_hjc) .neqv. (sim%ieos == eos_hjc))) return
     call default_continua(sim)
@@ -388,7 +391,7 @@ contains
         call timer_start(sim%timers, phase_sph_sums)
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
         call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
-        call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, &
+        call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                                pt%grad_v, pt%switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
                                pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
@@ -449,6 +452,8 @@ contains
         pt%sig(:, i) = pt%s(:, i)
         pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
       end do
+      call reserve(pt%intact, ntot)
+      call fill_intact(sim%particles)
       call reserve(pt%pair_q, size(pt%nbr_list))
       call reserve(pt%nbr_grad, 2, size(pt%nbr_list))
       call reserve(pt%pair_force, 2, size(pt%nbr_list))
@@ -458,9 +463,26 @@ contains
       call reserve(pt%cnt_force, 2, size(pt%cnt_list))
       call reserve(pt%cnt_vstar, 2, size(pt%cnt_list))
       call reserve(pt%cnt_normal, 2, n)
+      call reserve(pt%fracture_work, 3, n)
       call reserve(pt%cnt_in, size(pt%cnt_list))
     end associate
   end subroutine prepare_particle_sums
+
+  !> Which entries are intact (1) and which have failed (0): real particles
+  !> by their history, imaginary ones (elements) intact, mirror images as
+  !> their particle (fsph_sph acts_on).
+  subroutine fill_intact(pt)
+    type(particle_set_t), intent(inout) :: pt
+    integer :: i, n
+    n = pt%n
+    do i = 1, n
+      pt%intact(i) = merge(0.0_wp, 1.0_wp, point_failed(pt%hist(:, i)))
+    end do
+    pt%intact(n + 1:n + pt%n_imag) = 1.0_wp
+    do i = 1, pt%n_mirror
+      pt%intact(n + pt%n_imag + i) = pt%intact(pt%mirror_of(i))
+    end do
+  end subroutine fill_intact
 
   !> Choose the particles mirrored across rigid planes normal to the axis
   !> (fsph_mirror), making room for their images after the imaginary
@@ -653,8 +675,8 @@ contains
       ntot = n + pt%n_imag + pt%n_mirror
       call timer_start(sim%timers, phase_sph_sums)
       call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho, pt%wgt, pt%planar_area)
-      call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%nbr_ptr, pt%nbr_list, &
-                     pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
+      call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
+                     pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
                      pt%d, pt%spin, pt%grad_v)
       if (sim%control%particle_contact == particle_contact_riemann) then
         call contact_normals(n, pt%x_mid, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%cnt_normal)
@@ -668,6 +690,18 @@ contains
       call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, dt_step, &
                                  sim%control%debris_ratio, pt%x, pt%drho, pt%d, pt%spin, pt%e, pt%rho, &
                                  pt%s, pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, pt%n_debris, ierr, ifault)
+      ! failure by energy release rate at the end-of-step stress, before the
+      ! energy equation: the stress and the pairs (fsph_sph acts_on) that its
+      ! mid-step work uses are then those the next kick acts with (failing
+      ! after it booked the work of a stress the next kick no longer has:
+      ! +1 % energy in a spalling steel plate)
+      if (ierr == status_ok .and. any(sim%props(prop_fracture_energy, :) > 0.0_wp)) then
+        call eigenerosion_failure(n, sim%n_materials, sim%props, sim%istrength, pt%mat, pt%mass, pt%rho, pt%h, &
+                                  pt%temp, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                                  pt%pair_in, sim%control%eigenerosion_factor, pt%s, pt%p, pt%hist, &
+                                  pt%fracture_work, pt%n_failed_last)
+        if (pt%n_failed_last > 0) call fill_intact(sim%particles)
+      end if
       call timer_stop(sim%timers, phase_particle_update)
       if (ierr == status_ok) then
         call timer_start(sim%timers, phase_sph_sums)
@@ -680,16 +714,16 @@ contains
                                                      pt%sig_mid)
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
         call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, &
-                             pt%wgt, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             pt%wgt, pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
         if (sim%control%particle_contact == particle_contact_riemann) &
           call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_vstar, &
                                     pt%de)
         call timer_stop(sim%timers, phase_sph_sums)
         call timer_start(sim%timers, phase_particle_update)
-        call particle_energy_update(n, sim%n_materials, sim%props, sim%ieos, pt%mat, dt_step, &
-                                    sim%control%debris_ratio, pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%c, &
-                                    ierr, ifault)
+        call particle_energy_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, dt_step, &
+                                    sim%control%debris_ratio, pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%s, &
+                                    pt%temp, pt%hist, pt%c, ierr, ifault)
         call timer_stop(sim%timers, phase_particle_update)
       end if
       ifault = -ifault

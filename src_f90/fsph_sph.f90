@@ -126,6 +126,18 @@ contains
     entry_sign = merge(-1.0_wp, 1.0_wp, entry < 0)
   end function entry_sign
 
+  !> 1 when the stress of a point (intact_i) acts on a neighbour
+  !> (intact_j) and the neighbour enters its density and velocity
+  !> gradient, else 0: an intact point does not act through its own stress
+  !> on a failed neighbour, nor count it (the flank of a crack is a free
+  !> surface for it); a failed point (no tension, no deviator) acts on and
+  !> counts every neighbour, so debris still resists compression
+  !> (fsph_eigenerosion). 1 for every pair while nothing has failed.
+  pure real(wp) function acts_on(intact_i, intact_j)
+    real(wp), intent(in) :: intact_i, intact_j  !< 1 intact, 0 failed [-]
+    acts_on = merge(intact_j, 1.0_wp, intact_i > 0.0_wp)
+  end function acts_on
+
   !> Pairwise artificial viscous pressure q_ij [Pa] (see module header);
   !> zero for a pair that separates (eps = 0, no branch: about half of the
   !> pairs of a compressed region approach).
@@ -223,14 +235,15 @@ contains
   !> grad_v holds the velocity gradients of the real particles (entries
   !> 1..n) for the hourglass term and switch their compression switches;
   !> imaginary particles and mirror images (entries > n) carry neither.
-  subroutine sph_accelerations(n, ntot, n_imag, x, v, mass, rho, h, c, sig, wgt, grad_v, switch, nbr_ptr, &
-                               nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, &
+  subroutine sph_accelerations(n, ntot, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, &
+                               nbr_ptr, nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, &
                                pair_force, pair_hg, pair_in, acc_imag)
     integer, intent(in) :: n             !< real particles (rows computed)
     integer, intent(in) :: ntot          !< real, imaginary and mirror entries (neighbours)
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), c(ntot), sig(4, ntot)
     real(wp), intent(in) :: wgt(ntot)    !< stress weights 1/(4 pi^2 r rho^2)
+    real(wp), intent(in) :: intact(ntot) !< 1 intact, 0 failed: whose stress acts on whom (acts_on) [-]
     real(wp), intent(in) :: grad_v(4, n) !< dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz of the last update [1/s]
     real(wp), intent(in) :: switch(n)    !< compression switch of the viscosity [-]
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
@@ -246,8 +259,9 @@ contains
     real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2)
     real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2)
     !$omp parallel default(none) &
-    !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, grad_v, switch, nbr_ptr, nbr_list, low_ptr) &
-    !$omp shared(low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in, acc_imag) &
+    !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, nbr_ptr, nbr_list) &
+    !$omp shared(low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in) &
+    !$omp shared(acc_imag) &
     !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
@@ -286,7 +300,8 @@ contains
         end if
         pair_q(k) = q
         pair_hg(:, k) = p_hg
-        stot = pair_stress(wi, sig(:, i), sg*wgt(j), sig(:, j), sg)
+        stot = pair_stress(acts_on(intact(i), intact(j))*wi, sig(:, i), &
+                           acts_on(intact(j), intact(i))*sg*wgt(j), sig(:, j), sg)
         ! stress with the signed ring mass, viscosity and hourglass with m_j
         f(1) = two_pi*(sg*(stot(1)*grad(1) + stot(3)*grad(2)) + (wi + wgt(j))*(p_hg(1) - q*grad(1)))
         f(2) = two_pi*(sg*(stot(3)*grad(1) + stot(2)*grad(2)) + (wi + wgt(j))*(p_hg(2) - q*grad(2)))
@@ -357,10 +372,15 @@ contains
   !> is computed once and kept in grad, for the partner's terms (grad_j W
   !> = -grad_i W, in a second loop over the low lists) and for the energy
   !> sum at the same positions (sph_energy_rate). sums is work space (9, n).
-  subroutine sph_rates(n, ntot, x, v, mass, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, &
-                       pair_in, grad, sums, drho, d, spin, grad_v)
+  !> intact: 1 for an intact point, 0 for one that has failed
+  !> (fsph_eigenerosion); an intact particle's density and velocity
+  !> gradient leave its failed neighbours out (acts_on), a failed
+  !> particle's take all.
+  subroutine sph_rates(n, ntot, x, v, mass, rho, h, area, intact, nbr_ptr, nbr_list, low_ptr, low_pair, &
+                       low_other, pair_in, grad, sums, drho, d, spin, grad_v)
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), area(ntot)
+    real(wp), intent(in) :: intact(ntot)  !< 1 intact, 0 failed [-]
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     logical, intent(in) :: pair_in(*)    !< the entries of this cycle (sph_accelerations)
     real(wp), intent(out) :: grad(2, *)  !< kernel gradient grad_i W of each entry [1/m^3]
@@ -370,10 +390,11 @@ contains
     real(wp), intent(out) :: grad_v(4, n) !< [1/s]
     integer :: i, k, j, m
     real(wp) :: sg, dx(2), dvji(2), dist2, g_ij(2), acc9(9), gv(2, 2), lm(2, 2), inv(2, 2), det, g(2, 2)
+    real(wp) :: seen
     !$omp parallel default(none) &
-    !$omp shared(n, x, v, mass, rho, h, area, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_in, grad) &
-    !$omp shared(sums, drho, d, spin, grad_v) &
-    !$omp private(i, k, j, m, sg, dx, dvji, dist2, g_ij, acc9, gv, lm, inv, det, g)
+    !$omp shared(n, x, v, mass, rho, h, area, intact, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_in) &
+    !$omp shared(grad, sums, drho, d, spin, grad_v) &
+    !$omp private(i, k, j, m, sg, dx, dvji, dist2, g_ij, acc9, gv, lm, inv, det, g, seen)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       acc9 = 0.0_wp
@@ -392,7 +413,8 @@ contains
         grad(:, k) = g_ij
         dvji(1) = sg*v(1, j) - v(1, i)
         dvji(2) = v(2, j) - v(2, i)
-        call add_rate_terms(dx, dvji, g_ij, area(j), sg*mass(j), acc9)
+        seen = acts_on(intact(i), intact(j))
+        call add_rate_terms(dx, dvji, g_ij, seen*area(j), seen*sg*mass(j), acc9)
       end do
       sums(:, i) = acc9
     end do
@@ -403,7 +425,9 @@ contains
       acc9 = sums(:, i)
       do m = low_ptr(i), low_ptr(i + 1) - 1
         j = low_other(m)
-        call add_rate_terms(x(:, i) - x(:, j), v(:, j) - v(:, i), -grad(:, low_pair(m)), area(j), mass(j), acc9)
+        seen = acts_on(intact(i), intact(j))
+        call add_rate_terms(x(:, i) - x(:, j), v(:, j) - v(:, i), -grad(:, low_pair(m)), seen*area(j), &
+                            seen*mass(j), acc9)
       end do
       drho(i) = -rho(i)*v(1, i)/x(1, i) - acc9(1)/(two_pi*x(1, i))
       gv(1, 1) = acc9(2); gv(2, 1) = acc9(3); gv(1, 2) = acc9(4); gv(2, 2) = acc9(5)
@@ -454,12 +478,13 @@ contains
   !>  - a ghost: minus the work m_j pair_force . v_visc,i its force does on
   !>    the particle;
   !>  - the hoop work sig_tt v_r/(rho r).
-  subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, sig, wgt, tie, nbr_ptr, nbr_list, &
+  subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, &
                              low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, pair_work_k, de)
     integer, intent(in) :: n, ntot
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
     real(wp), intent(in) :: sig(4, ntot), wgt(ntot)
+    real(wp), intent(in) :: intact(ntot) !< 1 intact, 0 failed: whose stress acts on whom (acts_on) [-]
     integer, intent(in) :: tie(n)        !< first node of the edge a particle is tied to (0: free)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: pair_q(*), pair_hg(2, *), pair_force(2, *), grad(2, *)
@@ -469,7 +494,7 @@ contains
     real(wp) :: dvji(2), vq(2), wi, wj, sum_e, w_own, w_partner, q_work
     real(wp), parameter :: zero4(4) = 0.0_wp
     !$omp parallel default(none) &
-    !$omp shared(n, n_imag, x, v, v_visc, mass, rho, sig, wgt, tie, nbr_ptr, nbr_list, low_ptr, low_pair) &
+    !$omp shared(n, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, low_ptr, low_pair) &
     !$omp shared(low_other) &
     !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de) &
     !$omp private(i, k, j, m, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work)
@@ -495,8 +520,10 @@ contains
         vq = v_visc(:, j) - v_visc(:, i)
         ! viscous and hourglass work per unit (w_i + w_j)
         q_work = -pair_q(k)*(vq(1)*grad(1, k) + vq(2)*grad(2, k)) + pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
-        w_own = pair_work(pair_stress(wi, sig(:, i), 0.0_wp, zero4, 1.0_wp), dvji, grad(:, k)) + wi*q_work
-        w_partner = pair_work(pair_stress(wj, sig(:, j), 0.0_wp, zero4, 1.0_wp), dvji, grad(:, k)) + wj*q_work
+        w_own = pair_work(pair_stress(acts_on(intact(i), intact(j))*wi, sig(:, i), 0.0_wp, zero4, 1.0_wp), &
+                          dvji, grad(:, k)) + wi*q_work
+        w_partner = pair_work(pair_stress(acts_on(intact(j), intact(i))*wj, sig(:, j), 0.0_wp, zero4, 1.0_wp), &
+                              dvji, grad(:, k)) + wj*q_work
         pair_work_k(k) = two_pi*w_partner
         sum_e = sum_e + two_pi*mass(j)*w_own
       end do

@@ -120,6 +120,9 @@ module fsph_state
     real(wp), allocatable :: cnt_force(:, :) !< Riemann contact: acceleration per unit partner mass per contact entry [m/(kg s^2)]
     real(wp), allocatable :: cnt_vstar(:, :) !< Riemann contact: interface velocity u* n per contact entry [m/s]
     real(wp), allocatable :: cnt_normal(:, :) !< Riemann contact: each particle's contact normal [1/m]
+    real(wp), allocatable :: fracture_work(:, :) !< eigenerosion work space (3, n)
+    real(wp), allocatable :: intact(:)   !< per entry: 1 intact, 0 failed (fsph_eigenerosion) [-]
+    integer :: n_failed_last = 0         !< particles that failed by eigenerosion in the last cycle
     logical, allocatable :: cnt_in(:)     !< Riemann contact: entry within the kernel support at the start of the cycle
     real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
     real(wp), allocatable :: wgt(:)       !< work: stress weight 1/(4 pi^2 r rho^2) per entry [m^5/kg^2]
@@ -223,6 +226,7 @@ module fsph_state
     real(wp) :: contact_slope = 0.45_wp  !< particle contact: dC per spacing of approach at touching [-]
     real(wp) :: debris_ratio = 0.1_wp    !< particles below this fraction of the reference density are debris [-]
     real(wp) :: neighbour_skin = 0.1_wp  !< skin of the neighbour lists, fraction of the smallest support [-]
+    real(wp) :: eigenerosion_factor = 1.0_wp !< geometric factor lambda of the eigenerosion release rate [-]
   end type control_t
 
   type, public :: simulation_t

@@ -385,6 +385,30 @@ def test_coarse_run_keeps_mass_exactly_and_momentum(coarse):
     assert np.abs(momentum / momentum[0] - 1.0).max() < 5e-4
 
 
+#: both cases at 0.2 mm (half the decks' lattice counts)
+COARSE = {"debris_cu_al_1": COARSE_CASE_1,
+          "debris_cu_al_2": ((0, {"n_radial": 42, "n_axial": 26}),
+                             (1, {"n_radial": 125, "n_coarse": 22, "n_axial": 22}))}
+
+
+@pytest.mark.parametrize("case", sorted(COARSE))
+def test_both_cases_at_the_default_settings_keep_their_energy(tmp_path, case):
+    """The whole of each case at 0.2 mm with the decks' default settings
+    (no contact parameter): no crash, kinetic + internal + contact work
+    within 1 % throughout (measured -0.23 % and -0.19 % at the worst
+    moment), every particle field finite, part of the copper molten."""
+    deck = _variant(tmp_path, f"{case}.nml", "coarse", None,
+                    {"n_snapshots": 4, "vtu": False, "checkpoint": False}, COARSE[case])
+    summary = run(deck, tmp_path / "out", quiet=True)
+    assert summary["status"] == "completed"
+    assert abs(summary["energy"]["max_relative_error"]) < 0.01
+    assert summary["material_state"]["flyer"]["melted_mass_kg"] > 0.0
+    with h5py.File(tmp_path / "out" / "fsph.h5", "r") as h5:
+        last = h5["snapshots"][sorted(h5["snapshots"])[-1]]["particles"]
+        for field in ("plastic_strain", "temperature", "pressure", "internal_energy", "density"):
+            assert np.isfinite(last[field][...]).all(), field
+
+
 def test_plot_of_a_debris_run(coarse, tmp_path):
     """`fsph plot` of a debris run draws the cloud coloured by material at
     the snapshots asked for (each once)."""
@@ -492,8 +516,8 @@ def _within_bar(summary, case, key):
 
 @pytest.mark.slow
 def test_case_1_conserves_energy(case_1):
-    """Kinetic + internal + contact work within 2 % throughout."""
-    assert abs(case_1["energy"]["max_relative_error"]) < 0.02
+    """Kinetic + internal + contact work within 1 % throughout."""
+    assert abs(case_1["energy"]["max_relative_error"]) < 0.01
 
 
 @pytest.mark.slow
@@ -536,8 +560,25 @@ def test_case_1_intersection_radius(case_1):
 
 @pytest.mark.slow
 def test_case_2_conserves_energy(case_2):
-    """Kinetic + internal + contact work within 2 % throughout."""
-    assert abs(case_2["energy"]["max_relative_error"]) < 0.02
+    """Kinetic + internal + contact work within 1 % throughout."""
+    assert abs(case_2["energy"]["max_relative_error"]) < 0.01
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", sorted(COARSE))
+def test_both_cases_at_0_05_mm_keep_their_energy(tmp_path, case):
+    """The finest lattice of the resolution study (twice the decks' counts,
+    0.05 mm): no crash and the energy within 1 % throughout."""
+    fine = [(index, {key: 2 * value for key, value in keys.items()}) for index, keys in
+            ((0, {k: v for k, v in f90nml.read(CASES / f"{case}.nml")["body"][0].items()
+                  if k in ("n_radial", "n_axial")}),
+             (1, {k: v for k, v in f90nml.read(CASES / f"{case}.nml")["body"][1].items()
+                  if k in ("n_radial", "n_coarse", "n_axial")}))]
+    deck = _variant(tmp_path, f"{case}.nml", "fine", None,
+                    {"n_snapshots": 4, "vtu": False, "checkpoint": False}, fine)
+    summary = run(deck, tmp_path / "out", quiet=True)
+    assert summary["status"] == "completed"
+    assert abs(summary["energy"]["max_relative_error"]) < 0.01
 
 
 @pytest.mark.slow
