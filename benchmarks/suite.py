@@ -16,6 +16,9 @@ process of its own; peak memory is that child's resident set):
   e  the adaptive Taylor case refined x1, x2, x4 in each direction (2 680,
      10 720, 42 880 elements): cost growth exponent against the number of
      elements (ideal explicit 2D: 1.5)
+  h  the debris cloud of case 1 (cases/debris_cu_al_1.nml, pure SPH on
+     0.1 mm lattices, about 8 900 particles) run on to 10 us through
+     `fsph run`: the hypervelocity issue's speed figure
   m  the machine: clock and memory bandwidth (STREAM add over 3 x 160 MB)
      for the roofline estimate
 Speed-ups of 2 threads over 1 go with every section (f); peak memory with
@@ -147,6 +150,21 @@ def section_refinement(outroot, quick, threads, repeat):
     return {"rows": rows, "exponent": exponent, "cycle_exponent": cycle_exponent, "threads": threads}
 
 
+def section_debris(outroot, repeat):
+    """Case 1 of the debris clouds at the deck's 0.1 mm to 10 us."""
+    import f90nml
+    print("\n(h) debris cloud, case 1 at 0.1 mm, to 10 us")
+    deck = CASES / "debris_cu_al_1.nml"
+    nml = f90nml.read(deck)
+    nml["control"]["end_time"] = 10.0e-6
+    nml["output"]["reference"] = str((deck.parent / nml["output"]["reference"]).resolve())
+    folder = outroot / "decks"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "debris_cu_al_1_10us.nml"
+    nml.write(path, force=True)
+    return section_run("debris_cu_al_1 to 10 us", path, outroot, repeat=repeat)
+
+
 def section_machine():
     """Sustained memory bandwidth of one core: best of 5 passes of STREAM's
     add, a = b + c, over 2 x 10^7 doubles (3 x 160 MB), counted as STREAM
@@ -181,6 +199,8 @@ TARGETS = (
     ("pure SPH / adaptive, plate 508", lambda r: r["plate_508"]["ratio_sph_over_adaptive_2_threads"], 3.0, "",
      "min"),
     ("cost exponent under refinement", lambda r: r["refinement"]["exponent"], 1.6, "", "max"),
+    ("debris case 1, 0.1 mm, to 10 us, 2 threads", lambda r: r["debris"]["rows"][-1]["process_wall_s"],
+     60.0, "s", "max"),
     ("2 threads / 1, T3 block", lambda r: r["fem_block"]["speedup_2"], 1.7, "", "min"),
     ("2 threads / 1, SPH block", lambda r: r["sph_block"]["speedup_2"], 1.7, "", "min"),
 )
@@ -213,7 +233,7 @@ def _cpu_mhz():
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sections", default="m,a,b,c,d,e", help="comma-separated, of m a b c d e")
+    ap.add_argument("--sections", default="m,a,b,c,d,e,h", help="comma-separated, of m a b c d e h")
     ap.add_argument("--quick", action="store_true", help="smaller and fewer runs")
     ap.add_argument("--repeat", type=int, default=3, help="runs of each block and Taylor figure (best)")
     ap.add_argument("--refinement-threads", type=int, default=1,
@@ -236,11 +256,13 @@ def main(argv=None):
             results["taylor_adaptive"] = section_taylor(outroot / "taylor", args.repeat)
         elif s == "d":
             results["plate_508"] = section_plate(outroot / "plate", args.quick, min(args.repeat, 2))
+        elif s == "h":
+            results["debris"] = section_debris(outroot / "debris", min(args.repeat, 2))
         elif s == "e":
             results["refinement"] = section_refinement(outroot / "refinement", args.quick,
                                                        args.refinement_threads, args.repeat)
         else:
-            ap.error(f"unknown section {s!r}: expected m, a, b, c, d or e")
+            ap.error(f"unknown section {s!r}: expected m, a, b, c, d, e or h")
     results["targets"] = targets_table(results)
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=2) + "\n")

@@ -1263,7 +1263,10 @@ def _check_materials(path, deck):
     for i, m in enumerate(deck["material"]):
         _validate_material(path, f"material #{i + 1}", m)
         deck["warnings"].extend(_material_warnings(f"&material #{i + 1}", m))
-        if m.get("fracture_energy") is not None and deck["control"]["mode"] == "fem":
+        # a G_c the deck sets itself (not one a library entry brings along)
+        # that no particle can use
+        from_library = LIBRARY.get((m.get("library") or "").strip(), {}).get("fracture_energy")
+        if m.get("fracture_energy") not in (None, from_library) and deck["control"]["mode"] == "fem":
             deck["warnings"].append(f"&material #{i + 1} '{m['name']}': fracture_energy acts on "
                                     "particles only; mode 'fem' has none, so it is not used")
     names = [m["name"] for m in deck["material"]]

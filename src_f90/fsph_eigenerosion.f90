@@ -1,5 +1,5 @@
 !> Failure of particles by energy release rate ("eigenerosion": Pandolfi &
-!> Ortiz 2012, Int. J. Fracture 178:309; the form used by Liao et al. 2022,
+!> Ortiz 2012, Int. J. Numer. Meth. Eng. 92:694; the form used by Liao et al. 2022,
 !> Explosion and Shock Waves 42(10), eq 12, for debris clouds): a point p
 !> fails when the elastic energy its neighbourhood would release,
 !>   G_p = lambda eta sum_q V_q W_q / sum_q V_q,

@@ -488,19 +488,29 @@ def test_bad_debris_metrics_are_deck_errors(tmp_path, edit, key, says):
 
 
 # --------------------------------------------------------------------------
-# validation against Piekutowski 1990 (slow: the 0.1 mm decks, 6 and 8
-# minutes on 2 threads of a shared machine)
+# validation against Piekutowski 1990 (slow): each case on the finest
+# lattice of the resolution study, 0.05 mm (the decks' counts doubled;
+# case 1 about 6 minutes on one core)
+
+def _fine(tmp_path_factory, case):
+    """The case at 0.05 mm, run to the deck's end time."""
+    tmp = tmp_path_factory.mktemp(case)
+    bodies = f90nml.read(CASES / f"{case}.nml")["body"]
+    fine = [(index, {key: 2 * value for key, value in bodies[index].items()
+                     if key in ("n_radial", "n_axial", "n_coarse")}) for index in (0, 1)]
+    deck = _variant(tmp, f"{case}.nml", "fine", None,
+                    {"n_snapshots": 8, "vtu": False, "checkpoint": False}, fine)
+    return run(deck, tmp / "out", quiet=True)
+
 
 @pytest.fixture(scope="module")
 def case_1(tmp_path_factory):
-    return run(CASES / "debris_cu_al_1.nml", tmp_path_factory.mktemp("debris_cu_al_1"),
-               quiet=True)
+    return _fine(tmp_path_factory, "debris_cu_al_1")
 
 
 @pytest.fixture(scope="module")
 def case_2(tmp_path_factory):
-    return run(CASES / "debris_cu_al_2.nml", tmp_path_factory.mktemp("debris_cu_al_2"),
-               quiet=True)
+    return _fine(tmp_path_factory, "debris_cu_al_2")
 
 
 def _within_bar(summary, case, key):
@@ -521,9 +531,6 @@ def test_case_1_conserves_energy(case_1):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "measured 0.568 at 0.1 mm (-13.1 %; 0.586 at 0.2 mm, 0.597 at 0.4 mm): the aluminium "
-    "front runs at 8.2 km/s against the 1D free-surface 7.8, the copper front at 4.8"))
 def test_case_1_ratio_of_the_fronts(case_1):
     """Copper front over aluminium front within 5 % of 33.5/51.3 (the ratio
     does not depend on the radiograph's time)."""
@@ -531,9 +538,6 @@ def test_case_1_ratio_of_the_fronts(case_1):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "measured 54.27 mm at 0.1 mm (+5.8 %; 54.08 at 0.2 mm): the leading 1 % of the "
-    "aluminium cloud moves faster than the 1D free surface"))
 def test_case_1_aluminium_front(case_1):
     """Aluminium front within 5 % of 51.3 mm at 6.49 us, the time the 1D
     impedance match gives for it."""
@@ -548,9 +552,8 @@ def test_case_1_hole(case_1):
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
-    "measured 17.3 mm at 0.1 mm (-38 %; 0.4 mm at 0.2 mm, none at 0.4 mm): the copper cloud "
-    "stays within r = 17.3 mm (its 1 % radial extent) and touches the aluminium only "
-    "here and there; the experiment's spreads to 27.9 mm"))
+    "measured 17.76 mm at 0.05 mm (-36.3 %; 15.63 at 0.1 mm, 15.40 at 0.2 mm): the copper "
+    "cloud's brim ends near r = 18 mm where the experiment's spreads to 27.9 mm"))
 def test_case_1_intersection_radius(case_1):
     """Radius where the copper cloud meets the aluminium cloud within 10 %
     of 27.9 mm."""
@@ -562,23 +565,6 @@ def test_case_1_intersection_radius(case_1):
 def test_case_2_conserves_energy(case_2):
     """Kinetic + internal + contact work within 1 % throughout."""
     assert abs(case_2["energy"]["max_relative_error"]) < 0.01
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("case", sorted(COARSE))
-def test_both_cases_at_0_05_mm_keep_their_energy(tmp_path, case):
-    """The finest lattice of the resolution study (twice the decks' counts,
-    0.05 mm): no crash and the energy within 1 % throughout."""
-    fine = [(index, {key: 2 * value for key, value in keys.items()}) for index, keys in
-            ((0, {k: v for k, v in f90nml.read(CASES / f"{case}.nml")["body"][0].items()
-                  if k in ("n_radial", "n_axial")}),
-             (1, {k: v for k, v in f90nml.read(CASES / f"{case}.nml")["body"][1].items()
-                  if k in ("n_radial", "n_coarse", "n_axial")}))]
-    deck = _variant(tmp_path, f"{case}.nml", "fine", None,
-                    {"n_snapshots": 4, "vtu": False, "checkpoint": False}, fine)
-    summary = run(deck, tmp_path / "out", quiet=True)
-    assert summary["status"] == "completed"
-    assert abs(summary["energy"]["max_relative_error"]) < 0.01
 
 
 @pytest.mark.slow
@@ -606,17 +592,15 @@ def test_case_2_hole(case_2):
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
-    "measured: the contact between the flyer's particles and the plate's elements at 100 GPa "
-    "passes 5 % energy error at 0.12 us (+6.2 %); at 0.4 mm the run stops at 0.63 us on a "
-    "collapsed time step"))
-def test_adaptive_case_1_runs_its_first_microsecond(tmp_path):
+    "measured +3.23 % (case 1 at the deck's lattice, 6.49 us; it runs to the end): +2.7 % in "
+    "the first cycle, where the slide line stops the flyer's face on the plate's nodes and "
+    "the struck elements book the artificial viscosity of a compression made in one step "
+    "that their forces only pay back in part"))
+def test_adaptive_case_1_runs_with_its_energy(tmp_path):
     """The adaptive variant of case 1 (plate elements that turn into
-    particles) runs its first microsecond, through the impact and the
-    shock's transit, with the energy within 2 % (the deck's run stops at
-    5 %)."""
-    deck = _variant(tmp_path, "debris_cu_al_1_adaptive.nml", "adaptive",
-                    {"end_time": 1.0e-6, "energy_error_limit": 0.05},
+    particles) runs to its end with the energy within 1 %."""
+    deck = _variant(tmp_path, "debris_cu_al_1_adaptive.nml", "adaptive", None,
                     {"n_snapshots": 4, "vtu": False, "checkpoint": False})
     summary = run(deck, tmp_path / "out", quiet=True)
     assert summary["status"] == "completed"
-    assert abs(summary["energy"]["max_relative_error"]) < 0.02
+    assert abs(summary["energy"]["max_relative_error"]) < 0.01

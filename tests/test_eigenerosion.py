@@ -196,3 +196,14 @@ def test_hypervelocity_copper_runs_and_melts_at_the_face(write_deck, library):
     deviator[:, [0, 1, 3]] += part["pressure"][melted][:, None]
     np.testing.assert_allclose(deviator, 0.0, atol=1e-6 * 60e9)
     assert abs(sim.energy_budget()["total"] / energy0 - 1.0) < 0.01
+
+
+def test_a_fracture_energy_no_particle_can_use_is_a_deck_warning(write_deck):
+    """fracture_energy set in a deck of mode 'fem' (eigenerosion acts on
+    particles only) gets a warning naming the material; the G_c a library
+    entry brings along does not."""
+    text = _rod_on_anvil("ofhc_copper_sg", 100.0).replace("mode = 'sph'", "mode = 'fem'")
+    assert deck_module.load(write_deck(text))["warnings"] == []
+    own = text.replace(" library = 'ofhc_copper_sg'\n", " library = 'ofhc_copper_sg'\n fracture_energy = 1.0e5\n")
+    warnings = deck_module.load(write_deck(own))["warnings"]
+    assert len(warnings) == 1 and "'copper'" in warnings[0] and "fracture_energy" in warnings[0]
