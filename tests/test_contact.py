@@ -117,3 +117,58 @@ def test_particle_block_pressed_on_elements_does_not_penetrate(write_deck, enabl
         assert deepest < 0.01
     else:
         assert deepest > 0.05
+
+
+def test_a_hard_impact_of_element_bodies_keeps_its_energy(write_deck):
+    """An elastic steel disc striking an aluminium one at 3 km/s (FEM, slide
+    line; 20 x 10 cells each): the slide line stops the striker's face on
+    the target's surface in one step, so the struck elements are
+    compressed before any force has acted. With the step's artificial
+    viscosity charged at the mean of the last step's q and this one's (as
+    the pressure, trapezoidal) the energy stays within 0.5 % throughout
+    (measured +0.40 %) and ends within 0.2 % (+0.09 %); charged at this
+    step's q alone it made +0.82 % and +0.54 %."""
+    deck = f"""
+&control
+ title = 'steel onto aluminium at 3 km/s'
+ mode = 'fem'
+ end_time = 1.0e-6
+/
+&material
+ name = 'steel'
+ library = 'steel_elastic_bar'
+/
+&material
+ name = 'al'
+ strength = 'elastic'
+ eos = 'linear'
+ density = 2700.0
+ youngs_modulus = 69.0e9
+ poisson_ratio = 0.33
+/
+&body
+ name = 'flyer'
+ material = 'steel'
+ radius = 4.0e-3
+ length = 2.0e-3
+ n_radial = 20
+ n_axial = 10
+ velocity_z = -3000.0
+/
+&body
+ name = 'plate'
+ material = 'al'
+ radius = 4.0e-3
+ length = 2.0e-3
+ z_base = -2.0e-3
+ n_radial = 20
+ n_axial = 10
+/
+"""
+    sim = fsph.Simulation(fsph.deck.load(write_deck(deck)))
+    largest = 0.0
+    for t in np.linspace(0.02e-6, 1.0e-6, 50):
+        sim.advance(t)
+        largest = max(largest, abs(sim.energies()["relative_error"]))
+    assert largest < 0.005
+    assert abs(sim.energies()["relative_error"]) < 0.002
