@@ -56,7 +56,7 @@ def test_adaptive_conserves_momentum(adaptive):
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "measured 3.1 % of a segment at 10 us (1.8 % at 20, 1.1 % at 30 us; 7.4 % with the "
+    "measured 3.1 % of a segment at 10 us (1.8 % at 20, 0.9 % at 30 us; 7.4 % with the "
     "contact potential between particle bodies): plate particles converted at the axis ride "
     "ahead of the rod's tip, where the tip's slanted bottom pushes them onto the particles' "
     "axis wall, and pile up there inside the tip's contact thickness (docs/validation.md)"))
