@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from .hugoniot import ShockMaterial, impedance_match
-from .metrics import _node_radii, state_masses
+from .points import node_radii, state_masses
 
 #: Fractions of a cloud's mass at which the fronts are tabulated [-].
 FRONT_FRACTIONS = (0.005, 0.01, 0.02)
@@ -99,7 +99,7 @@ def body_points(snap, body_index):
             edges = index[np.vstack([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]])]
             zero = np.zeros(len(ids))
             parts.append(Points(snap["x"][ids], snap["x0"][ids], snap["velocity"][ids],
-                                snap["node_mass"][ids], _node_radii(snap["x"][ids], edges),
+                                snap["node_mass"][ids], node_radii(snap["x"][ids], edges),
                                 zero, zero))
     if "particles" in snap:
         part = snap["particles"]

@@ -20,6 +20,7 @@ from . import metrics as metrics_module
 from . import references
 from .errors import DeckError, FsphError, OutputError, SimulationError
 from .output import FolderLock, RunWriter, write_summary
+from .points import state_masses
 from .simulation import Simulation, threads
 
 
@@ -99,7 +100,7 @@ def _format_debris(metrics, comparison):
 
 def _format_material_state(states):
     """Printed line of the failed and molten mass of each body
-    (metrics.state_masses); none when nothing has failed or melted."""
+    (points.state_masses); none when nothing has failed or melted."""
     if not any(s["failed_mass_kg"] > 0.0 or s["melted_mass_kg"] > 0.0 for s in states.values()):
         return []
     parts = []
@@ -602,7 +603,7 @@ def _summary(setup, books, t_wall0):
         "energy": _energy_summary(sim, energies, writer),
         "metrics": case_metrics,
         "peaks": peaks,
-        "material_state": {b["name"]: metrics_module.state_masses(books.last_good, ib)
+        "material_state": {b["name"]: state_masses(books.last_good, ib)
                            for ib, b in enumerate(deck["body"])},
         "warnings": warnings,
     }

@@ -5,6 +5,7 @@ vectorised numpy over arrays, no loops over elements or particles."""
 import numpy as np
 
 from .mesh import boundary_edges
+from .points import node_radii
 
 EMPTY = np.zeros((0, 2))
 
@@ -28,16 +29,6 @@ def _body_particles(snap, body_index):
 #: D is the largest diameter of the body within it (the mushroom's foot,
 #: its rolled-over lip included) [-].
 FACE_BAND = 0.02
-
-
-def _node_radii(x, edges):
-    """Half the shortest edge at each node [m] (inf for a node without
-    edges)."""
-    length = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
-    radius = np.full(len(x), np.inf)
-    np.minimum.at(radius, edges[:, 0], 0.5 * length)
-    np.minimum.at(radius, edges[:, 1], 0.5 * length)
-    return radius
 
 
 def attached_points(x, reach, mass, links=None):
@@ -93,7 +84,7 @@ def taylor(snap, body, body_index, w_height=None):
         index[ids] = np.arange(len(ids))
         nodes = snap["x"][ids]
         links = index[np.vstack([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]])]
-        node_r = _node_radii(nodes, links)
+        node_r = node_radii(nodes, links)
         node_m = snap["node_mass"][ids] if "node_mass" in snap else np.ones(len(ids))
     keep = attached_points(np.vstack([nodes.reshape(-1, 2), xp.reshape(-1, 2)]),
                            np.concatenate([node_r, p_h]), np.concatenate([node_m, p_mass]), links)
@@ -155,25 +146,6 @@ def field_peaks(snap, fields=("plastic_strain", "temperature")):
             peaks[field] = {"value": value, "r_mm": float(where[0] * 1e3), "z_mm": float(where[1] * 1e3),
                             "in": kind, "index": index, "body": body}
     return peaks
-
-
-def state_masses(snap, body_index):
-    """Mass [kg] of a body, and of its failed and its molten points
-    (snapshot fields `failed`, `melted`; elements by their mass,
-    particles by theirs; a snapshot without the fields has neither)."""
-    out = {"mass_kg": 0.0, "failed_mass_kg": 0.0, "melted_mass_kg": 0.0}
-
-    def add(fields, mass_key, keep):
-        mass = fields[mass_key][keep]
-        out["mass_kg"] += float(mass.sum())
-        for flag in ("failed", "melted"):
-            if flag in fields:
-                out[f"{flag}_mass_kg"] += float(mass[fields[flag][keep] > 0.5].sum())
-    if "conn" in snap and len(snap["conn"]):
-        add(snap, "element_mass", snap["body"] == body_index)
-    if "particles" in snap:
-        add(snap["particles"], "mass", snap["particles"]["body"] == body_index)
-    return out
 
 
 def _locate(points, x, conn):
