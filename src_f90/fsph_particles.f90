@@ -9,7 +9,7 @@ module fsph_particles
   use fsph_material, only: material_update, eos_pressure, sound_speed, cut_pressure, state_temperature, &
                            melt_update, shear_modulus
   use fsph_ordered, only: first_fault
-  use fsph_sph, only: ghost_work
+  use fsph_sph, only: ghost_work, entry_sign
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use fsph_kernel, only: kernel_w, kernel_dwdr, kernel_gradient_factor, in_support
   implicit none
@@ -270,7 +270,7 @@ contains
       a = 0.0_wp
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = abs(cnt_list(k))
-        sg = merge(-1.0_wp, 1.0_wp, cnt_list(k) < 0)
+        sg = entry_sign(cnt_list(k))
         force(:, k) = 0.0_wp
         v_star(:, k) = 0.0_wp
         dx = [x(1, i) - sg*x(1, j), x(2, i) - x(2, j)]
@@ -315,7 +315,7 @@ contains
     do i = 1, n
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = abs(cnt_list(k))
-        sg = merge(-1.0_wp, 1.0_wp, cnt_list(k) < 0)
+        sg = entry_sign(cnt_list(k))
         dist2 = (x(1, i) - sg*x(1, j))**2 + (x(2, i) - x(2, j))**2
         cnt_in(k) = in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp
       end do
@@ -336,13 +336,13 @@ contains
     real(wp), intent(out) :: normal(2, n)
     integer :: i, k, j
     real(wp) :: sg, dx(2), dist2, g(2)
-    !$omp parallel do default(none) schedule(dynamic, 64) shared(n, x, mass, rho, h, cnt_ptr, cnt_list, cnt_in, normal) &
-    !$omp private(i, k, j, sg, dx, dist2, g)
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x, mass, rho, h, cnt_ptr, cnt_list, cnt_in, normal) private(i, k, j, sg, dx, dist2, g)
     do i = 1, n
       g = 0.0_wp
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = abs(cnt_list(k))
-        sg = merge(-1.0_wp, 1.0_wp, cnt_list(k) < 0)
+        sg = entry_sign(cnt_list(k))
         dx = [x(1, i) - sg*x(1, j), x(2, i) - x(2, j)]
         dist2 = dx(1)**2 + dx(2)**2
         if (.not. cnt_in(k)) cycle
@@ -483,7 +483,7 @@ contains
       deta = 0.0_wp
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = abs(cnt_list(k))
-        sg = merge(-1.0_wp, 1.0_wp, cnt_list(k) < 0)
+        sg = entry_sign(cnt_list(k))
         dx = [x(1, i) - sg*x(1, j), x(2, i) - x(2, j)]
         dist2 = dx(1)**2 + dx(2)**2
         if (.not. cnt_in(k) .or. dist2 <= 0.0_wp) cycle

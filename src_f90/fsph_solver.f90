@@ -8,9 +8,8 @@ module fsph_solver
   use fsph_state, only: simulation_t, particle_set_t, state_grow_particles
   use fsph_arrays, only: reserve
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
-                          prop_t_room, strength_elastic, &
-                          strength_hjc, eos_linear, &
-                          eos_hjc, history_columns, hcol_time, hcol_cycle, hcol_dt, energy_first, &
+                          prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
+                          hcol_dt, energy_first, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
@@ -676,7 +675,8 @@ contains
       call timer_start(sim%timers, phase_sph_sums)
       call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho, pt%wgt, pt%planar_area)
       call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
-                     pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, pt%drho, &
+                     pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, &
+                     pt%drho, &
                      pt%d, pt%spin, pt%grad_v)
       if (sim%control%particle_contact == particle_contact_riemann) then
         call contact_normals(n, pt%x_mid, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%cnt_normal)
@@ -694,7 +694,7 @@ contains
       ! energy equation: the stress and the pairs (fsph_sph acts_on) that its
       ! mid-step work uses are then those the next kick acts with (failing
       ! after it booked the work of a stress the next kick no longer has:
-      ! +1 % energy in a spalling steel plate)
+      ! +1.5 % energy in a spalling steel tube)
       if (ierr == status_ok .and. any(sim%props(prop_fracture_energy, :) > 0.0_wp)) then
         call eigenerosion_failure(n, sim%n_materials, sim%props, sim%istrength, pt%mat, pt%mass, pt%rho, pt%h, &
                                   pt%temp, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
@@ -714,7 +714,8 @@ contains
                                                      pt%sig_mid)
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
         call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, &
-                             pt%wgt, pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             pt%wgt, pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
+                             pt%low_other, &
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
         if (sim%control%particle_contact == particle_contact_riemann) &
           call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_vstar, &

@@ -76,7 +76,7 @@ module fsph_sph
   private
 
   public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
-  public :: compression_switch, ghost_work
+  public :: compression_switch, ghost_work, entry_sign
 
   !> Softening of the pairwise strain rate, times h^2 [-].
   real(wp), parameter :: visc_softening = 0.01_wp

@@ -52,17 +52,17 @@ contains
                              sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
                              pt%pair_hg, pt%pair_in, pt%acc_imag)
       call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
-                     pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, drho, d, &
-                     spin, grad_v)
+                     pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, &
+                     drho, d, spin, grad_v)
       call compression_switch(np, d, pt%c, pt%h, switch)
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                              grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
                              pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
       ! the energy equation with the stress, viscosity and velocities of this state
-      call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, pt%tie_a, &
-                           pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, pt%pair_hg, &
-                           pt%pair_force, pt%nbr_grad, pt%pair_work, de)
+      call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, &
+                           pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
+                           pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, de)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
