@@ -22,12 +22,12 @@ def run_child(code, args, threads):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def run_workload(name, params, threads):
+def run_workload(name, params, threads, env_extra=None):
     """Run benchmarks/workloads.py NAME PARAMS in a child process with
-    OMP_NUM_THREADS=threads (from /, so the installed fsph is imported);
-    returns its JSON result with the child's wall time from launch to exit
-    (interpreter start-up included) as process_wall_s."""
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    OMP_NUM_THREADS=threads and env_extra (from /, so the installed fsph is
+    imported); returns its JSON result with the child's wall time from
+    launch to exit (interpreter start-up included) as process_wall_s."""
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads), **(env_extra or {}))
     t0 = time.perf_counter()
     out = subprocess.run([sys.executable, str(WORKLOADS), name, json.dumps(params)], env=env,
                          check=True, capture_output=True, text=True, cwd="/")

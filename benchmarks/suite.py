@@ -1,6 +1,6 @@
 """fsph benchmark suite: one command for the figures of docs/performance.md.
 
-    python benchmarks/suite.py [--sections a,b,c,d,e,m] [--quick] [--json FILE]
+    python benchmarks/suite.py [--sections m,a,b,c,d,e,h,t] [--quick] [--json FILE]
 
 Sections (each at 1 and 2 OpenMP threads, each measurement in a child
 process of its own; peak memory is that child's resident set):
@@ -19,6 +19,12 @@ process of its own; peak memory is that child's resident set):
   h  the debris cloud of case 1 (cases/debris_cu_al_1.nml, pure SPH on
      0.1 mm lattices, about 8 900 particles) run on to 10 us through
      `fsph run`: the hypervelocity issue's speed figure
+  t  threads under load: cases/taylor_armco.nml through `fsph run` with
+     a competing busy process that the section starts itself (one core
+     busy), on 1 thread and on 2 under the adaptive and the fixed thread
+     policy (FSPH_THREAD_POLICY); idle, 2 threads adaptive against fixed.
+     Medians of --repeat runs (the loaded fixed run once: it can take
+     minutes)
   m  the machine: clock and memory bandwidth (STREAM add over 3 x 160 MB)
      for the roofline estimate
 Speed-ups of 2 threads over 1 go with every section (f); peak memory with
@@ -165,6 +171,58 @@ def section_debris(outroot, repeat):
     return section_run("debris_cu_al_1 to 10 us", path, outroot, repeat=repeat)
 
 
+def _median_run(repeat, deck, outdir, threads, env_extra=None):
+    """The run of median process wall time among `repeat` runs."""
+    runs = sorted((run_workload("run", {"deck": str(deck), "outdir": str(outdir)}, threads, env_extra)
+                   for _ in range(repeat)), key=lambda r: r["process_wall_s"])
+    return runs[len(runs) // 2]
+
+
+def _thread_row(label, r):
+    use = r["cycles_by_threads"]
+    total = max(sum(use.values()), 1)
+    split = ", ".join(f"{n} thread(s) {100.0 * c / total:.0f} %" for n, c in sorted(use.items()))
+    print(f"  {label:34s} {r['process_wall_s']:7.2f} s wall from launch; cycles at {split}")
+    return {"label": label, "process_wall_s": r["process_wall_s"], "cycles_by_threads": use,
+            "thread_policy": r["thread_policy"], "threads": r["threads"]}
+
+
+def section_threads(outroot, repeat):
+    """The default case beside a busy process, and idle: what the adaptive
+    thread policy buys and costs."""
+    import subprocess
+    import sys
+    print("\n(t) threads under load: cases/taylor_armco.nml, one core kept busy by another process")
+    deck = CASES / "taylor_armco.nml"
+    out = outroot / "taylor_armco"
+    rows = {}
+    rows["idle_2_fixed"] = _thread_row("idle, 2 threads, fixed", _median_run(
+        repeat, deck, out, 2, {"FSPH_THREAD_POLICY": "fixed"}))
+    rows["idle_2_adaptive"] = _thread_row("idle, 2 threads, adaptive", _median_run(
+        repeat, deck, out, 2, {"FSPH_THREAD_POLICY": "adaptive"}))
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.5)
+        rows["loaded_1"] = _thread_row("loaded, 1 thread", _median_run(repeat, deck, out, 1))
+        rows["loaded_2_adaptive"] = _thread_row("loaded, 2 threads, adaptive", _median_run(
+            repeat, deck, out, 2, {"FSPH_THREAD_POLICY": "adaptive"}))
+        rows["loaded_2_fixed"] = _thread_row("loaded, 2 threads, fixed", _median_run(
+            1, deck, out, 2, {"FSPH_THREAD_POLICY": "fixed"}))
+    finally:
+        busy.kill()
+        busy.wait()
+    result = {"rows": rows,
+              "loaded_ratio_adaptive": rows["loaded_2_adaptive"]["process_wall_s"]
+              / rows["loaded_1"]["process_wall_s"],
+              "loaded_ratio_fixed": rows["loaded_2_fixed"]["process_wall_s"] / rows["loaded_1"]["process_wall_s"],
+              "idle_cost_adaptive": rows["idle_2_adaptive"]["process_wall_s"]
+              / rows["idle_2_fixed"]["process_wall_s"]}
+    print(f"  loaded, 2 threads / 1: adaptive {result['loaded_ratio_adaptive']:.2f}, "
+          f"fixed {result['loaded_ratio_fixed']:.2f}; idle, adaptive / fixed "
+          f"{result['idle_cost_adaptive']:.3f}")
+    return result
+
+
 def section_machine():
     """Sustained memory bandwidth of one core: best of 5 passes of STREAM's
     add, a = b + c, over 2 x 10^7 doubles (3 x 160 MB), counted as STREAM
@@ -201,6 +259,8 @@ TARGETS = (
     ("cost exponent under refinement", lambda r: r["refinement"]["exponent"], 1.6, "", "max"),
     ("debris case 1, 0.1 mm, to 10 us, 2 threads", lambda r: r["debris"]["rows"][-1]["process_wall_s"],
      60.0, "s", "max"),
+    ("default case loaded, 2 threads / 1", lambda r: r["threads_under_load"]["loaded_ratio_adaptive"], 1.2, "",
+     "max"),
     ("2 threads / 1, T3 block", lambda r: r["fem_block"]["speedup_2"], 1.7, "", "min"),
     ("2 threads / 1, SPH block", lambda r: r["sph_block"]["speedup_2"], 1.7, "", "min"),
 )
@@ -233,7 +293,7 @@ def _cpu_mhz():
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sections", default="m,a,b,c,d,e,h", help="comma-separated, of m a b c d e h")
+    ap.add_argument("--sections", default="m,a,b,c,d,e,h,t", help="comma-separated, of m a b c d e h t")
     ap.add_argument("--quick", action="store_true", help="smaller and fewer runs")
     ap.add_argument("--repeat", type=int, default=3, help="runs of each block and Taylor figure (best)")
     ap.add_argument("--refinement-threads", type=int, default=1,
@@ -261,8 +321,10 @@ def main(argv=None):
         elif s == "e":
             results["refinement"] = section_refinement(outroot / "refinement", args.quick,
                                                        args.refinement_threads, args.repeat)
+        elif s == "t":
+            results["threads_under_load"] = section_threads(outroot / "threads", args.repeat)
         else:
-            ap.error(f"unknown section {s!r}: expected m, a, b, c, d, e or h")
+            ap.error(f"unknown section {s!r}: expected m, a, b, c, d, e, h or t")
     results["targets"] = targets_table(results)
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=2) + "\n")

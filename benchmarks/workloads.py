@@ -80,6 +80,7 @@ def run(deck, outdir):
             "n_elements_initial": summary["n_elements_initial"],
             "n_particles_end": summary["n_particles"], "n_converted": summary["n_converted"],
             "phases_s": summary["phase_times_s"], "threads": fsph.threads(),
+            "thread_policy": summary["thread_policy"], "cycles_by_threads": summary["cycles_by_threads"],
             "peak_rss_mb": peak_rss_mb(), "metrics": summary["metrics"]}
 
 

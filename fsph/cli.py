@@ -191,7 +191,13 @@ def main(argv=None):
             return EXIT_OK
         if args.command == "info":
             from . import __version__, threads
-            print(f"fsph {__version__}, OpenMP threads: {threads()}")
+            from .simulation import (THREAD_POLICIES, THREAD_POLICY_VARIABLE, openmp_wait_settings,
+                                     thread_policy)
+            policy = thread_policy()
+            waits = ", ".join(f"{k}={v}" for k, v in openmp_wait_settings().items())
+            print(f"fsph {__version__}, OpenMP threads: {threads()} at most")
+            print(f"thread policy: {policy} ({THREAD_POLICY_VARIABLE}): {THREAD_POLICIES[policy]}")
+            print(f"OpenMP wait: {waits}")
             return EXIT_OK
     except InputError as err:
         print(f"fsph: error: {err}", file=sys.stderr)

@@ -321,7 +321,8 @@ def _print_banner(say, setup, restart, lines):
     restart begins; the deck's warnings; the progress lines' heads."""
     sim, deck_path, ctrl = setup.sim, setup.deck_path, setup.deck["control"]
     say(f"fsph: {ctrl['title'] or deck_path.stem}: mode {ctrl['mode']}, {sim.n_elements} elements, "
-        f"{sim.n_nodes} nodes, {sim.n_particles} particles, {threads()} thread(s), "
+        f"{sim.n_nodes} nodes, {sim.n_particles} particles, {threads()} thread(s) "
+        f"({sim.thread_policy}), "
         f"end time {ctrl['end_time'] * 1e6:g} us")
     if restart is not None:
         say(f"fsph: restarted from {restart} at t = {sim.time * 1e6:.6g} us, cycle {sim.cycle}")
@@ -589,6 +590,9 @@ def _summary(setup, books, t_wall0):
         "cycles": sim.cycle,
         "wall_time_s": wallclock.perf_counter() - t_wall0,
         "threads": threads(),
+        # the adaptive policy may run cycles on fewer threads (fsph_threads)
+        "thread_policy": sim.thread_policy,
+        "cycles_by_threads": {str(n): c for n, c in sim.thread_use().items()},
         # wall time of each phase of the cycle (benchmarks' cost split)
         "phase_times_s": sim.phase_times(),
         "neighbour_list_builds": sim.list_rebuilds,
@@ -620,6 +624,16 @@ def _summary(setup, books, t_wall0):
     return summary
 
 
+def _format_thread_use(summary):
+    """One line: how many cycles ran on how many threads, and the policy."""
+    use = summary["cycles_by_threads"]
+    total = max(sum(use.values()), 1)
+    parts = ", ".join(f"{n} for {100.0 * c / total:.0f} %" for n, c in
+                      sorted(use.items(), key=lambda item: -int(item[0])))
+    return (f"fsph: threads ({summary['thread_policy']} policy, at most {summary['threads']}): "
+            f"{parts or 'no cycles'} of the cycles")
+
+
 def _print_summary(say, summary, outdir):
     """The closing lines: status, time, cycles, wall time and energy error;
     the warnings; the metrics against their references; the peaks; where
@@ -632,6 +646,8 @@ def _print_summary(say, summary, outdir):
         f"cycles, {summary['wall_time_s']:.2f} s wall; energy error "
         f"{energy['relative_error']:+.3e} (largest {energy['max_relative_error']:+.3e} at "
         f"{energy['max_relative_error_time_s'] * 1e6:.4g} us)")
+    if summary["threads"] > 1:
+        say(_format_thread_use(summary))
     for warning in warnings:
         say(f"fsph: warning: {warning['message']}")
     ref = summary.get("reference", {})

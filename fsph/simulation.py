@@ -2,13 +2,14 @@
 take snapshots. The Fortran side is reached only through ``fsph._core``."""
 
 import math
+import os
 
 import numpy as np
 
 from . import deck as deck_module
 from . import layouts
 from . import mesh as mesh_module
-from .errors import DeckError, FsphError, SimulationError
+from .errors import DeckError, FsphError, InputError, SimulationError
 from .materials import property_table
 from .startup import check_starting_state
 try:
@@ -33,8 +34,34 @@ PHASES = tuple(name for name, _ in layouts.PHASES)
 
 
 def threads():
-    """Number of OpenMP threads the solver uses (honours OMP_NUM_THREADS)."""
+    """Most OpenMP threads a run uses (honours OMP_NUM_THREADS); under the
+    adaptive thread policy a cycle may use fewer (thread_policy)."""
     return int(_api.threads())
+
+
+#: Environment variable that chooses the thread policy, and its values.
+THREAD_POLICY_VARIABLE = "FSPH_THREAD_POLICY"
+THREAD_POLICIES = {
+    "adaptive": "times the cycles at the thread count in use and at half or double it, "
+                "and keeps the faster (fewer threads when another process holds a core)",
+    "fixed": "every cycle uses all the threads",
+}
+
+
+def thread_policy():
+    """The thread policy from FSPH_THREAD_POLICY: 'adaptive' (unset or
+    empty) or 'fixed'. InputError for any other value."""
+    value = os.environ.get(THREAD_POLICY_VARIABLE, "").strip().lower() or "adaptive"
+    if value not in THREAD_POLICIES:
+        raise InputError(f"environment variable {THREAD_POLICY_VARIABLE}: expected one of "
+                         f"{', '.join(THREAD_POLICIES)}, got {os.environ[THREAD_POLICY_VARIABLE]!r}")
+    return value
+
+
+def openmp_wait_settings():
+    """The OpenMP wait settings of the environment (OMP_WAIT_POLICY,
+    GOMP_SPINCOUNT), 'unset' where not given."""
+    return {name: os.environ.get(name, "unset") for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
 
 
 def fortran_index(index):
@@ -71,7 +98,9 @@ class Simulation:
         rho0 = {m["name"]: m["density"] for m in materials}
 
         # this run's own state in the solver: runs in one process are independent
+        self.thread_policy = thread_policy()
         self._run = int(_api.open_run())
+        _api.set_thread_policy(self._run, int(self.thread_policy == "adaptive"), -1.0, -1.0)
         c = self.control
         _api.set_control(self._run, c["dt_safety"], c["c_q"], c["c_l"], c["dt_floor_ratio"], c["dt_drop_ratio"],
                          deck["output"]["history_every"])
@@ -317,6 +346,13 @@ class Simulation:
             return
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault)
+
+    def thread_use(self):
+        """Cycles run so far at each thread count, {threads: cycles}, for
+        the counts used (the adaptive policy may use fewer than threads())."""
+        n = threads()
+        counts = _api.get_thread_use(self._run, n)
+        return {k + 1: int(c) for k, c in enumerate(counts) if c > 0}
 
     def phase_times(self):
         """Wall time [s] spent in each phase of the cycle since set-up (or

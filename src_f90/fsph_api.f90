@@ -13,7 +13,7 @@ module fsph_api
   implicit none
   private
   public :: open_run, close_run, get_layout_digest, phase_count, get_phase_times, reset_phase_times
-  public :: threads, set_control, set_sph_control, set_particles, set_continua, reserve_particles
+  public :: threads, set_thread_policy, get_thread_use, set_control, set_sph_control, set_particles, set_continua, reserve_particles
   public :: set_conversion, set_contact, set_erosion, get_erosion_stats, get_debris_count
   public :: get_contact_stats, get_conversion_stats, begin_checkpoint, checkpoint_sizes, get_real_state
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
@@ -85,6 +85,35 @@ contains
     n = 1
     !$ n = omp_get_max_threads()
   end subroutine threads
+
+  !> Thread policy of run `run` (fsph_threads): adaptive /= 0 lets the
+  !> governor choose each cycle's thread count, 0 keeps the most threads.
+  !> probe_seconds, exploit_seconds [s]: the governor's timing, negative for
+  !> its defaults (tests shorten them to make it switch often).
+  subroutine set_thread_policy(run, adaptive, probe_seconds, exploit_seconds)
+    use fsph_threads, only: governor_set
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: adaptive
+    real(wp), intent(in) :: probe_seconds, exploit_seconds
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    call governor_set(sim%governor, adaptive /= 0, probe_seconds, exploit_seconds)
+  end subroutine set_thread_policy
+
+  !> Cycles run so far at 1, 2, ..., n threads (0 beyond the most the run
+  !> may use, and all 0 before its first advance).
+  subroutine get_thread_use(run, n, cycles_at)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: n
+    integer, intent(out) :: cycles_at(n)
+    type(simulation_t), pointer :: sim
+    integer :: m
+    sim => run_state(run)
+    cycles_at = 0
+    if (.not. allocated(sim%governor%cycles_at)) return
+    m = min(n, size(sim%governor%cycles_at))
+    cycles_at(1:m) = sim%governor%cycles_at(1:m)
+  end subroutine get_thread_use
 
   !> Numerical parameters of the cycle (see fsph_state control_t).
   subroutine set_control(run, dt_safety, c_q, c_l, dt_floor_ratio, dt_drop_ratio, history_every)

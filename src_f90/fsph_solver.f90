@@ -35,7 +35,8 @@ module fsph_solver
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct
   use fsph_erosion, only: erode_elements
-  use fsph_timers, only: timer_start, timer_stop
+  use fsph_timers, only: timer_start, timer_stop, wall_clock
+  use fsph_threads, only: governor_begin, governor_cycle, governor_end
   implicit none
   private
 
@@ -273,7 +274,7 @@ contains
     integer, intent(out) :: ierr, ifault
     !> Remaining time below this fraction of a step counts as arrived [-].
     real(wp), parameter :: arrival_fraction = 1.0e-9_wp
-    real(wp) :: remaining, dt_step
+    real(wp) :: remaining, dt_step, started
     integer :: n_done
 
     ierr = status_not_ready
@@ -281,6 +282,7 @@ contains
     if (.not. sim%ready) return
     ierr = status_ok
     n_done = 0
+    call governor_begin(sim%governor)
     do
       remaining = t_target - sim%time
       if (remaining <= arrival_fraction*sim%dt) exit
@@ -298,10 +300,13 @@ contains
           dt_step = 0.5_wp*remaining
         end if
       end if
+      started = wall_clock()
       call cycle(sim, dt_step, ierr, ifault)
+      call governor_cycle(sim%governor, wall_clock() - started)
       n_done = n_done + 1
       if (ierr /= status_ok) exit
     end do
+    call governor_end(sim%governor)
     ! the state at the end of each advance is always in the history
     if (sim%history_cycle /= sim%cycle) call record_history(sim)
   end subroutine solver_advance

@@ -10,6 +10,7 @@ module fsph_state
   use fsph_neighbours, only: neighbour_work_t
   use fsph_arrays, only: grow
   use fsph_timers, only: phase_timers_t
+  use fsph_threads, only: thread_governor_t
   implicit none
   private
 
@@ -259,6 +260,7 @@ module fsph_state
     integer :: history_cycle = -1         !< cycle of the last record
     real(wp), allocatable :: history(:, :) !< (history_columns, capacity), drained by the API
     type(phase_timers_t) :: timers        !< wall time of each phase of the cycle
+    type(thread_governor_t) :: governor   !< OpenMP threads of each cycle (fsph_threads)
   end type simulation_t
 
   public :: state_allocate, state_allocate_particles, state_grow_particles
