@@ -81,7 +81,8 @@ def run(deck, outdir):
             "n_particles_end": summary["n_particles"], "n_converted": summary["n_converted"],
             "phases_s": summary["phase_times_s"], "threads": fsph.threads(),
             "thread_policy": summary["thread_policy"], "cycles_by_threads": summary["cycles_by_threads"],
-            "peak_rss_mb": peak_rss_mb(), "metrics": summary["metrics"]}
+            "peak_rss_mb": peak_rss_mb(), "metrics": summary["metrics"],
+            "comparison": summary.get("reference", {}).get("comparison", {})}
 
 
 def main(argv=None):

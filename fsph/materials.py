@@ -8,8 +8,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.integrate import quad
-from scipy.optimize import brentq
 
 from . import layouts
 
@@ -268,6 +266,9 @@ def isentrope_table(rho0, c0, s, gamma0):
     uniform in mu from mu_lo to 0, compression uniform in
     u = -ln(1 - (s-1) mu) + beta (s-1) mu up to where 1 - (s-1) mu is the
     EOS's floor). Needs s > 1 (the EOS has a pole)."""
+    # imported here: scipy.integrate alone costs about 0.2 s of every start-up
+    from scipy.integrate import quad
+    from scipy.optimize import brentq
     floor = dict((n, v) for n, v, _, _ in layouts.REAL_CONSTANTS)["mg_denominator_floor"]
     n_t = dict(layouts.ISENTROPE_TABLE)["tension_intervals"]
     n_c = dict(layouts.ISENTROPE_TABLE)["compression_intervals"]

@@ -39,23 +39,17 @@ def attached_points(x, reach, mass, links=None):
     shortest edge), or when `links` (pairs of point indices, e.g. element
     edges) joins them. The other points are detached: fragments, or stray
     particles left on an anvil."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
+    from ._core import fsph_api
     n = len(x)
     if n == 0:
         return np.zeros(0, dtype=bool)
     finite = np.where(np.isfinite(reach), reach, 0.0)
-    pairs = cKDTree(x).query_pairs(2.0 * finite.max(), output_type="ndarray")
-    if len(pairs):
-        dist = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
-        pairs = pairs[dist <= finite[pairs[:, 0]] + finite[pairs[:, 1]]]
-    if links is not None and len(links):
-        pairs = np.vstack([pairs.reshape(-1, 2), links])
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    main = np.bincount(label, weights=mass).argmax()
-    return label == main
+    links = np.zeros((0, 2), dtype=np.int32) if links is None else np.asarray(links).reshape(-1, 2)
+    # the groups in Fortran (fsph_groups): label = smallest 1-based index of the group
+    label = fsph_api.point_groups(np.asfortranarray(np.asarray(x, dtype=float).T), finite,
+                                  np.asfortranarray((links + 1).astype(np.int32).T))
+    main = np.bincount(label - 1, weights=mass, minlength=n).argmax()
+    return label - 1 == main
 
 
 def taylor(snap, body, body_index, w_height=None):

@@ -14,8 +14,6 @@ points stay at least half a cell away from the other body."""
 from functools import cached_property
 
 import numpy as np
-from matplotlib.tri import Triangulation
-from scipy.spatial import cKDTree
 
 from .errors import DeckError
 from .mesh import Mesh, ring_volume
@@ -65,6 +63,10 @@ class _Body:
 
     @cached_property
     def _finder(self):
+        # imported here: matplotlib.tri and scipy.spatial cost about 0.15 s
+        # of a start-up that needs neither when no two bodies' boxes meet
+        from matplotlib.tri import Triangulation
+        from scipy.spatial import cKDTree
         if self.is_mesh:
             return Triangulation(self.disc.x[:, 0], self.disc.x[:, 1], self.disc.conn).get_trifinder()
         return cKDTree(self.disc.x)

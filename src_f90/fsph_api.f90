@@ -13,7 +13,8 @@ module fsph_api
   implicit none
   private
   public :: open_run, close_run, get_layout_digest, phase_count, get_phase_times, reset_phase_times
-  public :: threads, set_thread_policy, get_thread_use, set_control, set_sph_control, set_particles, set_continua, reserve_particles
+  public :: threads, set_thread_policy, get_thread_use, point_groups
+  public :: set_control, set_sph_control, set_particles, set_continua, reserve_particles
   public :: set_conversion, set_contact, set_erosion, get_erosion_stats, get_debris_count
   public :: get_contact_stats, get_conversion_stats, begin_checkpoint, checkpoint_sizes, get_real_state
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
@@ -114,6 +115,18 @@ contains
     m = min(n, size(sim%governor%cycles_at))
     cycles_at(1:m) = sim%governor%cycles_at(1:m)
   end subroutine get_thread_use
+
+  !> Connected groups of n points (fsph_groups): label(i) is the smallest
+  !> 1-based index of point i's group; points join within the sum of
+  !> their reaches [m] or through links (1-based pairs). Touches no run.
+  subroutine point_groups(n, x, reach, n_links, links, label)
+    use fsph_groups, only: connected_groups
+    integer, intent(in) :: n, n_links
+    real(wp), intent(in) :: x(2, n), reach(n)
+    integer, intent(in) :: links(2, n_links)
+    integer, intent(out) :: label(n)
+    call connected_groups(n, x, reach, n_links, links, label)
+  end subroutine point_groups
 
   !> Numerical parameters of the cycle (see fsph_state control_t).
   subroutine set_control(run, dt_safety, c_q, c_l, dt_floor_ratio, dt_drop_ratio, history_every)
