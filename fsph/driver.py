@@ -569,6 +569,17 @@ def _energy_summary(sim, energies, writer):
             "max_relative_error_time_s": writer.max_energy_error_time}
 
 
+def _plane_summary(sim, deck, writer):
+    """The rigid planes' axial impulse on the bodies since t = 0 [N s] and
+    the largest force between history rows [N] and its time [s]; None
+    without a plane."""
+    if not deck["boundary"]:
+        return None
+    return {"impulse_z_N_s": sim.plane_impulse_z(),
+            "peak_force_z_N": writer.plane_force_peak,
+            "peak_force_time_s": writer.plane_force_peak_time}
+
+
 def _summary(setup, books, t_wall0):
     """The summary dict of a run that has ended (summary.json)."""
     sim, deck, writer, reference = setup.sim, setup.deck, setup.writer, setup.reference
@@ -605,6 +616,7 @@ def _summary(setup, books, t_wall0):
         "erosion": sim.erosion(),
         "n_debris_particles": sim.debris_count(),
         "energy": _energy_summary(sim, energies, writer),
+        "rigid_planes": _plane_summary(sim, deck, writer),
         "metrics": case_metrics,
         "peaks": peaks,
         "material_state": {b["name"]: state_masses(books.last_good, ib)

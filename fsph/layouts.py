@@ -62,6 +62,8 @@ HISTORY_COLUMNS = (
     ("time", "s", "time"),
     ("cycle", "-", "cycle count"),
     ("dt", "s", "last step"),
+    ("plane_impulse_z", "N s", "axial impulse of the rigid planes on the bodies since t = 0 (kinematic condition "
+     "and mirror images; the force on a plane is minus its rate)"),
     ("kinetic", "J", "kinetic energy (half-step velocities)"),
     ("internal", "J", "internal energy"),
     ("contact", "J", "kinetic energy removed by the contact corrections"),
@@ -69,7 +71,7 @@ HISTORY_COLUMNS = (
     ("plane", "J", "kinetic energy removed by the rigid planes and the particles' axis wall"),
     ("total", "J", "kinetic + internal + contact + eroded + plane"),
 )
-ENERGY_COLUMNS = tuple(name for name, _, _ in HISTORY_COLUMNS[3:])
+ENERGY_COLUMNS = tuple(name for name, _, _ in HISTORY_COLUMNS[4:])
 
 # ---- checkpoint: state arrays by name (fsph_restart) ----------------------
 # Each is a (rows, cols) view of one state array; the order is the order
@@ -93,7 +95,7 @@ CHECKPOINT_INT = (
 CHECKPOINT_REAL_SCALARS = (
     "time", "dt", "dt_last", "dt_initial", "conversion_heat", "contact_dissipated",
     "eroded_element_mass", "eroded_internal", "eroded_node_mass", "eroded_kinetic",
-    "eroded_momentum_r", "eroded_momentum_z", "plane_dissipated",
+    "eroded_momentum_r", "eroded_momentum_z", "plane_dissipated", "plane_impulse_z",
 )
 CHECKPOINT_INT_SCALARS = (
     "cycle", "dt_element", "dt_particle", "n_converted", "n_events", "n_groups", "n_edges",

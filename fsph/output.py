@@ -19,6 +19,10 @@ from .errors import InputError, OutputError
 
 #: columns of the time history (fsph.layouts), the energy total included
 HISTORY_FIELDS = tuple(name for name, _, _ in layouts.HISTORY_COLUMNS)
+#: The history dataset derived from the planes' impulse (RunWriter._plane_force).
+PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bodies, averaged "
+               "between history rows (the rate of plane_impulse_z); the bodies push the planes "
+               "with minus it")
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
                         "internal_energy", "temperature", "damage", "material", "body")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
@@ -182,9 +186,11 @@ class RunWriter:
             h5.attrs["title"] = title
             h5["deck"] = deck_text
             hist = h5.create_group("history")
-            for name in HISTORY_FIELDS:
+            for name, unit, meaning in layouts.HISTORY_COLUMNS + (PLANE_FORCE,):
                 hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
                                     chunks=(4096,))
+                hist[name].attrs["units"] = unit
+                hist[name].attrs["description"] = meaning
             h5.create_group("snapshots")
         self.n_snapshots = 0
         self._history = []          # history rows not yet written
@@ -192,6 +198,9 @@ class RunWriter:
         self.energy0 = None
         self.max_energy_error = 0.0
         self.max_energy_error_time = 0.0
+        self._plane_last = None     # (time [s], impulse [N s]) of the last history row
+        self.plane_force_peak = 0.0       # [N]
+        self.plane_force_peak_time = 0.0  # [s]
         self.vtu = vtu
         self.pvd_entries = {}
         if vtu:
@@ -275,7 +284,27 @@ class RunWriter:
             if abs(error) > abs(self.max_energy_error):
                 self.max_energy_error = float(error)
                 self.max_energy_error_time = float(records[worst, HISTORY_FIELDS.index("time")])
-        self._history.append(np.asarray(records, dtype=float))
+        records = np.asarray(records, dtype=float)
+        force = self._plane_force(records)
+        self._history.append(np.column_stack([records, force]))
+
+    def _plane_force(self, records):
+        """The planes' axial force on the bodies [N] at each row: the change
+        of their impulse since the row before over the time between (0 at
+        the first row); tracks its largest magnitude."""
+        t = records[:, HISTORY_FIELDS.index("time")]
+        impulse = records[:, HISTORY_FIELDS.index("plane_impulse_z")]
+        t_before = np.concatenate([[t[0] if self._plane_last is None else self._plane_last[0]], t[:-1]])
+        i_before = np.concatenate([[impulse[0] if self._plane_last is None else self._plane_last[1]],
+                                   impulse[:-1]])
+        span = t - t_before
+        force = np.divide(impulse - i_before, span, out=np.zeros_like(span), where=span > 0.0)
+        self._plane_last = (t[-1], impulse[-1])
+        worst = int(np.abs(force).argmax())
+        if abs(force[worst]) > abs(self.plane_force_peak):
+            self.plane_force_peak = float(force[worst])
+            self.plane_force_peak_time = float(t[worst])
+        return force
 
     def _write_history(self, h5):
         """Append the rows kept since the last write to /history of the open h5."""
@@ -285,7 +314,7 @@ class RunWriter:
         hist = h5["history"]
         n0 = hist["time"].shape[0]
         n1 = n0 + len(records)
-        for j, name in enumerate(HISTORY_FIELDS):
+        for j, name in enumerate(HISTORY_FIELDS + (PLANE_FORCE[0],)):
             hist[name].resize((n1,))
             hist[name][n0:n1] = records[:, j]
         self._history = []

@@ -366,7 +366,8 @@ class Simulation:
     def drain_history(self):
         """Time-history records (k, len(fsph.layouts.HISTORY_COLUMNS))
         recorded by the cycle since the last call: time [s], cycle, dt [s],
-        then the energy budget [J] (kinetic, internal, removed by contact,
+        the rigid planes' axial impulse on the bodies since t = 0 [N s], then
+        the energy budget [J] (kinetic, internal, removed by contact,
         erosion and the rigid planes, total)."""
         n = int(_api.history_count(self._run))
         records, ierr = _api.drain_history(self._run, len(layouts.HISTORY_COLUMNS), n)
@@ -450,6 +451,16 @@ class Simulation:
         if ierr != STATUS_OK:
             raise FsphError("energy budget: layout mismatch, rebuild the package")
         return dict(zip(layouts.ENERGY_COLUMNS, (float(v) for v in budget)))
+
+    def plane_impulse_z(self):
+        """Axial impulse of the rigid planes on the bodies since t = 0 [N s]
+        (kinematic condition and mirror images); with a plane the only
+        external load, it equals the bodies' change of axial momentum."""
+        r, _, ierr = _api.get_scalar_state(self._run, len(layouts.CHECKPOINT_REAL_SCALARS),
+                                           len(layouts.CHECKPOINT_INT_SCALARS))
+        if ierr != STATUS_OK:
+            raise FsphError("scalar state: layout mismatch, rebuild the package")
+        return float(r[layouts.CHECKPOINT_REAL_SCALARS.index("plane_impulse_z")])
 
     def energies(self):
         """Kinetic, internal, contact-dissipated, plane-dissipated, eroded

@@ -36,8 +36,9 @@ contains
   !> which the central difference balances kinetic energy, as for contact):
   !> a point that rests on the plane costs nothing, one that strikes it
   !> loses its normal kinetic energy (the plane acts as a perfectly
-  !> inelastic wall on it).
-  subroutine apply_rigid_plane(nn, point, normal, dt, x, mass, v_start, v, work, offset)
+  !> inelastic wall on it). `impulse` [N s] gets the impulse of the plane on
+  !> the points, sum m dv (the plane's reaction is minus it).
+  subroutine apply_rigid_plane(nn, point, normal, dt, x, mass, v_start, v, work, impulse, offset)
     integer, intent(in) :: nn
     real(wp), intent(in) :: point(2), normal(2) !< plane point [m], unit normal [-]
     real(wp), intent(in) :: dt                  !< step [s]
@@ -46,12 +47,14 @@ contains
     real(wp), intent(in) :: v_start(2, nn)      !< velocity before the kick [m/s]
     real(wp), intent(inout) :: v(2, nn)
     real(wp), intent(inout) :: work             !< [J]
+    real(wp), intent(inout) :: impulse(2)       !< [N s]
     real(wp), intent(in), optional :: offset(nn)
-    real(wp) :: gap, vn, vn_new, w
+    real(wp) :: gap, vn, vn_new, w, dp
     integer :: a
-    ! serial: the work is summed in point order, so its bits do not depend
-    ! on the thread count (a dot product per point)
+    ! serial: the work and the impulse are summed in point order, so their
+    ! bits do not depend on the thread count (a dot product per point)
     w = 0.0_wp
+    dp = 0.0_wp
     do a = 1, nn
       gap = dot_product(x(:, a) - point, normal)
       if (present(offset)) gap = gap - offset(a)
@@ -61,9 +64,11 @@ contains
         if (gap < 0.0_wp) vn_new = max(vn, 0.0_wp)
         v(:, a) = v(:, a) + (vn_new - vn)*normal
         w = w + mass(a)*(vn_new - vn)*0.5_wp*(dot_product(v_start(:, a), normal) + vn_new)
+        dp = dp + mass(a)*(vn_new - vn)
       end if
     end do
     work = work + w
+    impulse = impulse + dp*normal
   end subroutine apply_rigid_plane
 
 end module fsph_boundary

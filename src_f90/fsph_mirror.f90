@@ -33,6 +33,7 @@ module fsph_mirror
   private
 
   public :: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, mirror_fill_stress
+  public :: mirror_reaction_z
 
   !> A plane counts as normal to the axis when the radial component of its
   !> unit normal is below this [-].
@@ -182,5 +183,34 @@ contains
     end do
     !$omp end parallel do
   end subroutine mirror_fill_stress
+
+  !> Axial force [N] of all the images on the n real particles: the sum,
+  !> over each particle's entries of images (index above `first`, the last
+  !> imaginary entry), of m_i m_j times the pair's force per unit masses
+  !> (pair_force of fsph_sph sph_accelerations, computed for i's row). The
+  !> planes take minus it. Each particle's sum is formed in its row order
+  !> and the particles' sums in index order, so the bits do not depend on
+  !> the thread count.
+  function mirror_reaction_z(n, first, nbr_ptr, nbr_list, mass, pair_force) result(force_z)
+    integer, intent(in) :: n, first
+    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
+    real(wp), intent(in) :: mass(*), pair_force(2, *)
+    real(wp) :: force_z
+    real(wp), allocatable :: f_i(:)
+    integer :: i, k, j
+    allocate (f_i(n))
+    !$omp parallel do default(none) private(i, k, j) shared(n, first, nbr_ptr, nbr_list, mass, pair_force, f_i) &
+    !$omp schedule(dynamic, 256)
+    do i = 1, n
+      f_i(i) = 0.0_wp
+      do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
+        j = abs(nbr_list(k))
+        if (j > first) f_i(i) = f_i(i) + mass(j)*pair_force(2, k)
+      end do
+      f_i(i) = mass(i)*f_i(i)
+    end do
+    !$omp end parallel do
+    force_z = sum(f_i)
+  end function mirror_reaction_z
 
 end module fsph_mirror

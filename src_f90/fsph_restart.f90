@@ -177,6 +177,7 @@ contains
     case (csr_eroded_momentum_r); p => sim%erosion%momentum(1)
     case (csr_eroded_momentum_z); p => sim%erosion%momentum(2)
     case (csr_plane_dissipated); p => sim%plane_dissipated
+    case (csr_plane_impulse_z); p => sim%plane_impulse_z
     end select
   end function real_scalar
 

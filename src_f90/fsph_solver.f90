@@ -9,7 +9,7 @@ module fsph_solver
   use fsph_arrays, only: reserve
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
                           prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
-                          hcol_dt, energy_first, &
+                          hcol_dt, hcol_plane_impulse_z, energy_first, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
@@ -22,7 +22,7 @@ module fsph_solver
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
                       pair_weights, compression_switch
   use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
-                         mirror_fill_stress
+                         mirror_fill_stress, mirror_reaction_z
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
                             riemann_contact_density_rate, contact_normals, contact_pairs_in
@@ -85,6 +85,7 @@ contains
     call contact_rebuild_surface(sim%contact, sim%elements, sim%nodes, sim%continuum_of_body)
     sim%contact%dissipated = 0.0_wp
     sim%plane_dissipated = 0.0_wp
+    sim%plane_impulse_z = 0.0_wp
 
     sim%time = 0.0_wp
     sim%cycle = 0
@@ -399,6 +400,9 @@ contains
                                pt%grad_v, pt%switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
                                pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
+        ! the planes' images push with these forces over this cycle's kick
+        if (pt%n_mirror > 0) sim%plane_impulse_z = sim%plane_impulse_z + 0.5_wp*(sim%dt_last + dt_step)* &
+          mirror_reaction_z(n, n + pt%n_imag, pt%nbr_ptr, pt%nbr_list, pt%mass, pt%pair_force)
         call timer_stop(sim%timers, phase_sph_sums)
         call timer_start(sim%timers, phase_particle_contact)
         call update_particle_radius(sim)
@@ -566,8 +570,10 @@ contains
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer :: ip, n
-    real(wp) :: work
+    real(wp) :: work, impulse(2), axis_impulse(2)
     work = 0.0_wp
+    impulse = 0.0_wp
+    axis_impulse = 0.0_wp     ! radial: no resultant on an axisymmetric body
     n = sim%particles%n
     associate (nd => sim%nodes, pt => sim%particles)
       if (nd%n > 0) call apply_axis(nd%n, nd%on_axis, nd%v)
@@ -576,23 +582,25 @@ contains
       ! let a particle driven hard inwards cross r = 0); v_bar still holds
       ! the velocity before the kick
       if (n > 0) call apply_rigid_plane(n, [0.0_wp, 0.0_wp], [1.0_wp, 0.0_wp], dt_step, pt%x, pt%mass, &
-                                        pt%v_bar, pt%v, work, axis_wall_fraction*pt%radius(1:n))
+                                        pt%v_bar, pt%v, work, axis_impulse, axis_wall_fraction*pt%radius(1:n))
       do ip = 1, sim%n_planes
         if (nd%n > 0) call apply_rigid_plane(nd%n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, &
-                                             nd%x, nd%mass_total, nd%v_start, nd%v, work)
+                                             nd%x, nd%mass_total, nd%v_start, nd%v, work, impulse)
         if (n == 0) cycle
         if (mirror_plane_normal_to_axis(sim%planes(ip)%normal)) then
           ! the mirror images hold the particles off the plane; the
           ! kinematic condition is a backstop at half their radius
           call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
-                                 pt%v_bar, pt%v, work, axis_wall_fraction*pt%radius(1:n))
+                                 pt%v_bar, pt%v, work, impulse, axis_wall_fraction*pt%radius(1:n))
         else
           call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
-                                 pt%v_bar, pt%v, work, pt%radius(1:n))
+                                 pt%v_bar, pt%v, work, impulse, pt%radius(1:n))
         end if
       end do
     end associate
     sim%plane_dissipated = sim%plane_dissipated - work
+    ! the axial resultant of the ring loads (their radial parts cancel)
+    sim%plane_impulse_z = sim%plane_impulse_z + impulse(2)
   end subroutine apply_boundaries
 
   !> Tied particles take their edge velocity; v_bar becomes the velocity at
@@ -755,6 +763,7 @@ contains
       record(hcol_time) = sim%time
       record(hcol_cycle) = real(sim%cycle, wp)
       record(hcol_dt) = sim%dt_last
+      record(hcol_plane_impulse_z) = sim%plane_impulse_z
       record(energy_first:) = energy_budget(sim)
     end associate
   end subroutine record_history

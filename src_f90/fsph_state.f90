@@ -246,6 +246,7 @@ module fsph_state
     integer :: n_planes = 0
     type(rigid_plane_t), allocatable :: planes(:)
     real(wp) :: plane_dissipated = 0.0_wp !< kinetic energy removed by the rigid planes and the axis wall [J]
+    real(wp) :: plane_impulse_z = 0.0_wp  !< axial impulse of the rigid planes on the bodies since t = 0 [N s]
     type(control_t) :: control
     logical :: ready = .false.
     real(wp) :: time = 0.0_wp             !< [s]
