@@ -1,6 +1,6 @@
 """Command line: `fsph run DECK [-o DIR]`, `fsph check DECK`, `fsph sweep DECK
 --set KEY=VALUES`, `fsph plot DIR`, `fsph report`, `fsph decks-reference`,
-`fsph info`.
+`fsph info`, `fsph --version`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
 to the last good snapshot are kept; sweep: a variant did not complete); 4
@@ -19,7 +19,10 @@ EXIT_OK, EXIT_ERROR, EXIT_DECK, EXIT_RUN_FAILED, EXIT_INTERRUPTED = 0, 1, 2, 3, 
 
 
 def _parser():
+    from . import __version__
     p = argparse.ArgumentParser(prog="fsph", description="Axisymmetric FEM-SPH impact hydrocode")
+    p.add_argument("--version", action="version", version=f"fsph {__version__}",
+                   help="print the version and exit")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a namelist deck")
     r.add_argument("deck", help="namelist deck (.nml)")

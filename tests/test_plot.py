@@ -116,3 +116,11 @@ def _small_deck(tmp_path):
     deck = tmp_path / "rod.nml"
     deck.write_text(rod_deck())
     return deck
+
+
+def test_version_prints_the_version_and_exits_0(tmp_path):
+    import fsph
+    res = subprocess.run([sys.executable, "-m", "fsph", "--version"], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == f"fsph {fsph.__version__}"
