@@ -22,13 +22,90 @@ def _snapshots(h5):
                   key=lambda t: t[0])
 
 
+#: panels of a picture drawn without --times
+DEFAULT_PANELS = 4
+
+
+def format_us(t_us):
+    """A time [µs] as panel titles and notes print it: four significant
+    digits, so that a snapshot near a requested time does not look at it."""
+    return f"{t_us:.4g}"
+
+
+def _same_time(a_us, b_us):
+    """Whether two times [µs] print the same (format_us)."""
+    return format_us(a_us) == format_us(b_us)
+
+
 def _nearest_snapshots(snaps, times_us):
-    """The (time, group) of `snaps` nearest each of times_us [us]."""
+    """The (time, group) of `snaps` nearest each of times_us [µs]."""
     chosen = []
     for t in times_us:
         k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
         chosen.append(snaps[k])
     return chosen
+
+
+def choose_snapshots(snaps, times_us=None, fractions=None, n=DEFAULT_PANELS):
+    """The snapshots to draw, each once, in time order: a list of
+    (requested times [µs], time [s], group). With times_us, the snapshot
+    nearest each requested time (requests that share a snapshot share its
+    panel); without, `n` snapshots spread evenly in time over the run (the
+    targets `fractions` of the way from the first snapshot to the last,
+    default evenly from the first to the last; each target takes the nearest
+    snapshot not yet taken, so a run with n snapshots or more gets n distinct
+    panels), with no requested times."""
+    if times_us is None:
+        start, end = snaps[0][0], snaps[-1][0]
+        fractions = np.linspace(0.0, 1.0, n) if fractions is None else fractions
+        free = list(range(len(snaps)))
+        picked = []
+        for f in fractions:
+            if not free:
+                break
+            target = start + f * (end - start)
+            k = min(free, key=lambda i: abs(snaps[i][0] - target))
+            free.remove(k)
+            picked.append(k)
+        return [([], snaps[k][0], snaps[k][1]) for k in sorted(picked)]
+    requests = {}
+    for t in times_us:
+        k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
+        requests.setdefault(k, []).append(t)
+    return [(requests[k], snaps[k][0], snaps[k][1]) for k in sorted(requests)]
+
+
+def snapshot_choice(run_dir, times_us):
+    """(requested time, drawn snapshot's time) [µs] for each of times_us
+    (the nearest snapshot of the run in run_dir, as the pictures draw it)."""
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        chosen = choose_snapshots(_snapshots(h5), times_us)
+    return [(t, time * 1e6) for requested, time, _ in chosen for t in requested]
+
+
+def nearest_note(pairs):
+    """One line for `fsph plot` when a requested time has no snapshot at
+    it: each such request and the time of the snapshot drawn for it [µs]
+    (and, when requests fall on one snapshot, that it is drawn once); None
+    when every requested time has a snapshot of its own at it."""
+    pairs = list(pairs)
+    off = [(req, got) for req, got in pairs if not _same_time(req, got)]
+    n_drawn = len({got for _, got in pairs})
+    parts = []
+    if off:
+        parts.append("drew the nearest snapshots: " + ", ".join(
+            f"{format_us(req)} µs → {format_us(got)} µs" for req, got in off))
+    if n_drawn < len(pairs):
+        parts.append(f"{len(pairs)} times fall on {n_drawn} snapshot"
+                     + ("s, each drawn once" if n_drawn > 1 else ", drawn once"))
+    return "fsph plot: " + "; ".join(parts) if parts else None
+
+
+def _save(fig, output, dpi, **kwargs):
+    """Write the figure and close it (tests look at the figure here)."""
+    import matplotlib.pyplot as plt
+    fig.savefig(output, dpi=dpi, **kwargs)
+    plt.close(fig)
 
 
 def _shape_marks(summary):
@@ -101,10 +178,13 @@ def _shapes_legend(fig, experiment):
                frameon=False)
 
 
-def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi=150):
-    """Write a PNG with one panel per requested time (the nearest snapshot),
-    the body mirrored about the axis; returns the PNG path. A debris run
-    (&metrics kind 'debris') gets debris_cloud's picture instead."""
+def deformed_shapes(run_dir, times_us=None, output=None, dpi=150):
+    """Write a PNG with one panel per snapshot drawn (choose_snapshots: the
+    snapshot nearest each requested time [µs], each once; without times,
+    four spread evenly from the first snapshot to the last), each titled
+    with its snapshot's time, the body mirrored about the axis; returns the
+    PNG path. A debris run (&metrics kind 'debris') gets debris_cloud's
+    picture instead."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -117,7 +197,7 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
     experiment, w_height, frame = _shape_marks(summary)
 
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
-        chosen = _nearest_snapshots(_snapshots(h5), times_us)
+        chosen = [(time, g) for _, time, g in choose_snapshots(_snapshots(h5), times_us)]
         fig, axes = plt.subplots(1, len(chosen), figsize=(3.2 * len(chosen), 6.0), sharey=True)
         axes = np.atleast_1d(axes)
         top = experiment.get("L_mm", 0.0)
@@ -126,7 +206,7 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
         for ax, (time, g) in zip(axes, chosen):
             extent, bottom = _draw_body(ax, g, frame, bottom)
             _mark_experiment(ax, experiment, w_height)
-            ax.set_title(f"{time * 1e6:.0f} µs")
+            ax.set_title(f"{format_us(time * 1e6)} µs")
             ax.set_xlabel("r [mm]")
             top = max(top, extent[1])
             width = max(width, extent[0])
@@ -141,8 +221,7 @@ def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi
         _shapes_legend(fig, experiment)
         fig.tight_layout(rect=(0, 0.02, 1, 0.9))
         # equal aspect shrinks the axes after the layout: save what is drawn
-        fig.savefig(output, dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
+        _save(fig, output, dpi, bbox_inches="tight")
     return output
 
 
@@ -264,10 +343,7 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
         colours = _material_colours(rec["materials"], rec)
         if times_us is None:
             times_us = [summary["metrics_time_s"] * 1e6]
-        chosen = []
-        for snap in _nearest_snapshots(snaps, times_us):
-            if all(snap[1].name != c[1].name for c in chosen):
-                chosen.append(snap)
+        chosen = [(time, g) for _, time, g in choose_snapshots(snaps, times_us)]
         panel_inches = 4.6
         fig, axes = plt.subplots(1, len(chosen), figsize=(panel_inches * len(chosen), 6.4),
                                  squeeze=False)
@@ -306,8 +382,7 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
                                    width=int(12 * panel_inches * len(chosen))), fontsize=10)
         fig.legend(handles=handles, loc="lower center", ncol=3, frameon=False, fontsize=8)
         fig.tight_layout(rect=(0, 0.08, 1, 0.96))
-        fig.savefig(output, dpi=dpi)
-        plt.close(fig)
+        _save(fig, output, dpi)
     return output
 
 
@@ -339,8 +414,7 @@ def histories(run_dir, output=None, dpi=150):
     ax_dt.set_ylabel("time step [ns]")
     ax_dt.set_xlabel("t [us]")
     fig.tight_layout()
-    fig.savefig(output, dpi=dpi)
-    plt.close(fig)
+    _save(fig, output, dpi)
     return output
 
 
@@ -368,8 +442,7 @@ def perforation_histories(run_dir, output=None, dpi=150):
     axes[2].set_ylabel("hole diameter [mm]")
     axes[2].set_xlabel("t [us]")
     fig.tight_layout()
-    fig.savefig(output, dpi=dpi)
-    plt.close(fig)
+    _save(fig, output, dpi)
     return output
 
 
@@ -429,8 +502,7 @@ def damage_map(run_dir, times_us=None, output=None, dpi=150):
         axes[0].set_ylabel("z [mm]")
         sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, 1.0))
         fig.colorbar(sm, ax=list(axes), shrink=0.9, label="damage D")
-        fig.savefig(output, dpi=dpi)
-        plt.close(fig)
+        _save(fig, output, dpi)
     return output
 
 
@@ -464,6 +536,5 @@ def residual_velocity(points, fits=(), experiment=(), output="residual.png", tit
         ax.set_title(title)
     ax.legend(fontsize="small")
     fig.tight_layout()
-    fig.savefig(output, dpi=dpi)
-    plt.close(fig)
+    _save(fig, output, dpi)
     return output

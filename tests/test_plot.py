@@ -2,12 +2,51 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
 from fsph.driver import run
 from conftest import rod_deck
+
+
+def _snapshot_times_us(out):
+    with h5py.File(out / "fsph.h5", "r") as h5:
+        snaps = h5["snapshots"]
+        return sorted(snaps[k].attrs["time"] * 1e6 for k in snaps if k.isdigit())
+
+
+@pytest.fixture(scope="module")
+def elastic_run(tmp_path_factory):
+    """The small elastic rod (elements only) for 1 µs, 7 snapshots."""
+    folder = tmp_path_factory.mktemp("elastic")
+    deck = folder / "rod.nml"
+    deck.write_text(rod_deck().replace("n_snapshots = 2", "n_snapshots = 7"))
+    run(deck, folder / "out", quiet=True)
+    return folder / "out"
+
+
+def plot_cli(monkeypatch, capsys, run_dir, *args):
+    """`fsph plot RUN_DIR ARGS` in this process: its exit code, the lines it
+    printed and the figures it drew (drawn, by file name)."""
+    import fsph.plot
+    from fsph.cli import main
+    figures = {}
+    save = fsph.plot._save
+
+    def keep(fig, output, dpi, **kwargs):
+        fig.canvas.draw()
+        figures[Path(output).name] = fig
+        save(fig, output, dpi, **kwargs)
+    monkeypatch.setattr(fsph.plot, "_save", keep)
+    code = main(["plot", str(run_dir), *args])
+    return code, capsys.readouterr().out.splitlines(), figures
+
+
+def _titles(fig):
+    return [ax.get_title() for ax in fig.axes if ax.get_title()]
 
 
 def test_plot_writes_png(tmp_path, write_deck):
@@ -124,3 +163,39 @@ def test_version_prints_the_version_and_exits_0(tmp_path):
                          text=True, cwd=tmp_path, timeout=300)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == f"fsph {fsph.__version__}"
+
+
+def test_panels_carry_the_drawn_times_and_a_line_names_the_nearest(elastic_run, monkeypatch,
+                                                                    capsys):
+    """Times without a snapshot at them: each panel is titled with the time
+    of the snapshot drawn and one printed line says which snapshot was drawn
+    for which time; a time at a snapshot is not in it."""
+    from fsph.plot import format_us
+    times = _snapshot_times_us(elastic_run)       # 0, about 1/7, ..., 1 µs
+    code, lines, figures = plot_cli(monkeypatch, capsys, elastic_run, "--times", "0.2,1")
+    assert code == 0
+    near = min(times, key=lambda t: abs(t - 0.2))
+    assert _titles(figures["shapes.png"]) == [f"{format_us(near)} µs", "1 µs"]
+    notes = [line for line in lines if line.startswith("fsph plot:")]
+    assert notes == [f"fsph plot: drew the nearest snapshots: 0.2 µs → {format_us(near)} µs"]
+    code, lines, _ = plot_cli(monkeypatch, capsys, elastic_run, "--times", "0,1")
+    assert code == 0 and not [line for line in lines if line.startswith("fsph plot:")]
+
+
+def test_default_times_spread_over_the_run(elastic_run, monkeypatch, capsys):
+    """Without --times: four distinct snapshots from the first to the last
+    (the 1 µs rod drew four identical panels at the 10-60 µs of a Taylor rod)."""
+    code, lines, figures = plot_cli(monkeypatch, capsys, elastic_run)
+    assert code == 0 and not [line for line in lines if line.startswith("fsph plot:")]
+    titles = _titles(figures["shapes.png"])
+    assert len(titles) == 4 == len(set(titles))
+    assert titles[0] == "0 µs" and titles[-1] == "1 µs"
+
+
+def test_times_on_one_snapshot_share_a_panel(elastic_run, monkeypatch, capsys):
+    code, lines, figures = plot_cli(monkeypatch, capsys, elastic_run, "--times", "10,20")
+    assert code == 0
+    assert _titles(figures["shapes.png"]) == ["1 µs"]
+    assert [line for line in lines if line.startswith("fsph plot:")] == [
+        "fsph plot: drew the nearest snapshots: 10 µs → 1 µs, 20 µs → 1 µs; "
+        "2 times fall on 1 snapshot, drawn once"]
