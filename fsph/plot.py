@@ -10,8 +10,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-ELEMENT_COLOUR = "#4a7ab5"
-PARTICLE_COLOUR = "#d9822b"
+#: colours of the bodies in deck order (repeating): (elements, particles);
+#: the first as Xiao et al. 2012 Fig. 8
+BODY_COLOURS = (("#4a7ab5", "#d9822b"),     # blue, orange
+                ("#a0a0a0", "#7b3294"),     # grey, purple
+                ("#74a96b", "#c2185b"),     # green, magenta
+                ("#d4b44a", "#2b8c8c"))     # ochre, teal
 
 
 def _snapshots(h5):
@@ -110,118 +114,184 @@ def _save(fig, output, dpi, **kwargs):
 
 def _shape_marks(summary):
     """From a run's summary: the experiment's L, D and W [mm] where the
-    reference has them, the height of W [mm] (None without) and, for a
-    perforation run, the half-width framed: three hole diameters [mm]
-    (None otherwise)."""
+    reference has them, the height of W above the impact face [mm] and the
+    band of the impact face in which D is measured [mm] (fsph.metrics.taylor;
+    None without) and, for a perforation run, the half-width framed: three
+    hole diameters [mm] (None otherwise)."""
     experiment = {}
     comparison = summary.get("reference", {}).get("comparison", {}).get("taylor", {})
     for key in ("L_mm", "D_mm", "W_mm"):
         if key in comparison:
             experiment[key] = comparison[key]["reference"]
-    w_height = summary.get("metrics", {}).get("taylor", {}).get("w_height_mm")
+    taylor = summary.get("metrics", {}).get("taylor", {})
+    experiment["w_height_mm"] = taylor.get("w_height_mm")
+    experiment["face_band_mm"] = taylor.get("face_band_mm")
     # a perforation run: frame the impact zone (three hole diameters), not the whole plate
     hole = (summary.get("metrics", {}).get("perforation") or {}).get("hole_diameter_mm")
     frame = 3.0 * hole if hole else None
-    return experiment, w_height, frame
+    return experiment, frame
 
 
-def _draw_body(ax, g, frame, bottom):
+def body_names(summary):
+    """The bodies' names in deck order (the order of their indices in the
+    snapshots), from summary.json."""
+    return list(summary.get("material_state", {}))
+
+
+def _body_name(names, index):
+    return names[index] if index < len(names) else f"body {index + 1}"
+
+
+def _body_colour(index, kind):
+    """Colour of body `index` (0-based, deck order): kind 0 its elements,
+    1 its particles."""
+    return BODY_COLOURS[index % len(BODY_COLOURS)][kind]
+
+
+def _draw_body(ax, g, frame, bottom, present):
     """Draw the elements and particles of snapshot g on ax, mirrored about
-    the axis; returns the extent (largest r, largest z) [mm] and `bottom`
-    lowered to the lowest point within r <= frame [mm] (frame None: as
-    given)."""
+    the axis, coloured by body (BODY_COLOURS); adds (body, kind) to the set
+    `present` for what it draws (kind 0 elements, 1 particles); returns the
+    extent (largest r, largest z) [mm] and `bottom` lowered to the lowest
+    point within r <= frame [mm] (frame None: as given)."""
     from matplotlib.collections import PolyCollection
 
     extent = [0.0, 0.0]
+    conn = g["connectivity"][...] if "connectivity" in g else np.zeros((0, 3), dtype=int)
+    xp = g["particles/x"][...] * 1e3 if "particles" in g else np.zeros((0, 2))
+    if len(conn):
+        x = g["nodes"][...] * 1e3
+        body = g["body"][...] if "body" in g else np.zeros(len(conn), dtype=int)
+        faces = [_body_colour(b, 0) for b in body]
+        present.update((int(b), 0) for b in np.unique(body))
+        used = x[np.unique(conn)]
+        extent = [used[:, 0].max(), used[:, 1].max()]
+        if frame:
+            bottom = min(bottom, used[used[:, 0] <= frame, 1].min(initial=bottom))
+    if len(xp):
+        p_body = g["particles/body"][...] if "particles/body" in g else np.zeros(len(xp), dtype=int)
+        dots = [_body_colour(b, 1) for b in p_body]
+        present.update((int(b), 1) for b in np.unique(p_body))
+        extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
+        if frame:
+            bottom = min(bottom, xp[xp[:, 0] <= frame, 1].min(initial=bottom))
     for side in (1.0, -1.0):
-        if "connectivity" in g:
-            x = g["nodes"][...] * 1e3
-            tri = x[g["connectivity"][...]]
+        if len(conn):
+            tri = x[conn]
             tri[..., 0] *= side
-            ax.add_collection(PolyCollection(tri, facecolors=ELEMENT_COLOUR, edgecolors="white",
+            ax.add_collection(PolyCollection(tri, facecolors=faces, edgecolors="white",
                                              linewidths=0.15, alpha=0.9))
-            extent = [max(extent[0], x[:, 0].max()), max(extent[1], x[:, 1].max())]
-            if frame:
-                bottom = min(bottom, x[x[:, 0] <= frame, 1].min(initial=bottom))
-        if "particles" in g:
-            xp = g["particles/x"][...] * 1e3
-            ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, color=PARTICLE_COLOUR, linewidths=0)
-            extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
-            if frame:
-                bottom = min(bottom, xp[xp[:, 0] <= frame, 1].min(initial=bottom))
+        if len(xp):
+            ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, c=dots, linewidths=0)
     return extent, bottom
 
 
-def _mark_experiment(ax, experiment, w_height):
-    """The experiment's final length (dashed line), foot diameter D at
-    z = 0 and width W at w_height [mm], those it has."""
+def _mark_experiment(ax, experiment):
+    """The experiment's final length L (dashed line), impact-face diameter D
+    (long ticks at z = 0) and width W (short ticks at its height above the
+    face) [mm], those it has, each tick pair lettered."""
     if "L_mm" in experiment:
         ax.axhline(experiment["L_mm"], color="k", ls="--", lw=0.8)
-    if "D_mm" in experiment:
-        ax.plot([-experiment["D_mm"] / 2, experiment["D_mm"] / 2], [0.0, 0.0], "k|",
-                ms=12, mew=1.5)
-    if "W_mm" in experiment and w_height:
-        ax.plot([-experiment["W_mm"] / 2, experiment["W_mm"] / 2], [w_height, w_height],
-                "k|", ms=8, mew=1.5)
+    ticks = [("D", 0.0, 12)]
+    if experiment.get("w_height_mm"):
+        ticks.append(("W", experiment["w_height_mm"], 8))
+    for letter, z, size in ticks:
+        if f"{letter}_mm" in experiment:
+            half = experiment[f"{letter}_mm"] / 2
+            ax.plot([-half, half], [z, z], "k|", ms=size, mew=1.5)
+            ax.annotate(letter, (half, z), xytext=(4, 3), textcoords="offset points",
+                        fontsize=8, ha="left", va="bottom")
 
 
-def _shapes_legend(fig, experiment):
-    """Legend of the shapes: elements, particles, and the experiment's
-    marks where there are some."""
+def _shapes_legend(fig, present, names, experiment):
+    """Legend of the shapes: the elements and particles of each body that the
+    panels show, and the experiment's marks where there are some, each
+    saying what it is (fsph.metrics.taylor's definitions)."""
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], color=ELEMENT_COLOUR, lw=6, label="elements"),
-               Line2D([], [], color=PARTICLE_COLOUR, marker="o", ls="", label="particles")]
-    if experiment:
-        handles.append(Line2D([], [], color="k", ls="--", label="experiment L, D, W"))
-    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.95), ncol=3,
-               frameon=False)
+    handles = []
+    for body, kind in sorted(present):
+        name = _body_name(names, body)
+        if kind == 0:
+            handles.append(Line2D([], [], color=_body_colour(body, 0), lw=6,
+                                  label=f"{name}: elements"))
+        else:
+            handles.append(Line2D([], [], color=_body_colour(body, 1), marker="o", ls="",
+                                  label=f"{name}: particles"))
+    if "L_mm" in experiment:
+        handles.append(Line2D([], [], color="k", ls="--", lw=0.8,
+                              label=f"experiment L = {experiment['L_mm']:.3g} mm: final length"))
+    if "D_mm" in experiment:
+        band = experiment.get("face_band_mm")
+        within = f", widest within {band:.2g} mm of the face" if band else ""
+        handles.append(Line2D([], [], color="k", marker="|", ls="", ms=12, mew=1.5,
+                              label=f"experiment D = {experiment['D_mm']:.3g} mm: impact-face "
+                                    f"diameter{within}"))
+    if "W_mm" in experiment and experiment.get("w_height_mm"):
+        handles.append(Line2D([], [], color="k", marker="|", ls="", ms=8, mew=1.5,
+                              label=f"experiment W = {experiment['W_mm']:.3g} mm: diameter "
+                                    f"{experiment['w_height_mm']:.3g} mm above the impact face"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=max(1, min(2, len(handles))),
+               frameon=False, fontsize=8)
+
+
+def _shapes_figure(run_dir, times_us=None):
+    """The figure of deformed_shapes (matplotlib Figure, not saved)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    summary = json.loads((Path(run_dir) / "summary.json").read_text())
+    experiment, frame = _shape_marks(summary)
+    names = body_names(summary)
+    present = set()
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        chosen = [(time, g) for _, time, g in choose_snapshots(_snapshots(h5), times_us)]
+        fig, axes = plt.subplots(1, len(chosen), sharey=True, squeeze=False,
+                                 layout="constrained")
+        axes = axes[0]
+        top = experiment.get("L_mm", 0.0)
+        width = experiment.get("D_mm", 0.0) / 2
+        bottom = -0.5
+        for ax, (time, g) in zip(axes, chosen):
+            extent, bottom = _draw_body(ax, g, frame, bottom, present)
+            _mark_experiment(ax, experiment)
+            ax.set_title(f"{format_us(time * 1e6)} µs")
+            ax.set_xlabel("r [mm]")
+            top = max(top, extent[1])
+            width = max(width, extent[0])
+    if frame:
+        width = frame / 1.15
+    z_low = bottom - 0.05 * (top - bottom) if frame else bottom
+    for ax in axes:
+        ax.set_xlim(-1.15 * width, 1.15 * width)
+        ax.set_ylim(z_low, 1.05 * top)
+        ax.set_aspect("equal")
+    axes[0].set_ylabel("z [mm]")
+    # panels as tall as the bodies are, within reason [inches]
+    panel_height = 5.0
+    panel_width = min(max(panel_height * 2.3 * width / (1.05 * top - z_low), 1.3), 4.5)
+    fig.set_size_inches(len(axes) * panel_width + 1.0, panel_height + 1.8)
+    fig.suptitle(summary.get("title") or summary.get("case", ""))
+    _shapes_legend(fig, present, names, experiment)
+    return fig
 
 
 def deformed_shapes(run_dir, times_us=None, output=None, dpi=150):
     """Write a PNG with one panel per snapshot drawn (choose_snapshots: the
     snapshot nearest each requested time [µs], each once; without times,
     four spread evenly from the first snapshot to the last), each titled
-    with its snapshot's time, the body mirrored about the axis; returns the
-    PNG path. A debris run (&metrics kind 'debris') gets debris_cloud's
-    picture instead."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    with its snapshot's time, the bodies mirrored about the axis, elements
+    and particles in colours of their own for each body, the legend naming
+    only those drawn, and the experiment's L, D and W marked and explained
+    (Xiao et al. 2012 Fig. 8); returns the PNG path. A debris run
+    (&metrics kind 'debris') gets debris_cloud's picture instead."""
     run_dir = Path(run_dir)
     output = Path(output) if output else run_dir / "shapes.png"
     summary = json.loads((run_dir / "summary.json").read_text())
     if "debris" in summary.get("metrics", {}):
         return debris_cloud(run_dir, times_us, output, dpi)
-    experiment, w_height, frame = _shape_marks(summary)
-
-    with h5py.File(run_dir / "fsph.h5", "r") as h5:
-        chosen = [(time, g) for _, time, g in choose_snapshots(_snapshots(h5), times_us)]
-        fig, axes = plt.subplots(1, len(chosen), figsize=(3.2 * len(chosen), 6.0), sharey=True)
-        axes = np.atleast_1d(axes)
-        top = experiment.get("L_mm", 0.0)
-        width = experiment.get("D_mm", 0.0) / 2
-        bottom = -0.5
-        for ax, (time, g) in zip(axes, chosen):
-            extent, bottom = _draw_body(ax, g, frame, bottom)
-            _mark_experiment(ax, experiment, w_height)
-            ax.set_title(f"{format_us(time * 1e6)} µs")
-            ax.set_xlabel("r [mm]")
-            top = max(top, extent[1])
-            width = max(width, extent[0])
-        if frame:
-            width = frame / 1.15
-        for ax in axes:
-            ax.set_xlim(-1.15 * width, 1.15 * width)
-            ax.set_ylim(bottom - 0.05 * (top - bottom) if frame else bottom, 1.05 * top)
-            ax.set_aspect("equal")
-        axes[0].set_ylabel("z [mm]")
-        fig.suptitle(summary.get("title") or summary.get("case", ""))
-        _shapes_legend(fig, experiment)
-        fig.tight_layout(rect=(0, 0.02, 1, 0.9))
-        # equal aspect shrinks the axes after the layout: save what is drawn
-        _save(fig, output, dpi, bbox_inches="tight")
+    _save(_shapes_figure(run_dir, times_us), output, dpi, bbox_inches="tight")
     return output
 
 

@@ -28,18 +28,72 @@ def elastic_run(tmp_path_factory):
     return folder / "out"
 
 
+@pytest.fixture(scope="module")
+def taylor_run(tmp_path_factory):
+    """An adaptive Armco rod at 400 m/s onto the rigid plane for 2 µs, with
+    &metrics taylor and a reference of L, D and W: its elements turn into
+    particles that reach z = 0."""
+    folder = tmp_path_factory.mktemp("taylor")
+    (folder / "rod.json").write_text(
+        '{"source": "test", "taylor": {"L_mm": 3.9, "D_mm": 2.4, "W_mm": 2.1}}')
+    deck = folder / "rod.nml"
+    deck.write_text(rod_deck(control="mode = 'adaptive'\n end_time = 2e-6",
+                             material="name = 'steel'\n library = 'armco_iron'",
+                             body="velocity_z = -400.0\n n_radial = 6\n n_axial = 24",
+                             output="reference = 'rod.json'")
+                    .replace("n_snapshots = 2", "n_snapshots = 4")
+                    + "&convert\n theta_c = 40.0\n/\n&metrics\n kind = 'taylor'\n/\n")
+    summary = run(deck, folder / "out", quiet=True)
+    assert summary["n_converted"] > 0
+    return folder / "out"
+
+
+@pytest.fixture(scope="module")
+def block_run(tmp_path_factory):
+    """A steel rod at 600 m/s into an HJC concrete block (two bodies), adaptive,
+    6 µs, as a perforation run with a reference residual velocity."""
+    folder = tmp_path_factory.mktemp("block")
+    (folder / "block.json").write_text(
+        '{"source": "test", "perforation": {"residual_velocity_m_s": 555.0}}')
+    deck = folder / "block.nml"
+    deck.write_text(rod_deck(control="mode = 'adaptive'\n end_time = 6e-6",
+                             material="name = 'steel'\n library = 'projectile_bilinear_concrete'",
+                             body="velocity_z = -600.0\n n_radial = 4\n n_axial = 16\n"
+                                  " z_base = 0.05e-3", boundary=False,
+                             output="reference = 'block.json'")
+                    .replace("n_snapshots = 2", "n_snapshots = 6")
+                    + "&material\n name = 'concrete'\n library = 'concrete_48mpa_hjc'\n/\n"
+                    "&body\n name = 'block'\n material = 'concrete'\n radius = 6.0e-3\n"
+                    " length = 4.0e-3\n z_base = -4.0e-3\n n_radial = 12\n n_axial = 8\n/\n"
+                    "&metrics\n kind = 'perforation'\n body = 'rod'\n target = 'block'\n/\n")
+    summary = run(deck, folder / "out", quiet=True)
+    assert summary["reference"]["applies"]
+    return folder / "out"
+
+
+def _inside(inner, outer):
+    return (inner.x0 >= outer.x0 and inner.y0 >= outer.y0 and inner.x1 <= outer.x1
+            and inner.y1 <= outer.y1)
+
+
+def _legend_texts(fig):
+    return [t.get_text() for legend in fig.legends + [ax.get_legend() for ax in fig.axes]
+            if legend for t in legend.get_texts()]
+
+
 def plot_cli(monkeypatch, capsys, run_dir, *args):
     """`fsph plot RUN_DIR ARGS` in this process: its exit code, the lines it
     printed and the figures it drew (drawn, by file name)."""
     import fsph.plot
     from fsph.cli import main
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     figures = {}
     save = fsph.plot._save
 
     def keep(fig, output, dpi, **kwargs):
-        fig.canvas.draw()
-        figures[Path(output).name] = fig
         save(fig, output, dpi, **kwargs)
+        FigureCanvasAgg(fig).draw()         # closing the figure took its canvas
+        figures[Path(output).name] = fig
     monkeypatch.setattr(fsph.plot, "_save", keep)
     code = main(["plot", str(run_dir), *args])
     return code, capsys.readouterr().out.splitlines(), figures
@@ -199,3 +253,50 @@ def test_times_on_one_snapshot_share_a_panel(elastic_run, monkeypatch, capsys):
     assert [line for line in lines if line.startswith("fsph plot:")] == [
         "fsph plot: drew the nearest snapshots: 10 µs → 1 µs, 20 µs → 1 µs; "
         "2 times fall on 1 snapshot, drawn once"]
+
+
+def test_shapes_keep_their_labels_and_explain_the_marks(taylor_run, monkeypatch, capsys):
+    """Particles at z = 0: every axis label and the legend lie inside the
+    figure, the legend clear of the panels; it names the rod's elements and
+    particles and says what L, D and W are (fsph.metrics.taylor)."""
+    code, _, figures = plot_cli(monkeypatch, capsys, taylor_run)
+    assert code == 0
+    fig = figures["shapes.png"]
+    renderer = fig.canvas.get_renderer()
+    with h5py.File(taylor_run / "fsph.h5", "r") as h5:
+        snaps = h5["snapshots"]
+        assert snaps[sorted(snaps)[-1]]["particles/x"][:, 1].min() < 0.2e-3
+    for ax in fig.axes:
+        for label in (ax.xaxis.label, ax.yaxis.label):
+            if label.get_text():
+                assert _inside(label.get_window_extent(renderer), fig.bbox), label.get_text()
+    legend = fig.legends[0].get_window_extent(renderer)
+    assert _inside(legend, fig.bbox)
+    assert not any(legend.overlaps(ax.get_window_extent(renderer)) for ax in fig.axes)
+    texts = _legend_texts(fig)
+    assert texts[:2] == ["rod: elements", "rod: particles"]
+    assert "experiment L = 3.9 mm: final length" in texts
+    assert any(t.startswith("experiment D = 2.4 mm: impact-face diameter") for t in texts)
+    assert "experiment W = 2.1 mm: diameter 0.8 mm above the impact face" in texts
+
+
+def test_shapes_legend_names_only_what_is_drawn(elastic_run, monkeypatch, capsys):
+    code, _, figures = plot_cli(monkeypatch, capsys, elastic_run)
+    assert code == 0
+    assert _legend_texts(figures["shapes.png"]) == ["rod: elements"]
+
+
+def test_shapes_colour_each_body(block_run, monkeypatch, capsys):
+    """Projectile and target in colours of their own, in the panels and the legend."""
+    from matplotlib.colors import to_hex
+    from matplotlib.collections import PolyCollection
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run, "--times", "6")
+    assert code == 0
+    fig = figures["shapes.png"]
+    legend = fig.legends[0]
+    colours = {t.get_text(): to_hex(h.get_color())
+               for t, h in zip(legend.get_texts(), legend.legend_handles)}
+    assert colours["rod: elements"] != colours["block: elements"]
+    faces = {to_hex(c) for coll in fig.axes[0].collections if isinstance(coll, PolyCollection)
+             for c in coll.get_facecolors()}
+    assert {colours["rod: elements"], colours["block: elements"]} <= faces
