@@ -456,19 +456,37 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
     return output
 
 
-def histories(run_dir, output=None, dpi=150):
-    """Write a PNG of the time histories of a run: kinetic, internal and
-    total energy, and the time step; returns the PNG path."""
+#: the history rows within this many stable steps of the end time of a run
+#: that reached it are the landing's (the solver shortens the last one or
+#: two steps to end on it: fsph_solver's solver_advance)
+LANDING_STEPS = 2.0
+
+
+def _landing_rows(time, dt, end_time):
+    """How many rows at the end of the history belong to the landing on the
+    end time [s] (0 when the history stops elsewhere: a failed or stopped
+    run): those within LANDING_STEPS stable steps of it, the stable step
+    being the largest step of the last three rows."""
+    if len(time) < 3 or end_time is None or not abs(time[-1] - end_time) <= 1e-9 * end_time:
+        return 0
+    stable = dt[-3:].max()
+    return int(np.count_nonzero(time > time[-1] - LANDING_STEPS * stable * (1.0 - 1e-9)))
+
+
+def _history_figure(run_dir):
+    """The figure of histories (matplotlib Figure, not saved)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     run_dir = Path(run_dir)
-    output = Path(output) if output else run_dir / "history.png"
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
         hist = {k: h5["history"][k][...] for k in h5["history"]}
+    summary_path = run_dir / "summary.json"
+    summary = json.loads(summary_path.read_text()) if summary_path.is_file() else {}
     t = hist["time"] * 1e6
-    fig, (ax_e, ax_dt) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    fig, (ax_e, ax_err, ax_dt) = plt.subplots(3, 1, figsize=(7, 8), sharex=True,
+                                              height_ratios=(2, 1, 1), layout="constrained")
     ax_e.plot(t, hist["kinetic"], label="kinetic")
     ax_e.plot(t, hist["internal"], label="internal")
     if "contact" in hist and hist["contact"].any():
@@ -480,11 +498,44 @@ def histories(run_dir, output=None, dpi=150):
     ax_e.plot(t, hist["total"], "k", lw=1.2, label="total")
     ax_e.set_ylabel("energy [J]")
     ax_e.legend(frameon=False)
-    ax_dt.plot(t[1:], hist["dt"][1:] * 1e9, lw=0.8)
+    # the error as the run reports it: the total against the initial energy
+    initial = summary.get("energy", {}).get("initial_J") or (hist["total"][0] if len(t) else 0.0)
+    if initial:
+        error = 100.0 * (hist["total"] - initial) / initial
+        ax_err.plot(t, error, "k", lw=1.0,
+                    label=f"(total - initial) / initial, {error[-1]:+.3g} % at the end")
+        ax_err.axhline(0.0, color="0.6", lw=0.6)
+        ax_err.legend(frameon=False, fontsize="small")
+    else:
+        ax_err.text(0.5, 0.5, "no initial energy: no relative error", ha="center",
+                    va="center", transform=ax_err.transAxes)
+    ax_err.set_ylabel("energy error [%]")
+    landing = _landing_rows(hist["time"], hist["dt"], summary.get("requested_end_time_s"))
+    keep = slice(1, len(t) - landing)
+    ax_dt.plot(t[keep], hist["dt"][keep] * 1e9, lw=0.8)
     ax_dt.set_ylabel("time step [ns]")
-    ax_dt.set_xlabel("t [us]")
-    fig.tight_layout()
-    _save(fig, output, dpi)
+    ax_dt.set_xlabel("t [µs]")
+    if landing:
+        ax_dt.set_title("not drawn: the last step(s), shortened to land on the end time",
+                        fontsize="small", loc="right")
+    fig.suptitle(summary.get("title") or summary.get("case") or run_dir.name)
+    return fig
+
+
+def histories(run_dir, output=None, dpi=150):
+    """Write a PNG of the time histories of a run, titled with the case:
+    kinetic, internal, contact, eroded, rigid-plane and total energy; the
+    relative energy error, (total - initial) / initial [%] (the initial
+    energy of summary.json, else the first total), the quantity of
+    summary.json's energy.relative_error; and the time step. The time-step
+    curve leaves out the step of the first row (none) and, when the run
+    reached its end time, the rows of the landing on it (_landing_rows: the
+    solver shortens the last one or two steps to end on the end time, which
+    drew a spike down at the end that is no property of the run); the
+    panel says so. Returns the PNG path."""
+    run_dir = Path(run_dir)
+    output = Path(output) if output else run_dir / "history.png"
+    _save(_history_figure(run_dir), output, dpi)
     return output
 
 

@@ -300,3 +300,23 @@ def test_shapes_colour_each_body(block_run, monkeypatch, capsys):
     faces = {to_hex(c) for coll in fig.axes[0].collections if isinstance(coll, PolyCollection)
              for c in coll.get_facecolors()}
     assert {colours["rod: elements"], colours["block: elements"]} <= faces
+
+
+def test_history_has_title_energy_error_and_no_landing_step(elastic_run, monkeypatch, capsys):
+    """history.png: titled with the case, a curve of the relative energy
+    error ending on summary.json's, and a time-step curve without the steps
+    shortened to land on the end time."""
+    import json
+    code, _, figures = plot_cli(monkeypatch, capsys, elastic_run)
+    assert code == 0
+    fig = figures["history.png"]
+    summary = json.loads((elastic_run / "summary.json").read_text())
+    assert fig._suptitle.get_text() == "test rod"
+    axes = {ax.get_ylabel(): ax for ax in fig.axes}
+    error = axes["energy error [%]"].get_lines()[0].get_ydata()
+    assert error[-1] == pytest.approx(100 * summary["energy"]["relative_error"], rel=1e-9)
+    with h5py.File(elastic_run / "fsph.h5", "r") as h5:
+        time = h5["history/time"][...] * 1e6
+    assert time[-1] == pytest.approx(1.0)
+    steps = axes["time step [ns]"].get_lines()[0].get_xdata()
+    assert list(steps) == list(time[1:-1])        # no first row (no step), no landing
