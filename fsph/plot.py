@@ -539,30 +539,61 @@ def histories(run_dir, output=None, dpi=150):
     return output
 
 
-def perforation_histories(run_dir, output=None, dpi=150):
-    """Write a PNG of a perforation run's histories at the snapshots
-    (projectile velocity, penetration depth, hole diameter) from
-    summary.json; returns the PNG path, or None for other runs."""
+def _experiment_residual(summary):
+    """The experiment's residual velocity [m/s] the run is compared with
+    (summary.json reference.comparison.perforation; None without one, or
+    where the reference does not apply to the run)."""
+    ref = summary.get("reference") or {}
+    if not ref.get("applies", True):
+        return None
+    cmp = ref.get("comparison", {}).get("perforation", {}).get("residual_velocity_m_s")
+    return cmp["reference"] if cmp else None
+
+
+def _perforation_figure(run_dir):
+    """The figure of perforation_histories (None for a run that is not a
+    perforation run)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    run_dir = Path(run_dir)
-    series = json.loads((run_dir / "summary.json").read_text()).get("metrics", {}).get("series")
+    summary = json.loads((Path(run_dir) / "summary.json").read_text())
+    series = summary.get("metrics", {}).get("series")
     if not series or "velocity_z_m_s" not in series:
         return None
-    output = Path(output) if output else run_dir / "perforation.png"
     t = series["time_us"]
+    speed = [abs(v) for v in series["velocity_z_m_s"]]
     hole = [h if h is not None else float("nan") for h in series["hole_diameter_mm"]]
-    fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True)
-    axes[0].plot(t, [abs(v) for v in series["velocity_z_m_s"]], "o-", ms=3)
+    fig, axes = plt.subplots(3, 1, figsize=(7, 7.4), sharex=True, layout="constrained")
+    axes[0].plot(t, speed, "o-", ms=3, label=f"fsph, {speed[-1]:.4g} m/s at the end")
+    experiment = _experiment_residual(summary)
+    if experiment is not None:
+        axes[0].axhline(experiment, color="k", ls="--", lw=0.8)
+        axes[0].plot([t[-1]], [experiment], "k*", ms=11, ls="--", lw=0.8,
+                     label=f"experiment: residual velocity {experiment:.4g} m/s")
     axes[0].set_ylabel("projectile velocity [m/s]")
+    axes[0].legend(frameon=False, fontsize="small")
     axes[1].plot(t, series["penetration_mm"], "o-", ms=3)
     axes[1].set_ylabel("penetration [mm]")
     axes[2].plot(t, hole, "o-", ms=3)
     axes[2].set_ylabel("hole diameter [mm]")
-    axes[2].set_xlabel("t [us]")
-    fig.tight_layout()
+    axes[2].set_xlabel("t [µs]")
+    fig.suptitle(summary.get("title") or summary.get("case", ""))
+    return fig
+
+
+def perforation_histories(run_dir, output=None, dpi=150):
+    """Write a PNG of a perforation run's histories at the snapshots
+    (projectile velocity, penetration depth, hole diameter) from
+    summary.json, titled with the case; the experiment's residual velocity
+    the run is compared with (summary.json reference.comparison.perforation)
+    is a star at the end time on a dashed line, with its legend entry.
+    Returns the PNG path, or None for other runs."""
+    run_dir = Path(run_dir)
+    fig = _perforation_figure(run_dir)
+    if fig is None:
+        return None
+    output = Path(output) if output else run_dir / "perforation.png"
     _save(fig, output, dpi)
     return output
 

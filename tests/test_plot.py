@@ -320,3 +320,17 @@ def test_history_has_title_energy_error_and_no_landing_step(elastic_run, monkeyp
     assert time[-1] == pytest.approx(1.0)
     steps = axes["time step [ns]"].get_lines()[0].get_xdata()
     assert list(steps) == list(time[1:-1])        # no first row (no step), no landing
+
+
+def test_perforation_draws_the_experimental_residual_velocity(block_run, monkeypatch, capsys):
+    """perforation.png: the reference's residual velocity is a marked point
+    with a legend entry beside the run's velocity history."""
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run)
+    assert code == 0
+    fig = figures["perforation.png"]
+    assert fig._suptitle.get_text() == "test rod"
+    velocity = next(ax for ax in fig.axes if ax.get_ylabel() == "projectile velocity [m/s]")
+    assert "experiment: residual velocity 555 m/s" in _legend_texts(fig)
+    marks = [line for line in velocity.get_lines() if line.get_label().startswith("experiment")]
+    assert len(marks) == 1 and list(marks[0].get_ydata()) == [555.0]
+    assert marks[0].get_marker() not in (None, "None", "")
