@@ -149,7 +149,7 @@ def _plot(args):
         print(deformed_shapes(run_dir, times, args.output, args.dpi))
         print(histories(run_dir, dpi=args.dpi))
         for extra in (perforation_histories(run_dir, dpi=args.dpi),
-                      damage_map(run_dir, dpi=args.dpi)):
+                      damage_map(run_dir, times, dpi=args.dpi)):
             if extra:
                 print(extra)
     except OSError as err:

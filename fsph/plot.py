@@ -41,15 +41,6 @@ def _same_time(a_us, b_us):
     return format_us(a_us) == format_us(b_us)
 
 
-def _nearest_snapshots(snaps, times_us):
-    """The (time, group) of `snaps` nearest each of times_us [µs]."""
-    chosen = []
-    for t in times_us:
-        k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
-        chosen.append(snaps[k])
-    return chosen
-
-
 def choose_snapshots(snaps, times_us=None, fractions=None, n=DEFAULT_PANELS):
     """The snapshots to draw, each once, in time order: a list of
     (requested times [µs], time [s], group). With times_us, the snapshot
@@ -598,63 +589,112 @@ def perforation_histories(run_dir, output=None, dpi=150):
     return output
 
 
-def damage_map(run_dir, times_us=None, output=None, dpi=150):
-    """Write a PNG of the damage field (HJC damage D, 0 to 1) at chosen
-    times (the nearest snapshots; default: four spread over the run), one
-    panel each, elements as filled triangles and particles as dots,
-    mirrored about the axis (as Xiao et al. 2012 Fig. 13); returns the PNG path,
-    or None when no point of the run is damaged."""
+#: colour of the bodies never damaged in a damage map (outside the damage colour map)
+UNDAMAGED_COLOUR = "#8fa3b8"
+#: where the damage map's default panels fall, as fractions of the run
+DAMAGE_FRACTIONS = (0.25, 0.5, 0.75, 1.0)
+
+
+def _damaged_bodies(snaps):
+    """Indices of the bodies with a damaged point (D > 0) in any snapshot."""
+    damaged = set()
+    for _, g in snaps:
+        for prefix in ("", "particles/"):
+            if f"{prefix}damage" in g and f"{prefix}body" in g:
+                damage = g[f"{prefix}damage"][...]
+                damaged.update(int(b) for b in np.unique(g[f"{prefix}body"][...][damage > 0.0]))
+    return damaged
+
+
+def _damage_figure(run_dir, times_us=None):
+    """The figure of damage_map (None when no point of the run is damaged)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Patch
 
     run_dir = Path(run_dir)
-    output = Path(output) if output else run_dir / "damage.png"
+    summary = json.loads((run_dir / "summary.json").read_text())
+    names = body_names(summary)
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
         snaps = _snapshots(h5)
-        last = snaps[-1][1]
-        damaged = (("damage" in last and last["damage"][...].max(initial=0.0) > 0.0)
-                   or ("particles/damage" in last
-                       and last["particles/damage"][...].max(initial=0.0) > 0.0))
+        damaged = _damaged_bodies(snaps)
         if not damaged:
             return None
-        if times_us is None:
-            end = snaps[-1][0] * 1e6
-            times_us = [end * f for f in (0.25, 0.5, 0.75, 1.0)]
-        chosen = _nearest_snapshots(snaps, times_us)
-        fig, axes = plt.subplots(1, len(chosen), figsize=(3.4 * len(chosen), 3.6),
+        chosen = choose_snapshots(snaps, times_us, fractions=DAMAGE_FRACTIONS)
+        fig, axes = plt.subplots(1, len(chosen), figsize=(3.4 * len(chosen), 4.2),
                                  sharey=True, squeeze=False, layout="constrained")
         axes = axes[0]
         cmap = plt.get_cmap("inferno_r")
         lo = np.array([np.inf, np.inf])
         hi = -lo
-        for ax, (time, g) in zip(axes, chosen):
+        undamaged = set()
+        for ax, (_, time, g) in zip(axes, chosen):
             for side in (1.0, -1.0):
-                if "connectivity" in g:
+                if "connectivity" in g and len(g["connectivity"]):
                     x = g["nodes"][...] * 1e3
-                    tri = x[g["connectivity"][...]]
+                    conn = g["connectivity"][...]
+                    body = g["body"][...]
+                    hit = np.isin(body, list(damaged))
+                    tri = x[conn]
                     tri[..., 0] *= side
-                    coll = PolyCollection(tri, cmap=cmap, edgecolors="none")
-                    coll.set_array(g["damage"][...])
+                    coll = PolyCollection(tri[hit], cmap=cmap, edgecolors="none")
+                    coll.set_array(g["damage"][...][hit])
                     coll.set_clim(0.0, 1.0)
                     ax.add_collection(coll)
-                    lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
-                if "particles" in g:
+                    if (~hit).any():
+                        ax.add_collection(PolyCollection(tri[~hit], facecolors=UNDAMAGED_COLOUR,
+                                                         edgecolors="none"))
+                        undamaged.update(int(b) for b in np.unique(body[~hit]))
+                    used = x[np.unique(conn)]
+                    lo, hi = np.minimum(lo, used.min(axis=0)), np.maximum(hi, used.max(axis=0))
+                if "particles" in g and len(g["particles/x"]):
                     xp = g["particles/x"][...] * 1e3
-                    ax.scatter(side * xp[:, 0], xp[:, 1], c=g["particles/damage"][...], s=1.5,
-                               cmap=cmap, vmin=0.0, vmax=1.0, linewidths=0)
+                    p_body = g["particles/body"][...]
+                    hit = np.isin(p_body, list(damaged))
+                    ax.scatter(side * xp[hit, 0], xp[hit, 1], c=g["particles/damage"][...][hit],
+                               s=1.5, cmap=cmap, vmin=0.0, vmax=1.0, linewidths=0)
+                    if (~hit).any():
+                        ax.scatter(side * xp[~hit, 0], xp[~hit, 1], color=UNDAMAGED_COLOUR,
+                                   s=1.5, linewidths=0)
+                        undamaged.update(int(b) for b in np.unique(p_body[~hit]))
                     lo, hi = np.minimum(lo, xp.min(axis=0)), np.maximum(hi, xp.max(axis=0))
-            ax.set_title(f"{time * 1e6:.0f} µs")
+            ax.set_title(f"{format_us(time * 1e6)} µs")
             ax.set_xlabel("r [mm]")
             ax.set_aspect("equal")
-        for ax in axes:
-            ax.set_xlim(-hi[0], hi[0])
-            ax.set_ylim(lo[1], hi[1])
-        axes[0].set_ylabel("z [mm]")
-        sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, 1.0))
-        fig.colorbar(sm, ax=list(axes), shrink=0.9, label="damage D")
-        _save(fig, output, dpi)
+    for ax in axes:
+        ax.set_xlim(-hi[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+    axes[0].set_ylabel("z [mm]")
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, 1.0))
+    fig.colorbar(sm, ax=list(axes), shrink=0.9, label="damage D")
+    if undamaged:
+        fig.legend(handles=[Patch(facecolor=UNDAMAGED_COLOUR,
+                                  label=f"{_body_name(names, b)}: no damage in this run")
+                            for b in sorted(undamaged)],
+                   loc="outside lower center", ncol=len(undamaged), frameon=False,
+                   fontsize="small")
+    fig.suptitle(summary.get("title") or summary.get("case", ""))
+    return fig
+
+
+def damage_map(run_dir, times_us=None, output=None, dpi=150):
+    """Write a PNG of the damage field (HJC or Johnson-Cook damage D, 0 to
+    1) at chosen times (choose_snapshots: the snapshot nearest each
+    requested time [µs], each once; default: four, at a quarter, half,
+    three quarters and the end of the run), one panel each titled with its
+    snapshot's time, elements as filled triangles and particles as dots,
+    mirrored about the axis (as Xiao et al. 2012 Fig. 13); a body with no
+    damaged point in the whole run (a steel projectile) is drawn in a
+    neutral colour outside the colour map, named in the legend. Returns
+    the PNG path, or None when no point of the run is damaged."""
+    run_dir = Path(run_dir)
+    fig = _damage_figure(run_dir, times_us)
+    if fig is None:
+        return None
+    output = Path(output) if output else run_dir / "damage.png"
+    _save(fig, output, dpi)
     return output
 
 

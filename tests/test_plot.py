@@ -334,3 +334,25 @@ def test_perforation_draws_the_experimental_residual_velocity(block_run, monkeyp
     marks = [line for line in velocity.get_lines() if line.get_label().startswith("experiment")]
     assert len(marks) == 1 and list(marks[0].get_ydata()) == [555.0]
     assert marks[0].get_marker() not in (None, "None", "")
+
+
+def test_damage_map_honours_times_and_greys_the_undamaged_body(block_run, monkeypatch, capsys):
+    """damage.png: the panels at the requested times (as shapes.png), and
+    the steel rod, never damaged, in the neutral colour named in the legend
+    rather than the colour of undamaged concrete."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import to_hex
+    from fsph.plot import UNDAMAGED_COLOUR, format_us
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run, "--times", "2.2,6")
+    assert code == 0
+    times = _snapshot_times_us(block_run)
+    expected = [f"{format_us(min(times, key=lambda t: abs(t - r)))} µs" for r in (2.2, 6.0)]
+    fig = figures["damage.png"]
+    assert _titles(fig) == expected == _titles(figures["shapes.png"])
+    assert _legend_texts(fig) == ["rod: no damage in this run"]
+    for ax in (ax for ax in fig.axes if ax.get_title()):
+        polys = [c for c in ax.collections if isinstance(c, PolyCollection)]
+        neutral = [c for c in polys if c.get_array() is None]
+        assert neutral and all(to_hex(f) == UNDAMAGED_COLOUR
+                               for c in neutral for f in c.get_facecolors())
+        assert any(c.get_array() is not None and c.get_array().max() > 0.0 for c in polys)
