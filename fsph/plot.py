@@ -144,7 +144,7 @@ def _draw_body(ax, g, frame, bottom, present):
     the axis, coloured by body (BODY_COLOURS); adds (body, kind) to the set
     `present` for what it draws (kind 0 elements, 1 particles); returns the
     extent (largest r, largest z) [mm] and `bottom` lowered to the lowest
-    point within r <= frame [mm] (frame None: as given)."""
+    point within r <= frame [mm] (frame None: of all points)."""
     from matplotlib.collections import PolyCollection
 
     extent = [0.0, 0.0]
@@ -157,15 +157,13 @@ def _draw_body(ax, g, frame, bottom, present):
         present.update((int(b), 0) for b in np.unique(body))
         used = x[np.unique(conn)]
         extent = [used[:, 0].max(), used[:, 1].max()]
-        if frame:
-            bottom = min(bottom, used[used[:, 0] <= frame, 1].min(initial=bottom))
+        bottom = min(bottom, used[used[:, 0] <= (frame or np.inf), 1].min(initial=bottom))
     if len(xp):
         p_body = g["particles/body"][...] if "particles/body" in g else np.zeros(len(xp), dtype=int)
         dots = [_body_colour(b, 1) for b in p_body]
         present.update((int(b), 1) for b in np.unique(p_body))
         extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
-        if frame:
-            bottom = min(bottom, xp[xp[:, 0] <= frame, 1].min(initial=bottom))
+        bottom = min(bottom, xp[xp[:, 0] <= (frame or np.inf), 1].min(initial=bottom))
     for side in (1.0, -1.0):
         if len(conn):
             tri = x[conn]
@@ -253,15 +251,16 @@ def _shapes_figure(run_dir, times_us=None):
             width = max(width, extent[0])
     if frame:
         width = frame / 1.15
-    z_low = bottom - 0.05 * (top - bottom) if frame else bottom
+    z_low = bottom - 0.05 * (top - bottom) if frame or bottom < -0.5 else bottom
     for ax in axes:
         ax.set_xlim(-1.15 * width, 1.15 * width)
         ax.set_ylim(z_low, 1.05 * top)
         ax.set_aspect("equal")
     axes[0].set_ylabel("z [mm]")
-    # panels as tall as the bodies are, within reason [inches]
-    panel_height = 5.0
-    panel_width = min(max(panel_height * 2.3 * width / (1.05 * top - z_low), 1.3), 4.5)
+    # panels of the bodies' proportions, within reason [inches]
+    ratio = (1.05 * top - z_low) / (2.3 * width)
+    panel_width = min(max(5.0 / ratio, 1.3), 4.5)
+    panel_height = min(max(panel_width * ratio, 1.5), 5.0)
     fig.set_size_inches(len(axes) * panel_width + 1.0, panel_height + 1.8)
     fig.suptitle(summary.get("title") or summary.get("case", ""))
     _shapes_legend(fig, present, names, experiment)

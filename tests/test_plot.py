@@ -300,6 +300,8 @@ def test_shapes_colour_each_body(block_run, monkeypatch, capsys):
     faces = {to_hex(c) for coll in fig.axes[0].collections if isinstance(coll, PolyCollection)
              for c in coll.get_facecolors()}
     assert {colours["rod: elements"], colours["block: elements"]} <= faces
+    # no hole yet (no framing by the hole): the whole block is in the panel
+    assert fig.axes[0].get_ylim()[0] <= -4.0
 
 
 def test_history_has_title_energy_error_and_no_landing_step(elastic_run, monkeypatch, capsys):
