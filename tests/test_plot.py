@@ -358,3 +358,21 @@ def test_damage_map_honours_times_and_greys_the_undamaged_body(block_run, monkey
         assert neutral and all(to_hex(f) == UNDAMAGED_COLOUR
                                for c in neutral for f in c.get_facecolors())
         assert any(c.get_array() is not None and c.get_array().max() > 0.0 for c in polys)
+
+
+def test_times_are_in_microseconds_written_µs(block_run, monkeypatch, capsys):
+    """Every label, title and legend of the four pictures, the printed lines
+    and the help of `fsph plot` write µs, never us."""
+    import re
+    from matplotlib.text import Text
+    from fsph.cli import _parser
+    code, lines, figures = plot_cli(monkeypatch, capsys, block_run, "--times", "2,6")
+    assert code == 0
+    assert set(figures) == {"shapes.png", "history.png", "perforation.png", "damage.png"}
+    texts = [t.get_text() for fig in figures.values() for t in fig.findobj(Text)]
+    texts += lines + [_parser()._subparsers._group_actions[0].choices["plot"].format_help()]
+    assert not [t for t in texts if re.search(r"\bus\b", t)]
+    assert sum("µs" in t for t in texts) >= 8
+    assert figures["history.png"].axes[-1].get_xlabel() == "t [µs]"
+    assert figures["perforation.png"].axes[-1].get_xlabel() == "t [µs]"
+    assert any("µs" in line for line in lines)
