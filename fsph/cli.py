@@ -1,6 +1,6 @@
 """Command line: `fsph run DECK [-o DIR]`, `fsph check DECK`, `fsph sweep DECK
 --set KEY=VALUES`, `fsph plot DIR`, `fsph report`, `fsph decks-reference`,
-`fsph info`.
+`fsph info`, `fsph --version`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
 to the last good snapshot are kept; sweep: a variant did not complete); 4
@@ -19,7 +19,10 @@ EXIT_OK, EXIT_ERROR, EXIT_DECK, EXIT_RUN_FAILED, EXIT_INTERRUPTED = 0, 1, 2, 3, 
 
 
 def _parser():
+    from . import __version__
     p = argparse.ArgumentParser(prog="fsph", description="Axisymmetric FEM-SPH impact hydrocode")
+    p.add_argument("--version", action="version", version=f"fsph {__version__}",
+                   help="print the version and exit")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a namelist deck")
     r.add_argument("deck", help="namelist deck (.nml)")
@@ -64,8 +67,13 @@ def _parser():
                                      "histories (perforation.png) and the damage map "
                                      "(damage.png)")
     pl.add_argument("run_dir", help="output folder of `fsph run`")
-    pl.add_argument("--times", default="10,20,40,60",
-                    help="times in microseconds, comma separated (nearest snapshots)")
+    pl.add_argument("--times",
+                    help="times in µs, comma separated: each panel draws the snapshot "
+                         "nearest a time (each snapshot once) and is titled with the "
+                         "snapshot's own time; a line names the snapshots drawn where they "
+                         "are not at the times asked (default: four snapshots spread evenly "
+                         "from the first to the last; a debris run: the snapshot of its "
+                         "metrics)")
     pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png)")
     pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
     rp = sub.add_parser("report", help="run the validation decks (or reuse their outputs) and "
@@ -104,7 +112,7 @@ def _check(deck_path):
 
 
 def _plot_times(text):
-    """--times as a list of finite times >= 0 [us]; InputError otherwise."""
+    """--times as a list of finite times >= 0 [µs]; InputError otherwise."""
     expected = f"--times: expected times in microseconds >= 0 separated by commas, got {text!r}"
     try:
         times = [float(t) for t in text.split(",") if t.strip()]
@@ -117,8 +125,9 @@ def _plot_times(text):
 
 def _plot(args):
     """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
-    from .plot import damage_map, deformed_shapes, histories, perforation_histories
-    times = _plot_times(args.times)
+    from .plot import (damage_map, deformed_shapes, histories, nearest_note,
+                       perforation_histories, snapshot_choice)
+    times = _plot_times(args.times) if args.times is not None else None
     if not PLOT_DPI[0] <= args.dpi <= PLOT_DPI[1]:
         raise InputError(f"--dpi: expected an integer from {PLOT_DPI[0]} to {PLOT_DPI[1]}, "
                          f"got {args.dpi}")
@@ -134,10 +143,13 @@ def _plot(args):
         if not output.parent.is_dir():
             raise InputError(f"-o {output}: expected an existing folder, no {output.parent}")
     try:
+        note = nearest_note(snapshot_choice(run_dir, times)) if times else None
+        if note:
+            print(note)
         print(deformed_shapes(run_dir, times, args.output, args.dpi))
         print(histories(run_dir, dpi=args.dpi))
         for extra in (perforation_histories(run_dir, dpi=args.dpi),
-                      damage_map(run_dir, dpi=args.dpi)):
+                      damage_map(run_dir, times, dpi=args.dpi)):
             if extra:
                 print(extra)
     except OSError as err:

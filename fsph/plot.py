@@ -10,8 +10,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-ELEMENT_COLOUR = "#4a7ab5"
-PARTICLE_COLOUR = "#d9822b"
+#: colours of the bodies in deck order (repeating): (elements, particles);
+#: the first as Xiao et al. 2012 Fig. 8
+BODY_COLOURS = (("#4a7ab5", "#d9822b"),     # blue, orange
+                ("#a0a0a0", "#7b3294"),     # grey, purple
+                ("#74a96b", "#c2185b"),     # green, magenta
+                ("#d4b44a", "#2b8c8c"))     # ochre, teal
 
 
 def _snapshots(h5):
@@ -22,127 +26,262 @@ def _snapshots(h5):
                   key=lambda t: t[0])
 
 
-def _nearest_snapshots(snaps, times_us):
-    """The (time, group) of `snaps` nearest each of times_us [us]."""
-    chosen = []
+#: panels of a picture drawn without --times
+DEFAULT_PANELS = 4
+
+
+def format_us(t_us):
+    """A time [µs] as panel titles and notes print it: four significant
+    digits, so that a snapshot near a requested time does not look at it."""
+    return f"{t_us:.4g}"
+
+
+def _same_time(a_us, b_us):
+    """Whether two times [µs] print the same (format_us)."""
+    return format_us(a_us) == format_us(b_us)
+
+
+def choose_snapshots(snaps, times_us=None, fractions=None, n=DEFAULT_PANELS):
+    """The snapshots to draw, each once, in time order: a list of
+    (requested times [µs], time [s], group). With times_us, the snapshot
+    nearest each requested time (requests that share a snapshot share its
+    panel); without, `n` snapshots spread evenly in time over the run (the
+    targets `fractions` of the way from the first snapshot to the last,
+    default evenly from the first to the last; each target takes the nearest
+    snapshot not yet taken, so a run with n snapshots or more gets n distinct
+    panels), with no requested times."""
+    if times_us is None:
+        start, end = snaps[0][0], snaps[-1][0]
+        fractions = np.linspace(0.0, 1.0, n) if fractions is None else fractions
+        free = list(range(len(snaps)))
+        picked = []
+        for f in fractions:
+            if not free:
+                break
+            target = start + f * (end - start)
+            k = min(free, key=lambda i: abs(snaps[i][0] - target))
+            free.remove(k)
+            picked.append(k)
+        return [([], snaps[k][0], snaps[k][1]) for k in sorted(picked)]
+    requests = {}
     for t in times_us:
         k = int(np.argmin([abs(s[0] * 1e6 - t) for s in snaps]))
-        chosen.append(snaps[k])
-    return chosen
+        requests.setdefault(k, []).append(t)
+    return [(requests[k], snaps[k][0], snaps[k][1]) for k in sorted(requests)]
+
+
+def snapshot_choice(run_dir, times_us):
+    """(requested time, drawn snapshot's time) [µs] for each of times_us
+    (the nearest snapshot of the run in run_dir, as the pictures draw it)."""
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        chosen = choose_snapshots(_snapshots(h5), times_us)
+    return [(t, time * 1e6) for requested, time, _ in chosen for t in requested]
+
+
+def nearest_note(pairs):
+    """One line for `fsph plot` when a requested time has no snapshot at
+    it: each such request and the time of the snapshot drawn for it [µs]
+    (and, when requests fall on one snapshot, that it is drawn once); None
+    when every requested time has a snapshot of its own at it."""
+    pairs = list(pairs)
+    off = [(req, got) for req, got in pairs if not _same_time(req, got)]
+    n_drawn = len({got for _, got in pairs})
+    parts = []
+    if off:
+        parts.append("drew the nearest snapshots: " + ", ".join(
+            f"{format_us(req)} µs → {format_us(got)} µs" for req, got in off))
+    if n_drawn < len(pairs):
+        parts.append(f"{len(pairs)} times fall on {n_drawn} snapshot"
+                     + ("s, each drawn once" if n_drawn > 1 else ", drawn once"))
+    return "fsph plot: " + "; ".join(parts) if parts else None
+
+
+def _save(fig, output, dpi, **kwargs):
+    """Write the figure and close it (tests look at the figure here)."""
+    import matplotlib.pyplot as plt
+    fig.savefig(output, dpi=dpi, **kwargs)
+    plt.close(fig)
 
 
 def _shape_marks(summary):
     """From a run's summary: the experiment's L, D and W [mm] where the
-    reference has them, the height of W [mm] (None without) and, for a
-    perforation run, the half-width framed: three hole diameters [mm]
-    (None otherwise)."""
+    reference has them, the height of W above the impact face [mm] and the
+    band of the impact face in which D is measured [mm] (fsph.metrics.taylor;
+    None without) and, for a perforation run, the half-width framed: three
+    hole diameters [mm] (None otherwise)."""
     experiment = {}
     comparison = summary.get("reference", {}).get("comparison", {}).get("taylor", {})
     for key in ("L_mm", "D_mm", "W_mm"):
         if key in comparison:
             experiment[key] = comparison[key]["reference"]
-    w_height = summary.get("metrics", {}).get("taylor", {}).get("w_height_mm")
+    taylor = summary.get("metrics", {}).get("taylor", {})
+    experiment["w_height_mm"] = taylor.get("w_height_mm")
+    experiment["face_band_mm"] = taylor.get("face_band_mm")
     # a perforation run: frame the impact zone (three hole diameters), not the whole plate
     hole = (summary.get("metrics", {}).get("perforation") or {}).get("hole_diameter_mm")
     frame = 3.0 * hole if hole else None
-    return experiment, w_height, frame
+    return experiment, frame
 
 
-def _draw_body(ax, g, frame, bottom):
+def body_names(summary):
+    """The bodies' names in deck order (the order of their indices in the
+    snapshots), from summary.json."""
+    return list(summary.get("material_state", {}))
+
+
+def _body_name(names, index):
+    return names[index] if index < len(names) else f"body {index + 1}"
+
+
+def _body_colour(index, kind):
+    """Colour of body `index` (0-based, deck order): kind 0 its elements,
+    1 its particles."""
+    return BODY_COLOURS[index % len(BODY_COLOURS)][kind]
+
+
+def _draw_body(ax, g, frame, bottom, present):
     """Draw the elements and particles of snapshot g on ax, mirrored about
-    the axis; returns the extent (largest r, largest z) [mm] and `bottom`
-    lowered to the lowest point within r <= frame [mm] (frame None: as
-    given)."""
+    the axis, coloured by body (BODY_COLOURS); adds (body, kind) to the set
+    `present` for what it draws (kind 0 elements, 1 particles); returns the
+    extent (largest r, largest z) [mm] and `bottom` lowered to the lowest
+    point within r <= frame [mm] (frame None: of all points)."""
     from matplotlib.collections import PolyCollection
 
     extent = [0.0, 0.0]
+    conn = g["connectivity"][...] if "connectivity" in g else np.zeros((0, 3), dtype=int)
+    xp = g["particles/x"][...] * 1e3 if "particles" in g else np.zeros((0, 2))
+    if len(conn):
+        x = g["nodes"][...] * 1e3
+        body = g["body"][...] if "body" in g else np.zeros(len(conn), dtype=int)
+        faces = [_body_colour(b, 0) for b in body]
+        present.update((int(b), 0) for b in np.unique(body))
+        used = x[np.unique(conn)]
+        extent = [used[:, 0].max(), used[:, 1].max()]
+        bottom = min(bottom, used[used[:, 0] <= (frame or np.inf), 1].min(initial=bottom))
+    if len(xp):
+        p_body = g["particles/body"][...] if "particles/body" in g else np.zeros(len(xp), dtype=int)
+        dots = [_body_colour(b, 1) for b in p_body]
+        present.update((int(b), 1) for b in np.unique(p_body))
+        extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
+        bottom = min(bottom, xp[xp[:, 0] <= (frame or np.inf), 1].min(initial=bottom))
     for side in (1.0, -1.0):
-        if "connectivity" in g:
-            x = g["nodes"][...] * 1e3
-            tri = x[g["connectivity"][...]]
+        if len(conn):
+            tri = x[conn]
             tri[..., 0] *= side
-            ax.add_collection(PolyCollection(tri, facecolors=ELEMENT_COLOUR, edgecolors="white",
+            ax.add_collection(PolyCollection(tri, facecolors=faces, edgecolors="white",
                                              linewidths=0.15, alpha=0.9))
-            extent = [max(extent[0], x[:, 0].max()), max(extent[1], x[:, 1].max())]
-            if frame:
-                bottom = min(bottom, x[x[:, 0] <= frame, 1].min(initial=bottom))
-        if "particles" in g:
-            xp = g["particles/x"][...] * 1e3
-            ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, color=PARTICLE_COLOUR, linewidths=0)
-            extent = [max(extent[0], xp[:, 0].max()), max(extent[1], xp[:, 1].max())]
-            if frame:
-                bottom = min(bottom, xp[xp[:, 0] <= frame, 1].min(initial=bottom))
+        if len(xp):
+            ax.scatter(side * xp[:, 0], xp[:, 1], s=2.0, c=dots, linewidths=0)
     return extent, bottom
 
 
-def _mark_experiment(ax, experiment, w_height):
-    """The experiment's final length (dashed line), foot diameter D at
-    z = 0 and width W at w_height [mm], those it has."""
+def _mark_experiment(ax, experiment):
+    """The experiment's final length L (dashed line), impact-face diameter D
+    (long ticks at z = 0) and width W (short ticks at its height above the
+    face) [mm], those it has, each tick pair lettered."""
     if "L_mm" in experiment:
         ax.axhline(experiment["L_mm"], color="k", ls="--", lw=0.8)
-    if "D_mm" in experiment:
-        ax.plot([-experiment["D_mm"] / 2, experiment["D_mm"] / 2], [0.0, 0.0], "k|",
-                ms=12, mew=1.5)
-    if "W_mm" in experiment and w_height:
-        ax.plot([-experiment["W_mm"] / 2, experiment["W_mm"] / 2], [w_height, w_height],
-                "k|", ms=8, mew=1.5)
+    ticks = [("D", 0.0, 12)]
+    if experiment.get("w_height_mm"):
+        ticks.append(("W", experiment["w_height_mm"], 8))
+    for letter, z, size in ticks:
+        if f"{letter}_mm" in experiment:
+            half = experiment[f"{letter}_mm"] / 2
+            ax.plot([-half, half], [z, z], "k|", ms=size, mew=1.5)
+            ax.annotate(letter, (half, z), xytext=(4, 3), textcoords="offset points",
+                        fontsize=8, ha="left", va="bottom")
 
 
-def _shapes_legend(fig, experiment):
-    """Legend of the shapes: elements, particles, and the experiment's
-    marks where there are some."""
+def _shapes_legend(fig, present, names, experiment):
+    """Legend of the shapes: the elements and particles of each body that the
+    panels show, and the experiment's marks where there are some, each
+    saying what it is (fsph.metrics.taylor's definitions)."""
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], color=ELEMENT_COLOUR, lw=6, label="elements"),
-               Line2D([], [], color=PARTICLE_COLOUR, marker="o", ls="", label="particles")]
-    if experiment:
-        handles.append(Line2D([], [], color="k", ls="--", label="experiment L, D, W"))
-    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.95), ncol=3,
-               frameon=False)
+    handles = []
+    for body, kind in sorted(present):
+        name = _body_name(names, body)
+        if kind == 0:
+            handles.append(Line2D([], [], color=_body_colour(body, 0), lw=6,
+                                  label=f"{name}: elements"))
+        else:
+            handles.append(Line2D([], [], color=_body_colour(body, 1), marker="o", ls="",
+                                  label=f"{name}: particles"))
+    if "L_mm" in experiment:
+        handles.append(Line2D([], [], color="k", ls="--", lw=0.8,
+                              label=f"experiment L = {experiment['L_mm']:.3g} mm: final length"))
+    if "D_mm" in experiment:
+        band = experiment.get("face_band_mm")
+        within = f", widest within {band:.2g} mm of the face" if band else ""
+        handles.append(Line2D([], [], color="k", marker="|", ls="", ms=12, mew=1.5,
+                              label=f"experiment D = {experiment['D_mm']:.3g} mm: impact-face "
+                                    f"diameter{within}"))
+    if "W_mm" in experiment and experiment.get("w_height_mm"):
+        handles.append(Line2D([], [], color="k", marker="|", ls="", ms=8, mew=1.5,
+                              label=f"experiment W = {experiment['W_mm']:.3g} mm: diameter "
+                                    f"{experiment['w_height_mm']:.3g} mm above the impact face"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=max(1, min(2, len(handles))),
+               frameon=False, fontsize=8)
 
 
-def deformed_shapes(run_dir, times_us=(10.0, 20.0, 40.0, 60.0), output=None, dpi=150):
-    """Write a PNG with one panel per requested time (the nearest snapshot),
-    the body mirrored about the axis; returns the PNG path. A debris run
-    (&metrics kind 'debris') gets debris_cloud's picture instead."""
+def _shapes_figure(run_dir, times_us=None):
+    """The figure of deformed_shapes (matplotlib Figure, not saved)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    summary = json.loads((Path(run_dir) / "summary.json").read_text())
+    experiment, frame = _shape_marks(summary)
+    names = body_names(summary)
+    present = set()
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        chosen = [(time, g) for _, time, g in choose_snapshots(_snapshots(h5), times_us)]
+        fig, axes = plt.subplots(1, len(chosen), sharey=True, squeeze=False,
+                                 layout="constrained")
+        axes = axes[0]
+        top = experiment.get("L_mm", 0.0)
+        width = experiment.get("D_mm", 0.0) / 2
+        bottom = -0.5
+        for ax, (time, g) in zip(axes, chosen):
+            extent, bottom = _draw_body(ax, g, frame, bottom, present)
+            _mark_experiment(ax, experiment)
+            ax.set_title(f"{format_us(time * 1e6)} µs")
+            ax.set_xlabel("r [mm]")
+            top = max(top, extent[1])
+            width = max(width, extent[0])
+    if frame:
+        width = frame / 1.15
+    z_low = bottom - 0.05 * (top - bottom) if frame or bottom < -0.5 else bottom
+    for ax in axes:
+        ax.set_xlim(-1.15 * width, 1.15 * width)
+        ax.set_ylim(z_low, 1.05 * top)
+        ax.set_aspect("equal")
+    axes[0].set_ylabel("z [mm]")
+    # panels of the bodies' proportions, within reason [inches]
+    ratio = (1.05 * top - z_low) / (2.3 * width)
+    panel_width = min(max(5.0 / ratio, 1.3), 4.5)
+    panel_height = min(max(panel_width * ratio, 1.5), 5.0)
+    fig.set_size_inches(len(axes) * panel_width + 1.0, panel_height + 1.8)
+    fig.suptitle(summary.get("title") or summary.get("case", ""))
+    _shapes_legend(fig, present, names, experiment)
+    return fig
+
+
+def deformed_shapes(run_dir, times_us=None, output=None, dpi=150):
+    """Write a PNG with one panel per snapshot drawn (choose_snapshots: the
+    snapshot nearest each requested time [µs], each once; without times,
+    four spread evenly from the first snapshot to the last), each titled
+    with its snapshot's time, the bodies mirrored about the axis, elements
+    and particles in colours of their own for each body, the legend naming
+    only those drawn, and the experiment's L, D and W marked and explained
+    (Xiao et al. 2012 Fig. 8); returns the PNG path. A debris run
+    (&metrics kind 'debris') gets debris_cloud's picture instead."""
     run_dir = Path(run_dir)
     output = Path(output) if output else run_dir / "shapes.png"
     summary = json.loads((run_dir / "summary.json").read_text())
     if "debris" in summary.get("metrics", {}):
         return debris_cloud(run_dir, times_us, output, dpi)
-    experiment, w_height, frame = _shape_marks(summary)
-
-    with h5py.File(run_dir / "fsph.h5", "r") as h5:
-        chosen = _nearest_snapshots(_snapshots(h5), times_us)
-        fig, axes = plt.subplots(1, len(chosen), figsize=(3.2 * len(chosen), 6.0), sharey=True)
-        axes = np.atleast_1d(axes)
-        top = experiment.get("L_mm", 0.0)
-        width = experiment.get("D_mm", 0.0) / 2
-        bottom = -0.5
-        for ax, (time, g) in zip(axes, chosen):
-            extent, bottom = _draw_body(ax, g, frame, bottom)
-            _mark_experiment(ax, experiment, w_height)
-            ax.set_title(f"{time * 1e6:.0f} µs")
-            ax.set_xlabel("r [mm]")
-            top = max(top, extent[1])
-            width = max(width, extent[0])
-        if frame:
-            width = frame / 1.15
-        for ax in axes:
-            ax.set_xlim(-1.15 * width, 1.15 * width)
-            ax.set_ylim(bottom - 0.05 * (top - bottom) if frame else bottom, 1.05 * top)
-            ax.set_aspect("equal")
-        axes[0].set_ylabel("z [mm]")
-        fig.suptitle(summary.get("title") or summary.get("case", ""))
-        _shapes_legend(fig, experiment)
-        fig.tight_layout(rect=(0, 0.02, 1, 0.9))
-        # equal aspect shrinks the axes after the layout: save what is drawn
-        fig.savefig(output, dpi=dpi, bbox_inches="tight")
-        plt.close(fig)
+    _save(_shapes_figure(run_dir, times_us), output, dpi, bbox_inches="tight")
     return output
 
 
@@ -264,10 +403,7 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
         colours = _material_colours(rec["materials"], rec)
         if times_us is None:
             times_us = [summary["metrics_time_s"] * 1e6]
-        chosen = []
-        for snap in _nearest_snapshots(snaps, times_us):
-            if all(snap[1].name != c[1].name for c in chosen):
-                chosen.append(snap)
+        chosen = [(time, g) for _, time, g in choose_snapshots(snaps, times_us)]
         panel_inches = 4.6
         fig, axes = plt.subplots(1, len(chosen), figsize=(panel_inches * len(chosen), 6.4),
                                  squeeze=False)
@@ -306,24 +442,41 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
                                    width=int(12 * panel_inches * len(chosen))), fontsize=10)
         fig.legend(handles=handles, loc="lower center", ncol=3, frameon=False, fontsize=8)
         fig.tight_layout(rect=(0, 0.08, 1, 0.96))
-        fig.savefig(output, dpi=dpi)
-        plt.close(fig)
+        _save(fig, output, dpi)
     return output
 
 
-def histories(run_dir, output=None, dpi=150):
-    """Write a PNG of the time histories of a run: kinetic, internal and
-    total energy, and the time step; returns the PNG path."""
+#: the history rows within this many stable steps of the end time of a run
+#: that reached it are the landing's (the solver shortens the last one or
+#: two steps to end on it: fsph_solver's solver_advance)
+LANDING_STEPS = 2.0
+
+
+def _landing_rows(time, dt, end_time):
+    """How many rows at the end of the history belong to the landing on the
+    end time [s] (0 when the history stops elsewhere: a failed or stopped
+    run): those within LANDING_STEPS stable steps of it, the stable step
+    being the largest step of the last three rows."""
+    if len(time) < 3 or end_time is None or not abs(time[-1] - end_time) <= 1e-9 * end_time:
+        return 0
+    stable = dt[-3:].max()
+    return int(np.count_nonzero(time > time[-1] - LANDING_STEPS * stable * (1.0 - 1e-9)))
+
+
+def _history_figure(run_dir):
+    """The figure of histories (matplotlib Figure, not saved)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     run_dir = Path(run_dir)
-    output = Path(output) if output else run_dir / "history.png"
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
         hist = {k: h5["history"][k][...] for k in h5["history"]}
+    summary_path = run_dir / "summary.json"
+    summary = json.loads(summary_path.read_text()) if summary_path.is_file() else {}
     t = hist["time"] * 1e6
-    fig, (ax_e, ax_dt) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    fig, (ax_e, ax_err, ax_dt) = plt.subplots(3, 1, figsize=(7, 8), sharex=True,
+                                              height_ratios=(2, 1, 1), layout="constrained")
     ax_e.plot(t, hist["kinetic"], label="kinetic")
     ax_e.plot(t, hist["internal"], label="internal")
     if "contact" in hist and hist["contact"].any():
@@ -335,102 +488,212 @@ def histories(run_dir, output=None, dpi=150):
     ax_e.plot(t, hist["total"], "k", lw=1.2, label="total")
     ax_e.set_ylabel("energy [J]")
     ax_e.legend(frameon=False)
-    ax_dt.plot(t[1:], hist["dt"][1:] * 1e9, lw=0.8)
+    # the error as the run reports it: the total against the initial energy
+    initial = summary.get("energy", {}).get("initial_J") or (hist["total"][0] if len(t) else 0.0)
+    if initial:
+        error = 100.0 * (hist["total"] - initial) / initial
+        ax_err.plot(t, error, "k", lw=1.0,
+                    label=f"(total - initial) / initial, {error[-1]:+.3g} % at the end")
+        ax_err.axhline(0.0, color="0.6", lw=0.6)
+        ax_err.legend(frameon=False, fontsize="small")
+    else:
+        ax_err.text(0.5, 0.5, "no initial energy: no relative error", ha="center",
+                    va="center", transform=ax_err.transAxes)
+    ax_err.set_ylabel("energy error [%]")
+    landing = _landing_rows(hist["time"], hist["dt"], summary.get("requested_end_time_s"))
+    keep = slice(1, len(t) - landing)
+    ax_dt.plot(t[keep], hist["dt"][keep] * 1e9, lw=0.8)
     ax_dt.set_ylabel("time step [ns]")
-    ax_dt.set_xlabel("t [us]")
-    fig.tight_layout()
-    fig.savefig(output, dpi=dpi)
-    plt.close(fig)
+    ax_dt.set_xlabel("t [µs]")
+    if landing:
+        ax_dt.set_title("not drawn: the last step(s), shortened to land on the end time",
+                        fontsize="small", loc="right")
+    fig.suptitle(summary.get("title") or summary.get("case") or run_dir.name)
+    return fig
+
+
+def histories(run_dir, output=None, dpi=150):
+    """Write a PNG of the time histories of a run, titled with the case:
+    kinetic, internal, contact, eroded, rigid-plane and total energy; the
+    relative energy error, (total - initial) / initial [%] (the initial
+    energy of summary.json, else the first total), the quantity of
+    summary.json's energy.relative_error; and the time step. The time-step
+    curve leaves out the step of the first row (none) and, when the run
+    reached its end time, the rows of the landing on it (_landing_rows: the
+    solver shortens the last one or two steps to end on the end time, which
+    drew a spike down at the end that is no property of the run); the
+    panel says so. Returns the PNG path."""
+    run_dir = Path(run_dir)
+    output = Path(output) if output else run_dir / "history.png"
+    _save(_history_figure(run_dir), output, dpi)
     return output
+
+
+def _experiment_residual(summary):
+    """The experiment's residual velocity [m/s] the run is compared with
+    (summary.json reference.comparison.perforation; None without one, or
+    where the reference does not apply to the run)."""
+    ref = summary.get("reference") or {}
+    if not ref.get("applies", True):
+        return None
+    cmp = ref.get("comparison", {}).get("perforation", {}).get("residual_velocity_m_s")
+    return cmp["reference"] if cmp else None
+
+
+def _perforation_figure(run_dir):
+    """The figure of perforation_histories (None for a run that is not a
+    perforation run)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    summary = json.loads((Path(run_dir) / "summary.json").read_text())
+    series = summary.get("metrics", {}).get("series")
+    if not series or "velocity_z_m_s" not in series:
+        return None
+    t = series["time_us"]
+    speed = [abs(v) for v in series["velocity_z_m_s"]]
+    hole = [h if h is not None else float("nan") for h in series["hole_diameter_mm"]]
+    fig, axes = plt.subplots(3, 1, figsize=(7, 7.4), sharex=True, layout="constrained")
+    axes[0].plot(t, speed, "o-", ms=3, label=f"fsph, {speed[-1]:.4g} m/s at the end")
+    experiment = _experiment_residual(summary)
+    if experiment is not None:
+        axes[0].axhline(experiment, color="k", ls="--", lw=0.8)
+        axes[0].plot([t[-1]], [experiment], "k*", ms=11, ls="--", lw=0.8,
+                     label=f"experiment: residual velocity {experiment:.4g} m/s")
+    axes[0].set_ylabel("projectile velocity [m/s]")
+    axes[0].legend(frameon=False, fontsize="small")
+    axes[1].plot(t, series["penetration_mm"], "o-", ms=3)
+    axes[1].set_ylabel("penetration [mm]")
+    axes[2].plot(t, hole, "o-", ms=3)
+    axes[2].set_ylabel("hole diameter [mm]")
+    axes[2].set_xlabel("t [µs]")
+    fig.suptitle(summary.get("title") or summary.get("case", ""))
+    return fig
 
 
 def perforation_histories(run_dir, output=None, dpi=150):
     """Write a PNG of a perforation run's histories at the snapshots
     (projectile velocity, penetration depth, hole diameter) from
-    summary.json; returns the PNG path, or None for other runs."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    summary.json, titled with the case; the experiment's residual velocity
+    the run is compared with (summary.json reference.comparison.perforation)
+    is a star at the end time on a dashed line, with its legend entry.
+    Returns the PNG path, or None for other runs."""
     run_dir = Path(run_dir)
-    series = json.loads((run_dir / "summary.json").read_text()).get("metrics", {}).get("series")
-    if not series or "velocity_z_m_s" not in series:
+    fig = _perforation_figure(run_dir)
+    if fig is None:
         return None
     output = Path(output) if output else run_dir / "perforation.png"
-    t = series["time_us"]
-    hole = [h if h is not None else float("nan") for h in series["hole_diameter_mm"]]
-    fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True)
-    axes[0].plot(t, [abs(v) for v in series["velocity_z_m_s"]], "o-", ms=3)
-    axes[0].set_ylabel("projectile velocity [m/s]")
-    axes[1].plot(t, series["penetration_mm"], "o-", ms=3)
-    axes[1].set_ylabel("penetration [mm]")
-    axes[2].plot(t, hole, "o-", ms=3)
-    axes[2].set_ylabel("hole diameter [mm]")
-    axes[2].set_xlabel("t [us]")
-    fig.tight_layout()
-    fig.savefig(output, dpi=dpi)
-    plt.close(fig)
+    _save(fig, output, dpi)
     return output
 
 
-def damage_map(run_dir, times_us=None, output=None, dpi=150):
-    """Write a PNG of the damage field (HJC damage D, 0 to 1) at chosen
-    times (the nearest snapshots; default: four spread over the run), one
-    panel each, elements as filled triangles and particles as dots,
-    mirrored about the axis (as Xiao et al. 2012 Fig. 13); returns the PNG path,
-    or None when no point of the run is damaged."""
+#: colour of the bodies never damaged in a damage map (outside the damage colour map)
+UNDAMAGED_COLOUR = "#8fa3b8"
+#: where the damage map's default panels fall, as fractions of the run
+DAMAGE_FRACTIONS = (0.25, 0.5, 0.75, 1.0)
+
+
+def _damaged_bodies(snaps):
+    """Indices of the bodies with a damaged point (D > 0) in any snapshot."""
+    damaged = set()
+    for _, g in snaps:
+        for prefix in ("", "particles/"):
+            if f"{prefix}damage" in g and f"{prefix}body" in g:
+                damage = g[f"{prefix}damage"][...]
+                damaged.update(int(b) for b in np.unique(g[f"{prefix}body"][...][damage > 0.0]))
+    return damaged
+
+
+def _damage_figure(run_dir, times_us=None):
+    """The figure of damage_map (None when no point of the run is damaged)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Patch
 
     run_dir = Path(run_dir)
-    output = Path(output) if output else run_dir / "damage.png"
+    summary = json.loads((run_dir / "summary.json").read_text())
+    names = body_names(summary)
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
         snaps = _snapshots(h5)
-        last = snaps[-1][1]
-        damaged = (("damage" in last and last["damage"][...].max(initial=0.0) > 0.0)
-                   or ("particles/damage" in last
-                       and last["particles/damage"][...].max(initial=0.0) > 0.0))
+        damaged = _damaged_bodies(snaps)
         if not damaged:
             return None
-        if times_us is None:
-            end = snaps[-1][0] * 1e6
-            times_us = [end * f for f in (0.25, 0.5, 0.75, 1.0)]
-        chosen = _nearest_snapshots(snaps, times_us)
-        fig, axes = plt.subplots(1, len(chosen), figsize=(3.4 * len(chosen), 3.6),
+        chosen = choose_snapshots(snaps, times_us, fractions=DAMAGE_FRACTIONS)
+        fig, axes = plt.subplots(1, len(chosen), figsize=(3.4 * len(chosen), 4.2),
                                  sharey=True, squeeze=False, layout="constrained")
         axes = axes[0]
         cmap = plt.get_cmap("inferno_r")
         lo = np.array([np.inf, np.inf])
         hi = -lo
-        for ax, (time, g) in zip(axes, chosen):
+        undamaged = set()
+        for ax, (_, time, g) in zip(axes, chosen):
             for side in (1.0, -1.0):
-                if "connectivity" in g:
+                if "connectivity" in g and len(g["connectivity"]):
                     x = g["nodes"][...] * 1e3
-                    tri = x[g["connectivity"][...]]
+                    conn = g["connectivity"][...]
+                    body = g["body"][...]
+                    hit = np.isin(body, list(damaged))
+                    tri = x[conn]
                     tri[..., 0] *= side
-                    coll = PolyCollection(tri, cmap=cmap, edgecolors="none")
-                    coll.set_array(g["damage"][...])
+                    coll = PolyCollection(tri[hit], cmap=cmap, edgecolors="none")
+                    coll.set_array(g["damage"][...][hit])
                     coll.set_clim(0.0, 1.0)
                     ax.add_collection(coll)
-                    lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
-                if "particles" in g:
+                    if (~hit).any():
+                        ax.add_collection(PolyCollection(tri[~hit], facecolors=UNDAMAGED_COLOUR,
+                                                         edgecolors="none"))
+                        undamaged.update(int(b) for b in np.unique(body[~hit]))
+                    used = x[np.unique(conn)]
+                    lo, hi = np.minimum(lo, used.min(axis=0)), np.maximum(hi, used.max(axis=0))
+                if "particles" in g and len(g["particles/x"]):
                     xp = g["particles/x"][...] * 1e3
-                    ax.scatter(side * xp[:, 0], xp[:, 1], c=g["particles/damage"][...], s=1.5,
-                               cmap=cmap, vmin=0.0, vmax=1.0, linewidths=0)
+                    p_body = g["particles/body"][...]
+                    hit = np.isin(p_body, list(damaged))
+                    ax.scatter(side * xp[hit, 0], xp[hit, 1], c=g["particles/damage"][...][hit],
+                               s=1.5, cmap=cmap, vmin=0.0, vmax=1.0, linewidths=0)
+                    if (~hit).any():
+                        ax.scatter(side * xp[~hit, 0], xp[~hit, 1], color=UNDAMAGED_COLOUR,
+                                   s=1.5, linewidths=0)
+                        undamaged.update(int(b) for b in np.unique(p_body[~hit]))
                     lo, hi = np.minimum(lo, xp.min(axis=0)), np.maximum(hi, xp.max(axis=0))
-            ax.set_title(f"{time * 1e6:.0f} µs")
+            ax.set_title(f"{format_us(time * 1e6)} µs")
             ax.set_xlabel("r [mm]")
             ax.set_aspect("equal")
-        for ax in axes:
-            ax.set_xlim(-hi[0], hi[0])
-            ax.set_ylim(lo[1], hi[1])
-        axes[0].set_ylabel("z [mm]")
-        sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, 1.0))
-        fig.colorbar(sm, ax=list(axes), shrink=0.9, label="damage D")
-        fig.savefig(output, dpi=dpi)
-        plt.close(fig)
+    for ax in axes:
+        ax.set_xlim(-hi[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+    axes[0].set_ylabel("z [mm]")
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, 1.0))
+    fig.colorbar(sm, ax=list(axes), shrink=0.9, label="damage D")
+    if undamaged:
+        fig.legend(handles=[Patch(facecolor=UNDAMAGED_COLOUR,
+                                  label=f"{_body_name(names, b)}: no damage in this run")
+                            for b in sorted(undamaged)],
+                   loc="outside lower center", ncol=len(undamaged), frameon=False,
+                   fontsize="small")
+    fig.suptitle(summary.get("title") or summary.get("case", ""))
+    return fig
+
+
+def damage_map(run_dir, times_us=None, output=None, dpi=150):
+    """Write a PNG of the damage field (HJC or Johnson-Cook damage D, 0 to
+    1) at chosen times (choose_snapshots: the snapshot nearest each
+    requested time [µs], each once; default: four, at a quarter, half,
+    three quarters and the end of the run), one panel each titled with its
+    snapshot's time, elements as filled triangles and particles as dots,
+    mirrored about the axis (as Xiao et al. 2012 Fig. 13); a body with no
+    damaged point in the whole run (a steel projectile) is drawn in a
+    neutral colour outside the colour map, named in the legend. Returns
+    the PNG path, or None when no point of the run is damaged."""
+    run_dir = Path(run_dir)
+    fig = _damage_figure(run_dir, times_us)
+    if fig is None:
+        return None
+    output = Path(output) if output else run_dir / "damage.png"
+    _save(fig, output, dpi)
     return output
 
 
@@ -464,6 +727,5 @@ def residual_velocity(points, fits=(), experiment=(), output="residual.png", tit
         ax.set_title(title)
     ax.legend(fontsize="small")
     fig.tight_layout()
-    fig.savefig(output, dpi=dpi)
-    plt.close(fig)
+    _save(fig, output, dpi)
     return output

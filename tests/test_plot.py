@@ -2,12 +2,105 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
 from fsph.driver import run
 from conftest import rod_deck
+
+
+def _snapshot_times_us(out):
+    with h5py.File(out / "fsph.h5", "r") as h5:
+        snaps = h5["snapshots"]
+        return sorted(snaps[k].attrs["time"] * 1e6 for k in snaps if k.isdigit())
+
+
+@pytest.fixture(scope="module")
+def elastic_run(tmp_path_factory):
+    """The small elastic rod (elements only) for 1 µs, 7 snapshots."""
+    folder = tmp_path_factory.mktemp("elastic")
+    deck = folder / "rod.nml"
+    deck.write_text(rod_deck().replace("n_snapshots = 2", "n_snapshots = 7"))
+    run(deck, folder / "out", quiet=True)
+    return folder / "out"
+
+
+@pytest.fixture(scope="module")
+def taylor_run(tmp_path_factory):
+    """An adaptive Armco rod at 400 m/s onto the rigid plane for 2 µs, with
+    &metrics taylor and a reference of L, D and W: its elements turn into
+    particles that reach z = 0."""
+    folder = tmp_path_factory.mktemp("taylor")
+    (folder / "rod.json").write_text(
+        '{"source": "test", "taylor": {"L_mm": 3.9, "D_mm": 2.4, "W_mm": 2.1}}')
+    deck = folder / "rod.nml"
+    deck.write_text(rod_deck(control="mode = 'adaptive'\n end_time = 2e-6",
+                             material="name = 'steel'\n library = 'armco_iron'",
+                             body="velocity_z = -400.0\n n_radial = 6\n n_axial = 24",
+                             output="reference = 'rod.json'")
+                    .replace("n_snapshots = 2", "n_snapshots = 4")
+                    + "&convert\n theta_c = 40.0\n/\n&metrics\n kind = 'taylor'\n/\n")
+    summary = run(deck, folder / "out", quiet=True)
+    assert summary["n_converted"] > 0
+    return folder / "out"
+
+
+@pytest.fixture(scope="module")
+def block_run(tmp_path_factory):
+    """A steel rod at 600 m/s into an HJC concrete block (two bodies), adaptive,
+    6 µs, as a perforation run with a reference residual velocity."""
+    folder = tmp_path_factory.mktemp("block")
+    (folder / "block.json").write_text(
+        '{"source": "test", "perforation": {"residual_velocity_m_s": 555.0}}')
+    deck = folder / "block.nml"
+    deck.write_text(rod_deck(control="mode = 'adaptive'\n end_time = 6e-6",
+                             material="name = 'steel'\n library = 'projectile_bilinear_concrete'",
+                             body="velocity_z = -600.0\n n_radial = 4\n n_axial = 16\n"
+                                  " z_base = 0.05e-3", boundary=False,
+                             output="reference = 'block.json'")
+                    .replace("n_snapshots = 2", "n_snapshots = 6")
+                    + "&material\n name = 'concrete'\n library = 'concrete_48mpa_hjc'\n/\n"
+                    "&body\n name = 'block'\n material = 'concrete'\n radius = 6.0e-3\n"
+                    " length = 4.0e-3\n z_base = -4.0e-3\n n_radial = 12\n n_axial = 8\n/\n"
+                    "&metrics\n kind = 'perforation'\n body = 'rod'\n target = 'block'\n/\n")
+    summary = run(deck, folder / "out", quiet=True)
+    assert summary["reference"]["applies"]
+    return folder / "out"
+
+
+def _inside(inner, outer):
+    return (inner.x0 >= outer.x0 and inner.y0 >= outer.y0 and inner.x1 <= outer.x1
+            and inner.y1 <= outer.y1)
+
+
+def _legend_texts(fig):
+    return [t.get_text() for legend in fig.legends + [ax.get_legend() for ax in fig.axes]
+            if legend for t in legend.get_texts()]
+
+
+def plot_cli(monkeypatch, capsys, run_dir, *args):
+    """`fsph plot RUN_DIR ARGS` in this process: its exit code, the lines it
+    printed and the figures it drew (drawn, by file name)."""
+    import fsph.plot
+    from fsph.cli import main
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    figures = {}
+    save = fsph.plot._save
+
+    def keep(fig, output, dpi, **kwargs):
+        save(fig, output, dpi, **kwargs)
+        FigureCanvasAgg(fig).draw()         # closing the figure took its canvas
+        figures[Path(output).name] = fig
+    monkeypatch.setattr(fsph.plot, "_save", keep)
+    code = main(["plot", str(run_dir), *args])
+    return code, capsys.readouterr().out.splitlines(), figures
+
+
+def _titles(fig):
+    return [ax.get_title() for ax in fig.axes if ax.get_title()]
 
 
 def test_plot_writes_png(tmp_path, write_deck):
@@ -116,3 +209,170 @@ def _small_deck(tmp_path):
     deck = tmp_path / "rod.nml"
     deck.write_text(rod_deck())
     return deck
+
+
+def test_version_prints_the_version_and_exits_0(tmp_path):
+    import fsph
+    res = subprocess.run([sys.executable, "-m", "fsph", "--version"], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == f"fsph {fsph.__version__}"
+
+
+def test_panels_carry_the_drawn_times_and_a_line_names_the_nearest(elastic_run, monkeypatch,
+                                                                    capsys):
+    """Times without a snapshot at them: each panel is titled with the time
+    of the snapshot drawn and one printed line says which snapshot was drawn
+    for which time; a time at a snapshot is not in it."""
+    from fsph.plot import format_us
+    times = _snapshot_times_us(elastic_run)       # 0, about 1/7, ..., 1 µs
+    code, lines, figures = plot_cli(monkeypatch, capsys, elastic_run, "--times", "0.2,1")
+    assert code == 0
+    near = min(times, key=lambda t: abs(t - 0.2))
+    assert _titles(figures["shapes.png"]) == [f"{format_us(near)} µs", "1 µs"]
+    notes = [line for line in lines if line.startswith("fsph plot:")]
+    assert notes == [f"fsph plot: drew the nearest snapshots: 0.2 µs → {format_us(near)} µs"]
+    code, lines, _ = plot_cli(monkeypatch, capsys, elastic_run, "--times", "0,1")
+    assert code == 0 and not [line for line in lines if line.startswith("fsph plot:")]
+
+
+def test_default_times_spread_over_the_run(elastic_run, monkeypatch, capsys):
+    """Without --times: four distinct snapshots from the first to the last
+    (the 1 µs rod drew four identical panels at the 10-60 µs of a Taylor rod)."""
+    code, lines, figures = plot_cli(monkeypatch, capsys, elastic_run)
+    assert code == 0 and not [line for line in lines if line.startswith("fsph plot:")]
+    titles = _titles(figures["shapes.png"])
+    assert len(titles) == 4 == len(set(titles))
+    assert titles[0] == "0 µs" and titles[-1] == "1 µs"
+
+
+def test_times_on_one_snapshot_share_a_panel(elastic_run, monkeypatch, capsys):
+    code, lines, figures = plot_cli(monkeypatch, capsys, elastic_run, "--times", "10,20")
+    assert code == 0
+    assert _titles(figures["shapes.png"]) == ["1 µs"]
+    assert [line for line in lines if line.startswith("fsph plot:")] == [
+        "fsph plot: drew the nearest snapshots: 10 µs → 1 µs, 20 µs → 1 µs; "
+        "2 times fall on 1 snapshot, drawn once"]
+
+
+def test_shapes_keep_their_labels_and_explain_the_marks(taylor_run, monkeypatch, capsys):
+    """Particles at z = 0: every axis label and the legend lie inside the
+    figure, the legend clear of the panels; it names the rod's elements and
+    particles and says what L, D and W are (fsph.metrics.taylor)."""
+    code, _, figures = plot_cli(monkeypatch, capsys, taylor_run)
+    assert code == 0
+    fig = figures["shapes.png"]
+    renderer = fig.canvas.get_renderer()
+    with h5py.File(taylor_run / "fsph.h5", "r") as h5:
+        snaps = h5["snapshots"]
+        assert snaps[sorted(snaps)[-1]]["particles/x"][:, 1].min() < 0.2e-3
+    for ax in fig.axes:
+        for label in (ax.xaxis.label, ax.yaxis.label):
+            if label.get_text():
+                assert _inside(label.get_window_extent(renderer), fig.bbox), label.get_text()
+    legend = fig.legends[0].get_window_extent(renderer)
+    assert _inside(legend, fig.bbox)
+    assert not any(legend.overlaps(ax.get_window_extent(renderer)) for ax in fig.axes)
+    texts = _legend_texts(fig)
+    assert texts[:2] == ["rod: elements", "rod: particles"]
+    assert "experiment L = 3.9 mm: final length" in texts
+    assert any(t.startswith("experiment D = 2.4 mm: impact-face diameter") for t in texts)
+    assert "experiment W = 2.1 mm: diameter 0.8 mm above the impact face" in texts
+
+
+def test_shapes_legend_names_only_what_is_drawn(elastic_run, monkeypatch, capsys):
+    code, _, figures = plot_cli(monkeypatch, capsys, elastic_run)
+    assert code == 0
+    assert _legend_texts(figures["shapes.png"]) == ["rod: elements"]
+
+
+def test_shapes_colour_each_body(block_run, monkeypatch, capsys):
+    """Projectile and target in colours of their own, in the panels and the legend."""
+    from matplotlib.colors import to_hex
+    from matplotlib.collections import PolyCollection
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run, "--times", "6")
+    assert code == 0
+    fig = figures["shapes.png"]
+    legend = fig.legends[0]
+    colours = {t.get_text(): to_hex(h.get_color())
+               for t, h in zip(legend.get_texts(), legend.legend_handles)}
+    assert colours["rod: elements"] != colours["block: elements"]
+    faces = {to_hex(c) for coll in fig.axes[0].collections if isinstance(coll, PolyCollection)
+             for c in coll.get_facecolors()}
+    assert {colours["rod: elements"], colours["block: elements"]} <= faces
+    # no hole yet (no framing by the hole): the whole block is in the panel
+    assert fig.axes[0].get_ylim()[0] <= -4.0
+
+
+def test_history_has_title_energy_error_and_no_landing_step(elastic_run, monkeypatch, capsys):
+    """history.png: titled with the case, a curve of the relative energy
+    error ending on summary.json's, and a time-step curve without the steps
+    shortened to land on the end time."""
+    import json
+    code, _, figures = plot_cli(monkeypatch, capsys, elastic_run)
+    assert code == 0
+    fig = figures["history.png"]
+    summary = json.loads((elastic_run / "summary.json").read_text())
+    assert fig._suptitle.get_text() == "test rod"
+    axes = {ax.get_ylabel(): ax for ax in fig.axes}
+    error = axes["energy error [%]"].get_lines()[0].get_ydata()
+    assert error[-1] == pytest.approx(100 * summary["energy"]["relative_error"], rel=1e-9)
+    with h5py.File(elastic_run / "fsph.h5", "r") as h5:
+        time = h5["history/time"][...] * 1e6
+    assert time[-1] == pytest.approx(1.0)
+    steps = axes["time step [ns]"].get_lines()[0].get_xdata()
+    assert list(steps) == list(time[1:-1])        # no first row (no step), no landing
+
+
+def test_perforation_draws_the_experimental_residual_velocity(block_run, monkeypatch, capsys):
+    """perforation.png: the reference's residual velocity is a marked point
+    with a legend entry beside the run's velocity history."""
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run)
+    assert code == 0
+    fig = figures["perforation.png"]
+    assert fig._suptitle.get_text() == "test rod"
+    velocity = next(ax for ax in fig.axes if ax.get_ylabel() == "projectile velocity [m/s]")
+    assert "experiment: residual velocity 555 m/s" in _legend_texts(fig)
+    marks = [line for line in velocity.get_lines() if line.get_label().startswith("experiment")]
+    assert len(marks) == 1 and list(marks[0].get_ydata()) == [555.0]
+    assert marks[0].get_marker() not in (None, "None", "")
+
+
+def test_damage_map_honours_times_and_greys_the_undamaged_body(block_run, monkeypatch, capsys):
+    """damage.png: the panels at the requested times (as shapes.png), and
+    the steel rod, never damaged, in the neutral colour named in the legend
+    rather than the colour of undamaged concrete."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import to_hex
+    from fsph.plot import UNDAMAGED_COLOUR, format_us
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run, "--times", "2.2,6")
+    assert code == 0
+    times = _snapshot_times_us(block_run)
+    expected = [f"{format_us(min(times, key=lambda t: abs(t - r)))} µs" for r in (2.2, 6.0)]
+    fig = figures["damage.png"]
+    assert _titles(fig) == expected == _titles(figures["shapes.png"])
+    assert _legend_texts(fig) == ["rod: no damage in this run"]
+    for ax in (ax for ax in fig.axes if ax.get_title()):
+        polys = [c for c in ax.collections if isinstance(c, PolyCollection)]
+        neutral = [c for c in polys if c.get_array() is None]
+        assert neutral and all(to_hex(f) == UNDAMAGED_COLOUR
+                               for c in neutral for f in c.get_facecolors())
+        assert any(c.get_array() is not None and c.get_array().max() > 0.0 for c in polys)
+
+
+def test_times_are_in_microseconds_written_µs(block_run, monkeypatch, capsys):
+    """Every label, title and legend of the four pictures, the printed lines
+    and the help of `fsph plot` write µs, never us."""
+    import re
+    from matplotlib.text import Text
+    from fsph.cli import _parser
+    code, lines, figures = plot_cli(monkeypatch, capsys, block_run, "--times", "2,6")
+    assert code == 0
+    assert set(figures) == {"shapes.png", "history.png", "perforation.png", "damage.png"}
+    texts = [t.get_text() for fig in figures.values() for t in fig.findobj(Text)]
+    texts += lines + [_parser()._subparsers._group_actions[0].choices["plot"].format_help()]
+    assert not [t for t in texts if re.search(r"\bus\b", t)]
+    assert sum("µs" in t for t in texts) >= 8
+    assert figures["history.png"].axes[-1].get_xlabel() == "t [µs]"
+    assert figures["perforation.png"].axes[-1].get_xlabel() == "t [µs]"
+    assert any("µs" in line for line in lines)
