@@ -475,8 +475,19 @@ def _history_figure(run_dir):
     summary_path = run_dir / "summary.json"
     summary = json.loads(summary_path.read_text()) if summary_path.is_file() else {}
     t = hist["time"] * 1e6
-    fig, (ax_e, ax_err, ax_dt) = plt.subplots(3, 1, figsize=(7, 8), sharex=True,
-                                              height_ratios=(2, 1, 1), layout="constrained")
+    # the rigid planes' force, where a plane has acted (runs before it have no column)
+    force = hist.get("plane_force_z")
+    with_force = force is not None and bool(np.any(force))
+    n_panels = 4 if with_force else 3
+    fig, axes = plt.subplots(n_panels, 1, figsize=(7, 8 + 2 * with_force), sharex=True,
+                             height_ratios=(2,) + (1,) * (n_panels - 1), layout="constrained")
+    ax_e, ax_err, ax_dt = axes[0], axes[1], axes[-1]
+    if with_force:
+        impulse = hist["plane_impulse_z"][-1]
+        axes[2].plot(t, force * 1e-3, lw=0.9,
+                     label=f"axial, on the bodies; impulse {impulse:.4g} N s at the end")
+        axes[2].set_ylabel("rigid-plane force [kN]")
+        axes[2].legend(frameon=False, fontsize="small")
     ax_e.plot(t, hist["kinetic"], label="kinetic")
     ax_e.plot(t, hist["internal"], label="internal")
     if "contact" in hist and hist["contact"].any():
@@ -517,7 +528,9 @@ def histories(run_dir, output=None, dpi=150):
     kinetic, internal, contact, eroded, rigid-plane and total energy; the
     relative energy error, (total - initial) / initial [%] (the initial
     energy of summary.json, else the first total), the quantity of
-    summary.json's energy.relative_error; and the time step. The time-step
+    summary.json's energy.relative_error; where a rigid plane acted, its
+    axial force on the bodies (history plane_force_z, averaged between
+    history rows; a Taylor test's anvil force); and the time step. The time-step
     curve leaves out the step of the first row (none) and, when the run
     reached its end time, the rows of the landing on it (_landing_rows: the
     solver shortens the last one or two steps to end on the end time, which

@@ -322,6 +322,11 @@ def test_history_has_title_energy_error_and_no_landing_step(elastic_run, monkeyp
     assert time[-1] == pytest.approx(1.0)
     steps = axes["time step [ns]"].get_lines()[0].get_xdata()
     assert list(steps) == list(time[1:-1])        # no first row (no step), no landing
+    # the rod stands on a rigid plane: its force, which integrates to the impulse
+    force = axes["rigid-plane force [kN]"].get_lines()[0].get_ydata() * 1e3
+    assert np.sum(force[1:] * np.diff(time * 1e-6)) == pytest.approx(
+        summary["rigid_planes"]["impulse_z_N_s"], rel=1e-9)
+    assert summary["rigid_planes"]["impulse_z_N_s"] > 0.0
 
 
 def test_perforation_draws_the_experimental_residual_velocity(block_run, monkeypatch, capsys):
