@@ -1159,6 +1159,10 @@ def _validate(raw, path, folder):
 def _unique_names(path, gname, items):
     seen = set()
     for i, item in enumerate(items):
+        # names become HDF5 groups (fsph.h5 body_history/<body>)
+        if not item["name"].strip() or "/" in item["name"] or item["name"].strip() == ".":
+            raise DeckError(path, f"{gname} #{i + 1}", "name", "a name without '/', not empty "
+                            "and not '.'", item["name"])
         if item["name"] in seen:
             raise DeckError(path, f"{gname} #{i + 1}", "name", "a name not used by another "
                             f"&{gname}", item["name"])

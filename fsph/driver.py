@@ -301,7 +301,7 @@ def _set_up(deck_path, outdir, restart):
     lock = FolderLock(outdir)
     try:
         writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
-                           vtu=deck["output"]["vtu"])
+                           vtu=deck["output"]["vtu"], body_names=sim.body_names)
     except BaseException:
         lock.release()
         raise
@@ -456,7 +456,7 @@ def _record_failure(say, err, sim, writer, books, bar, outputs_usable=True):
         bar.close()
     books.failure = err
     if outputs_usable:
-        writer.append_history(sim.drain_history())
+        writer.append_history(*sim.drain_histories())
         writer.mark_failure(str(err))
     say(f"fsph: run failed: {err}")
     say(f"fsph: last good snapshot t = {books.last_good['time'] * 1e6:.4g} us kept in "
@@ -497,7 +497,7 @@ def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
                 # intermediate outputs never shorten a step; the run ends on end_time
                 _advance_to(sim, t, t >= ctrl["end_time"], flag, ctrl["energy_error_limit"],
                             checkpoints, bar)
-                writer.append_history(sim.drain_history())
+                writer.append_history(*sim.drain_histories())
                 if flag["signal"]:
                     books.interrupted = _stop_on_signal(say, sim, flag["signal"], checkpoints, bar)
                     break
@@ -580,6 +580,20 @@ def _plane_summary(sim, deck, writer):
             "peak_force_time_s": writer.plane_force_peak_time}
 
 
+def _body_summary(writer):
+    """Each body's kinetic and internal energy [J] and axial momentum [N s]
+    at the last history row, and the largest axial force on it between
+    history rows [N] with its time [s] (fsph.h5 body_history)."""
+    out = {}
+    for b, name in enumerate(writer.body_names):
+        books = writer.body_books.get(name, {})
+        force, time = writer.body_force_peak[b]
+        out[name] = {"kinetic_J": books.get("kinetic"), "internal_J": books.get("internal"),
+                     "momentum_z_N_s": books.get("momentum_z"), "peak_force_z_N": force,
+                     "peak_force_time_s": time}
+    return out
+
+
 def _summary(setup, books, t_wall0):
     """The summary dict of a run that has ended (summary.json)."""
     sim, deck, writer, reference = setup.sim, setup.deck, setup.writer, setup.reference
@@ -617,6 +631,7 @@ def _summary(setup, books, t_wall0):
         "n_debris_particles": sim.debris_count(),
         "energy": _energy_summary(sim, energies, writer),
         "rigid_planes": _plane_summary(sim, deck, writer),
+        "bodies": _body_summary(writer),
         "metrics": case_metrics,
         "peaks": peaks,
         "material_state": {b["name"]: state_masses(books.last_good, ib)
@@ -713,7 +728,7 @@ def _run(say, setup, restart, kind, stream, t_wall0):
     books = _Books()
     checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"],
                                            setup.writer)
-    setup.writer.append_history(setup.sim.drain_history())
+    setup.writer.append_history(*setup.sim.drain_histories())
     _snapshot(setup, books, t_wall0)
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None

@@ -72,6 +72,12 @@ HISTORY_COLUMNS = (
     ("total", "J", "kinetic + internal + contact + eroded + plane"),
 )
 ENERGY_COLUMNS = tuple(name for name, _, _ in HISTORY_COLUMNS[4:])
+#: Each body's books at every history record (fsph_solver body_budget).
+BODY_COLUMNS = (
+    ("kinetic", "J", "kinetic energy of the body's nodes and particles (half-step velocities)"),
+    ("internal", "J", "internal energy of the body's elements and particles"),
+    ("momentum_z", "N s", "axial momentum of the body's nodes and particles"),
+)
 
 # ---- checkpoint: state arrays by name (fsph_restart) ----------------------
 # Each is a (rows, cols) view of one state array; the order is the order
@@ -341,6 +347,9 @@ def fortran_source():
     out += _constants("hcol_", [n for n, _, _ in HISTORY_COLUMNS],
                       [f"{d} [{u}]" for _, u, d in HISTORY_COLUMNS], count="history_columns")
     out.append(f"  integer, parameter, public :: energy_first = {len(HISTORY_COLUMNS) - len(ENERGY_COLUMNS) + 1}")
+    out.append("  ! columns of a body's books at a history record")
+    out += _constants("bcol_", [n for n, _, _ in BODY_COLUMNS],
+                      [f"{d} [{u}]" for _, u, d in BODY_COLUMNS], count="body_columns")
     out.append("  ! checkpoint: real and integer state arrays, real and integer scalars")
     out += _constants("ckr_", [_ident(n) for n in CHECKPOINT_REAL], count="n_real_arrays")
     out += _constants("cki_", [_ident(n) for n in CHECKPOINT_INT], count="n_int_arrays")

@@ -19,6 +19,10 @@ from .errors import InputError, OutputError
 
 #: columns of the time history (fsph.layouts), the energy total included
 HISTORY_FIELDS = tuple(name for name, _, _ in layouts.HISTORY_COLUMNS)
+BODY_FIELDS = tuple(name for name, _, _ in layouts.BODY_COLUMNS)
+#: The body history dataset derived from its momentum (RunWriter._body_rows).
+BODY_FORCE = ("force_z", "N", "axial force on the body from everything outside it (contact, "
+              "rigid planes), averaged between history rows (the rate of momentum_z)")
 #: The history dataset derived from the planes' impulse (RunWriter._plane_force).
 PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bodies, averaged "
                "between history rows (the rate of plane_impulse_z); the bodies push the planes "
@@ -150,10 +154,13 @@ def _file_size_limit():
 class RunWriter:
     """Writes one run's outputs into a folder.
 
-    fsph.h5: /history/<field> (time [s], cycle, dt [s], kinetic [J],
+    fsph.h5: /history/<field> (time [s], cycle, dt [s], the rigid planes'
+    axial impulse [N s] and force [N] on the bodies, kinetic [J],
     internal [J], contact work [J], energy removed by erosion [J], kinetic
     energy removed by the rigid planes and the particles' axis wall [J],
-    total [J]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
+    total [J]; each with its `units`); /body_history/<body>/<field> at the
+    same rows (kinetic [J], internal [J], axial momentum [N s], axial force
+    on the body [N]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
     fields; attributes time [s] and cycle; particles, if any, in
     /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
@@ -177,7 +184,7 @@ class RunWriter:
     complete snapshot stays readable.
     """
 
-    def __init__(self, outdir, deck_text, title, vtu=True):
+    def __init__(self, outdir, deck_text, title, vtu=True, body_names=()):
         self.outdir = Path(outdir)
         self.h5_path = self.outdir / "fsph.h5"
         self.lock_warning = ""      # set once a write could not wait for a reader
@@ -191,6 +198,12 @@ class RunWriter:
                                     chunks=(4096,))
                 hist[name].attrs["units"] = unit
                 hist[name].attrs["description"] = meaning
+            for body in body_names:
+                group = h5.create_group(f"body_history/{body}")
+                for name, unit, meaning in layouts.BODY_COLUMNS + (BODY_FORCE,):
+                    group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
+                    group[name].attrs["units"] = unit
+                    group[name].attrs["description"] = meaning
             h5.create_group("snapshots")
         self.n_snapshots = 0
         self._history = []          # history rows not yet written
@@ -198,6 +211,11 @@ class RunWriter:
         self.energy0 = None
         self.max_energy_error = 0.0
         self.max_energy_error_time = 0.0
+        self.body_names = tuple(body_names)
+        self._bodies = []           # the bodies' rows not yet written (k, bodies, columns)
+        self._body_last = None      # (time [s], momenta [N s]) of the last history row
+        self.body_force_peak = [(0.0, 0.0)] * len(self.body_names)  # (force [N], time [s])
+        self.body_books = {}        # each body's books at the last history row
         self._plane_last = None     # (time [s], impulse [N s]) of the last history row
         self.plane_force_peak = 0.0       # [N]
         self.plane_force_peak_time = 0.0  # [s]
@@ -266,8 +284,10 @@ class RunWriter:
                               f"the next snapshot needs about {need / 2**20:.1f} MiB "
                               f"(and {other_bytes / 2**20:.1f} MiB for the checkpoint)")
 
-    def append_history(self, records):
-        """records: (k, len(HISTORY_FIELDS)) rows. Also tracks the largest
+    def append_history(self, records, bodies=None):
+        """records: (k, len(HISTORY_FIELDS)) rows; bodies: the bodies' books
+        at the same rows (k, bodies, len(BODY_COLUMNS)), or None for a writer
+        without bodies. Also tracks the largest
         departure of the total energy (kinetic + internal + the work of the
         contact corrections + the energy erosion removed + the energy the
         rigid planes removed, summed by the solver) from its first value.
@@ -287,6 +307,28 @@ class RunWriter:
         records = np.asarray(records, dtype=float)
         force = self._plane_force(records)
         self._history.append(np.column_stack([records, force]))
+        if self.body_names:
+            self._bodies.append(self._body_rows(records[:, HISTORY_FIELDS.index("time")], bodies))
+
+    def _body_rows(self, t, bodies):
+        """The bodies' rows with their axial force [N] appended: the change
+        of each body's momentum since the row before over the time between
+        (0 at the first row)."""
+        bodies = np.asarray(bodies, dtype=float).reshape(len(t), len(self.body_names), len(BODY_FIELDS))
+        p = bodies[:, :, BODY_FIELDS.index("momentum_z")]
+        t_prev, p_prev = self._body_last if self._body_last is not None else (t[0], p[0])
+        t_before = np.concatenate([[t_prev], t[:-1]])
+        p_before = np.concatenate([p_prev[None, :], p[:-1]])
+        span = (t - t_before)[:, None]
+        force = np.divide(p - p_before, span, out=np.zeros_like(p), where=span > 0.0)
+        self._body_last = (t[-1], p[-1].copy())
+        worst = np.abs(force).argmax(axis=0)
+        for b, k in enumerate(worst):
+            if abs(force[k, b]) > abs(self.body_force_peak[b][0]):
+                self.body_force_peak[b] = (float(force[k, b]), float(t[k]))
+        self.body_books = {name: dict(zip(BODY_FIELDS, (float(v) for v in bodies[-1, b])))
+                           for b, name in enumerate(self.body_names)}
+        return np.concatenate([bodies, force[:, :, None]], axis=2)
 
     def _plane_force(self, records):
         """The planes' axial force on the bodies [N] at each row: the change
@@ -318,6 +360,14 @@ class RunWriter:
             hist[name].resize((n1,))
             hist[name][n0:n1] = records[:, j]
         self._history = []
+        if self._bodies:
+            rows = np.concatenate(self._bodies)
+            for b, body in enumerate(self.body_names):
+                group = h5[f"body_history/{body}"]
+                for j, name in enumerate(BODY_FIELDS + (BODY_FORCE[0],)):
+                    group[name].resize((n1,))
+                    group[name][n0:n1] = rows[:, b, j]
+            self._bodies = []
 
     def flush(self):
         """Write the history rows kept since the last snapshot."""

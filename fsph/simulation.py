@@ -369,11 +369,21 @@ class Simulation:
         the rigid planes' axial impulse on the bodies since t = 0 [N s], then
         the energy budget [J] (kinetic, internal, removed by contact,
         erosion and the rigid planes, total)."""
+        return self.drain_histories()[0]
+
+    def drain_histories(self):
+        """(records, bodies): the time-history records of drain_history and,
+        at the same records, each body's books (k, bodies, 3):
+        kinetic [J], internal [J], axial momentum [N s]
+        (fsph.layouts.BODY_COLUMNS)."""
         n = int(_api.history_count(self._run))
+        bodies, ierr = _api.get_body_history(self._run, len(layouts.BODY_COLUMNS), len(self.body_names), n)
+        if ierr != STATUS_OK:
+            raise FsphError("body history: layout mismatch, rebuild the package")
         records, ierr = _api.drain_history(self._run, len(layouts.HISTORY_COLUMNS), n)
         if ierr != STATUS_OK:
             raise FsphError("time history: layout mismatch, rebuild the package")
-        return records.T.copy()
+        return records.T.copy(), np.transpose(bodies, (2, 1, 0)).copy()
 
     @property
     def list_rebuilds(self):

@@ -20,7 +20,7 @@ module fsph_api
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
   public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
   public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
-  public :: drain_history
+  public :: drain_history, get_body_history
 
 contains
 
@@ -761,5 +761,30 @@ contains
     sim%n_history = 0
     ierr = status_ok
   end subroutine drain_history
+
+  !> The bodies' books at the records drain_history returns (call it
+  !> first, with the count history_count gave before): (nc, nb, n) with nc
+  !> = fsph_layouts body_columns, nb bodies; empties nothing itself
+  !> (drain_history does).
+  subroutine get_body_history(run, nc, nb, n, records, ierr)
+    use fsph_layouts, only: body_columns
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: nc, nb, n
+    real(wp), intent(out) :: records(nc, nb, n)
+    integer, intent(out) :: ierr
+    sim => run_state(run)
+    records = 0.0_wp
+    ierr = status_bad_input
+    if (nc /= body_columns) return
+    if (.not. allocated(sim%body_history)) then
+      ierr = status_ok
+      return
+    end if
+    if (nb /= size(sim%body_history, 2) .or. n > size(sim%body_history, 3)) return
+    if (n > 0) records = sim%body_history(:, :, 1:n)
+    ierr = status_ok
+  end subroutine get_body_history
 
 end module fsph_api

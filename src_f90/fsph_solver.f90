@@ -9,7 +9,8 @@ module fsph_solver
   use fsph_arrays, only: reserve
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
                           prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
-                          hcol_dt, hcol_plane_impulse_z, energy_first, &
+                          hcol_dt, hcol_plane_impulse_z, energy_first, body_columns, bcol_kinetic, &
+                          bcol_internal, bcol_momentum_z, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
@@ -749,13 +750,22 @@ contains
   !> the API drains it).
   subroutine record_history(sim)
     type(simulation_t), intent(inout) :: sim
-    real(wp), allocatable :: grown(:, :)
+    real(wp), allocatable :: grown(:, :), grown_bodies(:, :, :)
     integer, parameter :: initial_capacity = 256
-    if (.not. allocated(sim%history)) allocate (sim%history(history_columns, initial_capacity))
+    integer :: n_bodies
+    n_bodies = 0
+    if (allocated(sim%continuum_of_body)) n_bodies = size(sim%continuum_of_body)
+    if (.not. allocated(sim%history)) then
+      allocate (sim%history(history_columns, initial_capacity))
+      allocate (sim%body_history(body_columns, n_bodies, initial_capacity))
+    end if
     if (sim%n_history == size(sim%history, 2)) then
       allocate (grown(history_columns, 2*size(sim%history, 2)))
       grown(:, 1:sim%n_history) = sim%history(:, 1:sim%n_history)
       call move_alloc(grown, sim%history)
+      allocate (grown_bodies(body_columns, n_bodies, size(sim%history, 2)))
+      grown_bodies(:, :, 1:sim%n_history) = sim%body_history(:, :, 1:sim%n_history)
+      call move_alloc(grown_bodies, sim%body_history)
     end if
     sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
@@ -766,7 +776,45 @@ contains
       record(hcol_plane_impulse_z) = sim%plane_impulse_z
       record(energy_first:) = energy_budget(sim)
     end associate
+    if (n_bodies > 0) sim%body_history(:, :, sim%n_history) = body_budget(sim, n_bodies)
   end subroutine record_history
+
+  !> Each body's books (body_columns of fsph_layouts, in their order):
+  !> kinetic energy (half-step velocities) [J], internal energy [J] and
+  !> axial momentum [N s] of its nodes (a node belongs to the body of the
+  !> elements it joins), elements and particles, summed as energy_budget
+  !> sums the whole. Serial, in index order: once per history record.
+  function body_budget(sim, n_bodies) result(books)
+    type(simulation_t), intent(in) :: sim
+    integer, intent(in) :: n_bodies
+    real(wp) :: books(body_columns, n_bodies)
+    integer, allocatable :: node_body(:)
+    integer :: a, e, i, b
+    books = 0.0_wp
+    associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
+      allocate (node_body(nd%n))
+      node_body = 0
+      do e = 1, el%n
+        node_body(el%conn(:, e)) = el%body(e)
+      end do
+      do a = 1, nd%n
+        b = node_body(a)
+        if (b < 1) cycle
+        books(bcol_kinetic, b) = books(bcol_kinetic, b) + 0.5_wp*nd%mass(a)*(nd%v(1, a)**2 + nd%v(2, a)**2)
+        books(bcol_momentum_z, b) = books(bcol_momentum_z, b) + nd%mass(a)*nd%v(2, a)
+      end do
+      do e = 1, el%n
+        b = el%body(e)
+        books(bcol_internal, b) = books(bcol_internal, b) + el%mass(e)*el%e(e)
+      end do
+      do i = 1, pt%n
+        b = pt%body(i)
+        books(bcol_kinetic, b) = books(bcol_kinetic, b) + 0.5_wp*pt%mass(i)*(pt%v(1, i)**2 + pt%v(2, i)**2)
+        books(bcol_internal, b) = books(bcol_internal, b) + pt%mass(i)*pt%e(i)
+        books(bcol_momentum_z, b) = books(bcol_momentum_z, b) + pt%mass(i)*pt%v(2, i)
+      end do
+    end associate
+  end function body_budget
 
   !> The energy budget [J] in the order of the history columns from
   !> energy_first (fsph_layouts): kinetic (half-step velocities), internal,

@@ -260,6 +260,8 @@ module fsph_state
     integer :: n_history = 0              !< records waiting in history
     integer :: history_cycle = -1         !< cycle of the last record
     real(wp), allocatable :: history(:, :) !< (history_columns, capacity), drained by the API
+    !> each body's books at the same records: (body_columns, bodies, capacity), fsph_solver body_budget
+    real(wp), allocatable :: body_history(:, :, :)
     type(phase_timers_t) :: timers        !< wall time of each phase of the cycle
     type(thread_governor_t) :: governor   !< OpenMP threads of each cycle (fsph_threads)
   end type simulation_t

@@ -31,6 +31,8 @@ BAD_DECKS = {
     "poisson_half": (rod_deck(material="name='steel'\n library='steel_elastic_bar'\n poisson_ratio=0.5"),
                      ["&material #1", "'poisson_ratio'", "[0, 0.5)"]),
     "zero_resolution": (rod_deck(body="n_radial = 0"), ["&body #1", "'n_radial'", "[1, inf)"]),
+    "slash_in_name": (rod_deck().replace("name = 'rod'", "name = 'rod/tip'"),
+                      ["&body #1", "'name'", "without '/'", "rod/tip"]),
     "oversized_n_radial": (rod_deck(body="n_radial = 100000"),
                            ["&body #1", "'n_radial'", "at most 4000000", "n_radial 100000 x n_axial 12"]),
     "missing_required": (rod_deck().replace(" end_time = 1.0e-6\n", ""),

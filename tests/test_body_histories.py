@@ -1,0 +1,60 @@
+"""Each body's books at every history record (fsph.h5 body_history/<name>):
+kinetic and internal energy, axial momentum and the axial force on the
+body; a perforation run as an engineer reads it (the projectile's
+deceleration force)."""
+
+import h5py
+import numpy as np
+import pytest
+
+from fsph.driver import run
+
+from conftest import CASES
+
+
+@pytest.fixture(scope="module")
+def plate_run(tmp_path_factory):
+    """The 508 m/s plate case to 30 us (adaptive: elements, converted
+    particles, slide lines and particle contact between the bodies)."""
+    folder = tmp_path_factory.mktemp("plate_bodies")
+    deck = folder / "plate.nml"
+    text = (CASES / "al_plate_508.nml").read_text()
+    assert "end_time = 200.0e-6" in text
+    deck.write_text(text.replace("end_time = 200.0e-6", "end_time = 30.0e-6").replace(
+        "references/", str(CASES / "references") + "/"))
+    summary = run(deck, folder / "out", quiet=True)
+    with h5py.File(folder / "out" / "fsph.h5") as h5:
+        hist = {k: h5["history"][k][...] for k in h5["history"]}
+        bodies = {b: {k: g[k][...] for k in g} for b, g in h5["body_history"].items()}
+        units = {k: g.attrs["units"] for k, g in h5["body_history/projectile"].items()}
+    return summary, hist, bodies, units
+
+
+def test_bodies_add_up_to_the_whole(plate_run):
+    """The bodies' kinetic and internal energies sum to the run's at every
+    record (to round-off), with their units."""
+    summary, hist, bodies, units = plate_run
+    assert sorted(bodies) == ["plate", "projectile"]
+    assert units == {"kinetic": "J", "internal": "J", "momentum_z": "N s", "force_z": "N"}
+    scale = hist["kinetic"][0]
+    for key in ("kinetic", "internal"):
+        total = sum(b[key] for b in bodies.values())
+        assert np.abs(total - hist[key]).max() < 1e-12 * scale
+
+
+def test_contact_forces_are_equal_and_opposite(plate_run):
+    """Nothing but the other body acts on each (no plane, free plate): the
+    plate gains the axial momentum the projectile loses, within 0.5 % of
+    it, and the projectile's force (its deceleration force, positive
+    against the -z flight) integrates to its momentum change."""
+    summary, hist, bodies, _ = plate_run
+    rod, plate = bodies["projectile"], bodies["plate"]
+    lost = rod["momentum_z"][-1] - rod["momentum_z"][0]
+    gained = plate["momentum_z"][-1] - plate["momentum_z"][0]
+    assert lost > 0.0 and gained < 0.0          # the rod flies in -z and is slowed
+    assert abs(lost + gained) < 0.005 * lost
+    t = hist["time"]
+    assert np.sum(rod["force_z"][1:] * np.diff(t)) == pytest.approx(lost, rel=1e-9)
+    books = summary["bodies"]["projectile"]
+    assert books["momentum_z_N_s"] == pytest.approx(rod["momentum_z"][-1], rel=1e-12)
+    assert books["peak_force_z_N"] == pytest.approx(np.abs(rod["force_z"]).max(), rel=1e-12)
