@@ -124,19 +124,24 @@ def section_taylor(outroot, repeat):
     return result
 
 
+def deck_ending_at(deck, end_time, folder, suffix):
+    """A copy of `deck` in `folder` named STEM_SUFFIX.nml whose &control
+    end_time is end_time [s], its reference path made absolute."""
+    import f90nml
+    nml = f90nml.read(deck)
+    nml["control"]["end_time"] = end_time
+    nml["output"]["reference"] = str((deck.parent / nml["output"]["reference"]).resolve())
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{deck.stem}_{suffix}.nml"
+    nml.write(path, force=True)
+    return path
+
+
 def section_startup(outroot, repeat):
     """Start-up: the default deck cut to one cycle (end_time 1 ns) through
     `fsph run`, launch to exit, 1 thread: interpreter, imports, set-up, the
     t = 0 snapshot and its metrics, one cycle, the closing outputs."""
-    import f90nml
-    deck = CASES / "taylor_armco.nml"
-    nml = f90nml.read(deck)
-    nml["control"]["end_time"] = 1.0e-9
-    nml["output"]["reference"] = str((deck.parent / nml["output"]["reference"]).resolve())
-    folder = outroot / "decks"
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "taylor_armco_one_cycle.nml"
-    nml.write(path, force=True)
+    path = deck_ending_at(CASES / "taylor_armco.nml", 1.0e-9, outroot / "decks", "one_cycle")
     r = best_of(max(repeat, 5), "run", {"deck": str(path), "outdir": str(outroot / "one_cycle")}, 1,
                 "process_wall_s")
     print(f"  start-up (one cycle, launch to exit, 1 thread, best of {max(repeat, 5)}): "
@@ -202,16 +207,8 @@ def time_to_answer(rows, threads):
 
 def section_debris(outroot, repeat):
     """Case 1 of the debris clouds at the deck's 0.1 mm to 10 us."""
-    import f90nml
     print("\n(h) debris cloud, case 1 at 0.1 mm, to 10 us")
-    deck = CASES / "debris_cu_al_1.nml"
-    nml = f90nml.read(deck)
-    nml["control"]["end_time"] = 10.0e-6
-    nml["output"]["reference"] = str((deck.parent / nml["output"]["reference"]).resolve())
-    folder = outroot / "decks"
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "debris_cu_al_1_10us.nml"
-    nml.write(path, force=True)
+    path = deck_ending_at(CASES / "debris_cu_al_1.nml", 10.0e-6, outroot / "decks", "10us")
     return section_run("debris_cu_al_1 to 10 us", path, outroot, repeat=repeat)
 
 
