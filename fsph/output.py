@@ -16,6 +16,7 @@ import numpy as np
 
 from . import layouts
 from .errors import InputError, OutputError
+from .points import von_mises
 
 #: columns of the time history (fsph.layouts), the energy total included
 HISTORY_FIELDS = tuple(name for name, _, _ in layouts.HISTORY_COLUMNS)
@@ -45,7 +46,38 @@ LOCK_RETRY_S = 0.02
 
 def _points3(xy):
     """(n, 2) (r, z) -> (n, 3) (r, z, 0) for ParaView."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
     return np.column_stack([xy, np.zeros(len(xy))])
+
+
+#: The parts of the .pvd series, in order.
+VTU_PARTS = ("elements", "particles")
+
+
+def _element_mesh(snap):
+    """The meshio mesh of a snapshot's elements."""
+    cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
+    for j, comp in enumerate(STRESS_COMPONENTS):
+        cell_data[f"stress_{comp}"] = [snap["stress"][:, j]]
+    cell_data["mises"] = [von_mises(snap["stress"])]
+    point_data = {"velocity": _points3(snap["velocity"]),
+                  "displacement": _points3(snap["x"] - snap["x0"])}
+    return meshio.Mesh(_points3(snap["x"]), [("triangle", snap["conn"])], point_data=point_data,
+                       cell_data=cell_data)
+
+
+def _particle_mesh(part):
+    """The meshio mesh of a snapshot's particles, as vertices."""
+    n = len(part["x"])
+    point_data = {k: v for k, v in part.items()
+                  if k not in ("x", "x0", "velocity", "stress") and np.ndim(v) == 1}
+    point_data["velocity"] = _points3(part["velocity"])
+    point_data["displacement"] = _points3(part["x"] - part["x0"])
+    for j, comp in enumerate(STRESS_COMPONENTS):
+        point_data[f"stress_{comp}"] = part["stress"][:, j]
+    point_data["mises"] = von_mises(part["stress"])
+    return meshio.Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
+                       point_data=point_data)
 
 
 @contextmanager
@@ -220,7 +252,7 @@ class RunWriter:
         self.plane_force_peak = 0.0       # [N]
         self.plane_force_peak_time = 0.0  # [s]
         self.vtu = vtu
-        self.pvd_entries = {}
+        self.pvd_entries = []       # (time [s], part, file) of every .vtu written
         if vtu:
             with writing_errors(self.outdir / "vtu"):
                 (self.outdir / "vtu").mkdir(exist_ok=True)
@@ -410,47 +442,41 @@ class RunWriter:
         self.last_snapshot_bytes = max(self._h5_bytes() - before, 0) + vtu_bytes
 
     def _write_vtu(self, snap):
-        """The snapshot's .vtu files; returns their bytes [B]."""
+        """The snapshot's .vtu files, elements and particles, and the one
+        .pvd collection that lists both as parts 0 and 1 of each time
+        step; returns their bytes [B]. A kind is listed only at the time
+        steps that have it, so ParaView, which reads at a time step the
+        parts listed there, draws no particles before the first conversion
+        (two separate series drew the first particles over the t = 0 mesh).
+        Fields as in fsph.h5, with the von Mises stress `mises` [Pa] and the
+        displacement since t = 0 `displacement` [m]."""
         written = 0
         if "conn" in snap:
-            cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
-            for j, comp in enumerate(STRESS_COMPONENTS):
-                cell_data[f"stress_{comp}"] = [snap["stress"][:, j]]
-            mesh = meshio.Mesh(_points3(snap["x"]), [("triangle", snap["conn"])],
-                               point_data={"velocity": _points3(snap["velocity"])},
-                               cell_data=cell_data)
-            written += self._add_series("elements", snap["time"], mesh)
+            written += self._add_part("elements", snap["time"], _element_mesh(snap))
         if "particles" in snap:
-            part = snap["particles"]
-            n = len(part["x"])
-            point_data = {k: v for k, v in part.items()
-                          if k not in ("x", "x0", "velocity", "stress") and np.ndim(v) == 1}
-            point_data["velocity"] = _points3(part["velocity"])
-            for j, comp in enumerate(STRESS_COMPONENTS):
-                point_data[f"stress_{comp}"] = part["stress"][:, j]
-            mesh = meshio.Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
-                               point_data=point_data)
-            written += self._add_series("particles", snap["time"], mesh)
+            written += self._add_part("particles", snap["time"], _particle_mesh(snap["particles"]))
+        self._write_pvd()
         return written
 
-    def _add_series(self, kind, time, mesh):
-        """One .vtu per snapshot and kind; the .pvd collection rewritten.
-        Returns the bytes of the .vtu [B]."""
+    def _add_part(self, kind, time, mesh):
+        """One .vtu of a kind for this snapshot; returns its bytes [B]."""
         name = f"vtu/{kind}_{self.n_snapshots:05d}.vtu"
         # uncompressed binary: double-precision fields hardly compress, and
         # zlib was the largest output cost of a short run
         with writing_errors(self.outdir / name):
             meshio.write(self.outdir / name, mesh, binary=True, compression=None)
             written = (self.outdir / name).stat().st_size
-        entries = self.pvd_entries.setdefault(kind, [])
-        entries.append((time, name))
-        rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="0" file="{f}"/>'
-                         for t, f in entries)
-        pvd = "fsph.pvd" if kind == "elements" else f"fsph_{kind}.pvd"
-        _atomic_write_text(self.outdir / pvd,
+        self.pvd_entries.append((time, VTU_PARTS.index(kind), name))
+        return written
+
+    def _write_pvd(self):
+        """fsph.pvd: every snapshot's files, elements as part 0 and
+        particles as part 1 of one series."""
+        rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="{p}" file="{f}"/>'
+                         for t, p, f in self.pvd_entries)
+        _atomic_write_text(self.outdir / "fsph.pvd",
                            '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
                            f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
-        return written
 
     def mark_failure(self, message):
         with self._h5() as h5:

@@ -1,6 +1,6 @@
-"""Measures of the points of a snapshot that more than one kind of metric
-needs (fsph.metrics, fsph.debris): the reach of element nodes and the
-failed and molten mass of a body."""
+"""Measures of the points of a snapshot that more than one module needs
+(fsph.metrics, fsph.debris, fsph.output): the reach of element nodes, the
+failed and molten mass of a body, the von Mises stress."""
 
 import numpy as np
 
@@ -32,3 +32,14 @@ def state_masses(snap, body_index):
     if "particles" in snap:
         add(snap["particles"], "mass", snap["particles"]["body"] == body_index)
     return out
+
+
+def von_mises(stress):
+    """Von Mises stress [Pa] of (n, 4) stresses in the order rr, zz, rz, tt
+    (fsph.output STRESS_COMPONENTS; the snapshots' total Cauchy stress or a
+    deviator): sqrt(3/2 s:s) of the deviator s (the mean of rr, zz, tt
+    removed), the shear rz counted twice, the hoop tt included."""
+    sig = np.asarray(stress, dtype=float)
+    mean = (sig[:, 0] + sig[:, 1] + sig[:, 3]) / 3.0
+    s_rr, s_zz, s_tt = sig[:, 0] - mean, sig[:, 1] - mean, sig[:, 3] - mean
+    return np.sqrt(1.5 * (s_rr ** 2 + s_zz ** 2 + s_tt ** 2 + 2.0 * sig[:, 2] ** 2))

@@ -87,8 +87,7 @@ def test_bar_outputs(bar_run):
             assert last["connectivity"].shape == (summary["n_elements"], 3)
         if summary["n_particles"]:
             assert last["particles"]["x"].shape == (summary["n_particles"], 2)
-    kinds = (["fsph.pvd"] if summary["n_elements"] else []) + \
-        (["fsph_particles.pvd"] if summary["n_particles"] else [])
-    for pvd in kinds:
-        assert (out / pvd).is_file()
+    kinds = (["elements"] if summary["n_elements"] else []) + \
+        (["particles"] if summary["n_particles"] else [])
+    assert (out / "fsph.pvd").is_file()
     assert len(list((out / "vtu").glob("*.vtu"))) == 7 * len(kinds)

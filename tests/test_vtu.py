@@ -1,0 +1,71 @@
+"""The ParaView files as a user reads them (meshio): one .pvd series with
+elements as part 0 and particles as part 1 only where there are
+particles; the von Mises stress and the displacement beside the fields."""
+
+import re
+
+import meshio
+import numpy as np
+import pytest
+
+from fsph.driver import run
+from fsph.materials import LIBRARY
+
+from conftest import rod_deck
+
+
+@pytest.fixture(scope="module")
+def adaptive_rod(tmp_path_factory):
+    """An elastic-perfectly-plastic Armco rod at 400 m/s onto the plane,
+    adaptive, 2 us: its elements yield and turn into particles."""
+    folder = tmp_path_factory.mktemp("vtu")
+    deck = folder / "rod.nml"
+    deck.write_text(rod_deck(control="mode = 'adaptive'\n end_time = 2e-6",
+                             material="name = 'steel'\n library = 'armco_iron'",
+                             body="velocity_z = -400.0\n n_radial = 6\n n_axial = 24")
+                    .replace("n_snapshots = 2", "n_snapshots = 4") + "&convert\n theta_c = 40.0\n/\n")
+    summary = run(deck, folder / "out", quiet=True)
+    assert summary["n_converted"] > 0
+    return folder / "out"
+
+
+def pvd_entries(out):
+    text = (out / "fsph.pvd").read_text()
+    return [(float(t), int(p), f) for t, p, f in
+            re.findall(r'timestep="([^"]+)" group="" part="(\d)" file="([^"]+)"', text)]
+
+
+def test_one_series_with_particles_only_where_they_are(adaptive_rod):
+    """fsph.pvd alone: elements (part 0) at every time step, particles
+    (part 1) only at the time steps that have them, so none at t = 0."""
+    entries = pvd_entries(adaptive_rod)
+    assert not (adaptive_rod / "fsph_particles.pvd").exists()
+    times = sorted({t for t, _, _ in entries})
+    assert len(times) == 5
+    assert [p for t, p, _ in entries if t == 0.0] == [0]
+    assert all(p in (0, 1) for _, p, _ in entries) and any(p == 1 for _, p, _ in entries)
+    for _, part, name in entries:
+        mesh = meshio.read(adaptive_rod / name)
+        assert len(mesh.points) > 0
+        assert ("triangle" if part == 0 else "vertex") in mesh.cells_dict
+
+
+def test_mises_at_most_the_yield_stress_and_displacement(adaptive_rod):
+    """Elastic-perfectly-plastic: the von Mises stress of every element and
+    particle is at most Y0 (the pressure and the viscous q removed) and
+    reaches it where the rod flows; the displacement is x - x0, zero at
+    t = 0."""
+    y0 = LIBRARY["armco_iron"]["yield_stress"]
+    entries = pvd_entries(adaptive_rod)
+    last_time = max(t for t, _, _ in entries)
+    for t, part, name in entries:
+        mesh = meshio.read(adaptive_rod / name)
+        mises = mesh.cell_data["mises"][0] if part == 0 else mesh.point_data["mises"]
+        assert mises.max() <= y0 * (1.0 + 1e-9)
+        if t == last_time:
+            assert mises.max() >= 0.999 * y0
+        displacement = mesh.point_data["displacement"]
+        if t == 0.0:
+            assert np.all(displacement == 0.0)
+        else:
+            assert np.abs(displacement[:, 1]).max() > 0.0
