@@ -95,7 +95,7 @@ CHECKPOINT_REAL = (
 CHECKPOINT_INT = (
     "elements/conn", "elements/mat", "elements/body", "elements/group", "nodes/on_axis",
     "particles/mat", "particles/body", "particles/continuum", "particles/tie_a",
-    "particles/tie_b", "particles/assoc", "coupling/edge",
+    "particles/tie_b", "particles/assoc", "coupling/edge", "elements/id",
 )
 # the clock and the books
 CHECKPOINT_REAL_SCALARS = (
@@ -260,7 +260,7 @@ MATERIAL_STATE_FIELDS = ("s_rr", "s_zz", "s_rz", "s_tt", "p", "eps_p", "rho", "e
 ELEMENT_FIELDS = MATERIAL_STATE_FIELDS + ("q", "area", "mass")
 PARTICLE_FIELDS = ("x_r", "x_z", "x0_r", "x0_z", "v_r", "v_z", "mass", "h", "radius") + MATERIAL_STATE_FIELDS
 # material and body of an element or particle
-ID_FIELDS = ("material", "body")
+ID_FIELDS = ("material", "body", "id")
 SNAPSHOT_SCALARS = ("time", "cycle", "contact_penetration", "contact_penetration_relative",
                     "eroded_momentum_z")
 

@@ -29,7 +29,7 @@ PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bod
                "between history rows (the rate of plane_impulse_z); the bodies push the planes "
                "with minus it")
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
-                        "internal_energy", "temperature", "damage", "material", "body")
+                        "internal_energy", "temperature", "damage", "material", "body", "id")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
 #: the lock file that keeps a second run out of an output folder in use
 LOCK_NAME = "fsph.lock"

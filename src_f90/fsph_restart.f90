@@ -86,6 +86,7 @@ contains
     case (cki_elements_mat); if (allocated(sim%elements%mat)) p => int_row(sim%elements%mat, ne)
     case (cki_elements_body); if (allocated(sim%elements%body)) p => int_row(sim%elements%body, ne)
     case (cki_elements_group); if (allocated(sim%elements%group)) p => int_row(sim%elements%group, ne)
+    case (cki_elements_id); if (allocated(sim%elements%id)) p => int_row(sim%elements%id, ne)
     case (cki_nodes_on_axis); if (allocated(sim%nodes%on_axis_int)) p => int_row(sim%nodes%on_axis_int, nn)
     case (cki_particles_mat); if (allocated(sim%particles%mat)) p => int_row(sim%particles%mat, np)
     case (cki_particles_body); if (allocated(sim%particles%body)) p => int_row(sim%particles%body, np)

@@ -9,7 +9,7 @@ module fsph_snapshot
   use fsph_layouts, only: nf_x_r, nf_x0_r, nf_v_r, nf_mass, ms_s_rr, ms_s_tt, ms_p, ms_eps_p, ms_rho, ms_e, &
                           ms_temp, ms_c, ms_damage, ms_failed, ms_melted, n_material_state_fields, ef_s_rr, &
                           ef_q, ef_area, ef_mass, pf_x_r, pf_x0_r, pf_v_r, pf_mass, pf_h, pf_radius, pf_s_rr, &
-                          id_material, id_body, ss_time, ss_cycle, ss_contact_penetration, &
+                          id_material, id_body, id_id, ss_time, ss_cycle, ss_contact_penetration, &
                           ss_contact_penetration_relative, ss_eroded_momentum_z, hist_damage, hist_failed, &
                           hist_melted, prop_rho0
   implicit none
@@ -44,6 +44,7 @@ contains
     conn = el%conn(:, 1:n)
     ids(id_material, :) = el%mat(1:n)
     ids(id_body, :) = el%body(1:n)
+    ids(id_id, :) = el%id(1:n)
     call material_state_rows(n, el%s, el%p, el%eps_p, el%rho, el%e, el%temp, el%c, el%hist, &
                              fields(ef_s_rr:ef_s_rr + n_material_state_fields - 1, :))
     fields(ef_q, :) = el%q(1:n)
@@ -66,6 +67,10 @@ contains
     n = pt%n
     ids(id_material, :) = pt%mat(1:n)
     ids(id_body, :) = pt%body(1:n)
+    ! particles are only ever appended: the index is the particle's id
+    do i = 1, n
+      ids(id_id, i) = i
+    end do
     fields(pf_x_r:pf_x_r + 1, :) = pt%x(:, 1:n)
     fields(pf_x0_r:pf_x0_r + 1, :) = pt%x0(:, 1:n)
     fields(pf_v_r:pf_v_r + 1, :) = pt%v(:, 1:n)

@@ -41,6 +41,7 @@ module fsph_state
     integer, allocatable :: mat(:)        !< material index
     integer, allocatable :: body(:)       !< body index
     integer, allocatable :: group(:)      !< conversion group (global index, 0: none)
+    integer, allocatable :: id(:)         !< the element's index at set-up: kept when elements are removed
     real(wp), allocatable :: mass(:)      !< ring mass [kg]
     real(wp), allocatable :: rho(:)       !< density [kg/m^3]
     real(wp), allocatable :: s(:, :)      !< deviatoric stress rr, zz, rz, tt [Pa]
@@ -274,6 +275,7 @@ contains
   subroutine state_allocate(sim, nn, ne)
     type(simulation_t), intent(inout) :: sim
     integer, intent(in) :: nn, ne
+    integer :: k
     sim%nodes = node_set_t()
     sim%elements = element_set_t()
     sim%ready = .false.
@@ -287,12 +289,13 @@ contains
     sim%nodes%mass_eroded = 0.0_wp
     sim%elements%n = ne
     associate (el => sim%elements)
-      allocate (el%conn(3, ne), el%mat(ne), el%body(ne), el%group(ne), el%mass(ne), el%rho(ne), el%s(4, ne), &
+      allocate (el%conn(3, ne), el%mat(ne), el%body(ne), el%group(ne), el%id(ne), el%mass(ne), el%rho(ne), el%s(4, ne), &
                 el%p(ne), el%q(ne), el%eps_p(ne), el%e(ne), el%temp(ne), el%c(ne), el%area(ne), &
                 el%rbar(ne), el%volume(ne), el%lmin(ne), el%d(4, ne), el%spin(ne), el%fc(2, 3, ne), &
                 el%hist(n_hist, ne))
       el%hist = 0.0_wp
       el%group = 0      ! no conversion group until assign_groups (checkpoints read it)
+      el%id = [(k, k = 1, ne)]
     end associate
   end subroutine state_allocate
 

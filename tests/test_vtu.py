@@ -1,6 +1,7 @@
 """The ParaView files as a user reads them (meshio): one .pvd series with
 elements as part 0 and particles as part 1 only where there are
-particles; the von Mises stress and the displacement beside the fields."""
+particles; the von Mises stress, the displacement and persistent ids
+beside the fields."""
 
 import re
 
@@ -69,3 +70,28 @@ def test_mises_at_most_the_yield_stress_and_displacement(adaptive_rod):
             assert np.all(displacement == 0.0)
         else:
             assert np.abs(displacement[:, 1]).max() > 0.0
+
+
+def test_ids_follow_elements_and_particles(adaptive_rod):
+    """An element keeps its id (its index at t = 0) when others turn into
+    particles: the initial positions of its nodes, which travel with the
+    material, are those of that id at t = 0; a particle's id is its index,
+    and its initial position does not change between snapshots."""
+    import h5py
+    with h5py.File(adaptive_rod / "fsph.h5") as h5:
+        snaps = [h5["snapshots"][k] for k in sorted(h5["snapshots"])]
+        first, last = snaps[0], snaps[-1]
+        centroid0 = first["nodes_initial"][...][first["connectivity"][...]].mean(axis=1)
+        ids = last["id"][...]
+        centroid = last["nodes_initial"][...][last["connectivity"][...]].mean(axis=1)
+        assert list(first["id"][...]) == list(range(len(centroid0)))
+        assert len(ids) < len(centroid0) and len(set(ids)) == len(ids)
+        assert np.array_equal(centroid, centroid0[ids])
+        particles = [s["particles"] for s in snaps if "particles" in s]
+        assert len(particles) >= 2
+        a, b = particles[0], particles[-1]
+        n = len(a["id"])
+        assert list(b["id"][...][:n]) == list(a["id"][...]) == list(range(n))
+        assert np.array_equal(b["x0"][...][:n], a["x0"][...])
+    mesh = meshio.read(adaptive_rod / f"vtu/elements_{len(snaps) - 1:05d}.vtu")
+    assert np.array_equal(mesh.cell_data["id"][0], ids)
