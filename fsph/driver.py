@@ -301,7 +301,8 @@ def _set_up(deck_path, outdir, restart):
     lock = FolderLock(outdir)
     try:
         writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
-                           vtu=deck["output"]["vtu"], body_names=sim.body_names)
+                           vtu=deck["output"]["vtu"], body_names=sim.body_names,
+                           material_names=sim.material_names)
     except BaseException:
         lock.release()
         raise

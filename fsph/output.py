@@ -216,13 +216,17 @@ class RunWriter:
     complete snapshot stays readable.
     """
 
-    def __init__(self, outdir, deck_text, title, vtu=True, body_names=()):
+    def __init__(self, outdir, deck_text, title, vtu=True, body_names=(), material_names=()):
         self.outdir = Path(outdir)
         self.h5_path = self.outdir / "fsph.h5"
         self.lock_warning = ""      # set once a write could not wait for a reader
         self._file_locks = True     # False on a file system without locks
         with self._h5("w") as h5:
             h5.attrs["title"] = title
+            h5.attrs["units"] = "SI: m, s, kg, N, Pa, J, K"
+            # the snapshots' body and material fields index these (0-based)
+            h5.attrs["body_names"] = list(body_names)
+            h5.attrs["material_names"] = list(material_names)
             h5["deck"] = deck_text
             hist = h5.create_group("history")
             for name, unit, meaning in layouts.HISTORY_COLUMNS + (PLANE_FORCE,):
@@ -244,6 +248,7 @@ class RunWriter:
         self.max_energy_error = 0.0
         self.max_energy_error_time = 0.0
         self.body_names = tuple(body_names)
+        self.material_names = tuple(material_names)
         self._bodies = []           # the bodies' rows not yet written (k, bodies, columns)
         self._body_last = None      # (time [s], momenta [N s]) of the last history row
         self.body_force_peak = [(0.0, 0.0)] * len(self.body_names)  # (force [N], time [s])
@@ -401,6 +406,16 @@ class RunWriter:
                     group[name][n0:n1] = rows[:, b, j]
             self._bodies = []
 
+    def _name_ids(self, g):
+        """The names the body and material fields of a snapshot group (and
+        its particles) index, as their attribute `names`."""
+        for group in (g, g.get("particles")):
+            if group is None:
+                continue
+            for field, names in (("body", self.body_names), ("material", self.material_names)):
+                if field in group and names:
+                    group[field].attrs["names"] = list(names)
+
     def flush(self):
         """Write the history rows kept since the last snapshot."""
         if self._history:
@@ -431,11 +446,14 @@ class RunWriter:
                 for name in SNAPSHOT_CELL_FIELDS:
                     g[name] = snap[name]
                 g["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
+                _describe(g, {"nodes": "x", "nodes_initial": "x0", "connectivity": "conn"})
             if "particles" in snap:
                 pg = g.create_group("particles")
                 for name, values in snap["particles"].items():
                     pg[name] = values
                 pg["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
+                _describe(pg, {})
+            self._name_ids(g)
             snapshots.move(PARTIAL_SNAPSHOT, f"{self.n_snapshots:05d}")
         vtu_bytes = self._write_vtu(snap) if self.vtu else 0
         self.n_snapshots += 1
@@ -482,6 +500,24 @@ class RunWriter:
         with self._h5() as h5:
             self._write_history(h5)
             h5.attrs["failure"] = message
+
+
+#: The unit of each snapshot field (fsph.h5 attribute `units`; SI throughout).
+SNAPSHOT_UNITS = {
+    "x": "m", "x0": "m", "velocity": "m/s", "conn": "-", "stress": "Pa", "pressure": "Pa", "q": "Pa",
+    "plastic_strain": "-", "density": "kg/m^3", "internal_energy": "J/kg", "temperature": "K",
+    "damage": "-", "material": "-", "body": "-", "id": "-", "mass": "kg", "h": "m", "radius": "m",
+    "radius0": "m", "sound_speed": "m/s", "failed": "-", "melted": "-",
+}
+
+
+def _describe(group, aliases):
+    """Set the attribute `units` of every dataset of a snapshot group
+    (aliases: dataset name -> field name of SNAPSHOT_UNITS)."""
+    for name, data in group.items():
+        unit = SNAPSHOT_UNITS.get(aliases.get(name, name))
+        if unit is not None and isinstance(data, h5py.Dataset):
+            data.attrs["units"] = unit
 
 
 def _append_metrics(h5, kind, record, units):

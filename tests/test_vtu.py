@@ -95,3 +95,23 @@ def test_ids_follow_elements_and_particles(adaptive_rod):
         assert np.array_equal(b["x0"][...][:n], a["x0"][...])
     mesh = meshio.read(adaptive_rod / f"vtu/elements_{len(snaps) - 1:05d}.vtu")
     assert np.array_equal(mesh.cell_data["id"][0], ids)
+
+
+def test_every_dataset_of_fsph_h5_has_its_unit(adaptive_rod):
+    """Every history and snapshot dataset of fsph.h5 carries `units`; the
+    body and material fields name what they index; the file says SI."""
+    import h5py
+    missing = []
+    with h5py.File(adaptive_rod / "fsph.h5") as h5:
+        assert h5.attrs["units"].startswith("SI")
+        assert list(h5.attrs["body_names"]) == ["rod"]
+        assert list(h5.attrs["material_names"]) == ["steel"]
+
+        def visit(name, item):
+            if isinstance(item, h5py.Dataset) and name != "deck" and "units" not in item.attrs:
+                missing.append(name)
+        h5.visititems(visit)
+        last = h5["snapshots"][sorted(h5["snapshots"])[-1]]
+        assert list(last["particles/body"].attrs["names"]) == ["rod"]
+        assert last["stress"].attrs["units"] == "Pa"
+    assert missing == []
