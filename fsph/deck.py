@@ -558,6 +558,15 @@ SCHEMA = {
                               upper=MAX_OUTPUTS),
             "history_every": Key("int", 10, "-", "Cycles between time-history records.", lower=1),
             "vtu": Key("bool", True, "-", "Write a ParaView series (.pvd + .vtu)."),
+            "revolve_segments": Key("int", 0, "-",
+                                    "Also write the bodies revolved about the axis into 3D, for "
+                                    "viewing (fsph_3d.pvd: elements as wedges, particles as "
+                                    "rings of points), with this many segments over "
+                                    "revolve_angle (0: off; needs vtu).", lower=0, upper=360),
+            "revolve_angle": Key("float", 360.0, "deg",
+                                 "Angle the bodies are revolved through: below 360 a wedge "
+                                 "is left out, to see inside.", lower=0.0, lower_open=True,
+                                 upper=360.0),
             "checkpoint": Key("bool", True, "-",
                               "Write checkpoint.h5 at every snapshot and on SIGINT/SIGTERM "
                               "(fsph run DECK --restart DIR/checkpoint.h5 continues bit for bit)."),
@@ -1348,6 +1357,9 @@ def _cross_check(path, deck):
         _check_geometry(path, f"body #{i + 1}", b)
     _check_size(path, deck["body"])
     _check_joins(path, deck["body"], mode)
+    if deck["output"]["revolve_segments"] and not deck["output"]["vtu"]:
+        raise DeckError(path, "output", "revolve_segments", "0 when vtu = .false. (the revolved "
+                        "series is written beside the ParaView series)", deck["output"]["revolve_segments"])
     if deck["erosion"]["enabled"] and mode != "fem":
         raise DeckError(path, "erosion", "enabled", ".false. outside mode 'fem' (erosion is the "
                         "FEM baseline; modes fixed and adaptive turn distorted elements into "

@@ -302,7 +302,8 @@ def _set_up(deck_path, outdir, restart):
     try:
         writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
                            vtu=deck["output"]["vtu"], body_names=sim.body_names,
-                           material_names=sim.material_names)
+                           material_names=sim.material_names,
+                           revolve=(deck["output"]["revolve_segments"], deck["output"]["revolve_angle"]))
     except BaseException:
         lock.release()
         raise

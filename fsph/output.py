@@ -216,7 +216,8 @@ class RunWriter:
     complete snapshot stays readable.
     """
 
-    def __init__(self, outdir, deck_text, title, vtu=True, body_names=(), material_names=()):
+    def __init__(self, outdir, deck_text, title, vtu=True, body_names=(), material_names=(),
+                 revolve=(0, 360.0)):
         self.outdir = Path(outdir)
         self.h5_path = self.outdir / "fsph.h5"
         self.lock_warning = ""      # set once a write could not wait for a reader
@@ -258,6 +259,8 @@ class RunWriter:
         self.plane_force_peak_time = 0.0  # [s]
         self.vtu = vtu
         self.pvd_entries = []       # (time [s], part, file) of every .vtu written
+        self.revolve = revolve      # (segments, angle [deg]) of the 3D series; 0 segments: none
+        self.pvd_3d_entries = []
         if vtu:
             with writing_errors(self.outdir / "vtu"):
                 (self.outdir / "vtu").mkdir(exist_ok=True)
@@ -469,30 +472,40 @@ class RunWriter:
         Fields as in fsph.h5, with the von Mises stress `mises` [Pa] and the
         displacement since t = 0 `displacement` [m]."""
         written = 0
+        segments, angle = self.revolve
+        meshes = {}
         if "conn" in snap:
-            written += self._add_part("elements", snap["time"], _element_mesh(snap))
+            meshes["elements"] = _element_mesh(snap)
         if "particles" in snap:
-            written += self._add_part("particles", snap["time"], _particle_mesh(snap["particles"]))
-        self._write_pvd()
+            meshes["particles"] = _particle_mesh(snap["particles"])
+        for kind, mesh in meshes.items():
+            written += self._add_part(kind, snap["time"], mesh, self.pvd_entries)
+            if segments:
+                written += self._add_part(kind + "_3d", snap["time"], _revolved(mesh, segments, angle),
+                                          self.pvd_3d_entries)
+        self._write_pvd("fsph.pvd", self.pvd_entries)
+        if segments:
+            self._write_pvd("fsph_3d.pvd", self.pvd_3d_entries)
         return written
 
-    def _add_part(self, kind, time, mesh):
-        """One .vtu of a kind for this snapshot; returns its bytes [B]."""
+    def _add_part(self, kind, time, mesh, entries):
+        """One .vtu of a kind for this snapshot, listed in entries; returns
+        its bytes [B]."""
         name = f"vtu/{kind}_{self.n_snapshots:05d}.vtu"
         # uncompressed binary: double-precision fields hardly compress, and
         # zlib was the largest output cost of a short run
         with writing_errors(self.outdir / name):
-            meshio.write(self.outdir / name, mesh, binary=True, compression=None)
+            meshio.write(self.outdir / name, _with_units(mesh), binary=True, compression=None)
             written = (self.outdir / name).stat().st_size
-        self.pvd_entries.append((time, VTU_PARTS.index(kind), name))
+        entries.append((time, VTU_PARTS.index(kind.removesuffix("_3d")), name))
         return written
 
-    def _write_pvd(self):
-        """fsph.pvd: every snapshot's files, elements as part 0 and
+    def _write_pvd(self, name, entries):
+        """A .pvd collection: every snapshot's files, elements as part 0 and
         particles as part 1 of one series."""
         rows = "\n".join(f'    <DataSet timestep="{t:.9e}" group="" part="{p}" file="{f}"/>'
-                         for t, p, f in self.pvd_entries)
-        _atomic_write_text(self.outdir / "fsph.pvd",
+                         for t, p, f in entries)
+        _atomic_write_text(self.outdir / name,
                            '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
                            f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
 
@@ -509,6 +522,56 @@ SNAPSHOT_UNITS = {
     "damage": "-", "material": "-", "body": "-", "id": "-", "mass": "kg", "h": "m", "radius": "m",
     "radius0": "m", "sound_speed": "m/s", "failed": "-", "melted": "-",
 }
+
+
+def _vtu_unit(name):
+    """The unit of a VTU array (the fsph.h5 field's; stress components,
+    the von Mises stress and the displacement included)."""
+    if name.startswith("stress_") or name == "mises":
+        return "Pa"
+    return SNAPSHOT_UNITS.get("x" if name == "displacement" else name, "-")
+
+
+def _revolved(mesh, segments, angle_deg):
+    """The r-z mesh (points (r, z, 0)) revolved about the z axis through
+    angle_deg in `segments` steps, for viewing: triangles become wedges,
+    vertices rings of vertices; point arrays repeat on every copy of a
+    point (vectors (v_r, v_z, 0) turned with it), cell arrays on every copy
+    of a cell. Returns a meshio mesh in (x, y, z) [m]."""
+    theta = np.radians(np.linspace(0.0, angle_deg, segments + 1))
+    if angle_deg >= 360.0:
+        theta = theta[:-1]                      # the last copy is the first
+    n, k = len(mesh.points), len(theta)
+    r, z = mesh.points[:, 0], mesh.points[:, 1]
+    c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    points = np.stack([(r * c).ravel(), (r * s).ravel(), np.tile(z, k)], axis=1)
+
+    def turned(values):
+        values = np.asarray(values)
+        if values.ndim == 2 and values.shape[1] == 3:   # (r, z, 0) vectors
+            return np.stack([(values[:, 0] * c).ravel(), (values[:, 0] * s).ravel(),
+                             np.tile(values[:, 1], k)], axis=1)
+        return np.tile(values, k)
+    point_data = {name: turned(v) for name, v in mesh.point_data.items()}
+    block = mesh.cells[0]
+    if block.type == "triangle":
+        steps = segments if angle_deg < 360.0 else k
+        a = np.arange(steps)[:, None, None] * n
+        b = ((np.arange(steps) + 1) % k)[:, None, None] * n
+        wedges = np.concatenate([block.data[None] + a, block.data[None] + b], axis=2).reshape(-1, 6)
+        cell_data = {name: [np.tile(v[0], steps)] for name, v in mesh.cell_data.items()}
+        return meshio.Mesh(points, [("wedge", wedges)], point_data=point_data, cell_data=cell_data)
+    return meshio.Mesh(points, [("vertex", np.arange(len(points)).reshape(-1, 1))], point_data=point_data)
+
+
+def _with_units(mesh):
+    """The mesh with each array named with its unit, "pressure [Pa]" (a
+    dimensionless one keeps its name): the unit travels with the array
+    into ParaView, whatever reads the file."""
+    def named(data):
+        return {(k if _vtu_unit(k) == "-" else f"{k} [{_vtu_unit(k)}]"): v for k, v in data.items()}
+    return meshio.Mesh(mesh.points, mesh.cells, point_data=named(mesh.point_data),
+                       cell_data=named(mesh.cell_data))
 
 
 def _describe(group, aliases):

@@ -61,11 +61,11 @@ def test_mises_at_most_the_yield_stress_and_displacement(adaptive_rod):
     last_time = max(t for t, _, _ in entries)
     for t, part, name in entries:
         mesh = meshio.read(adaptive_rod / name)
-        mises = mesh.cell_data["mises"][0] if part == 0 else mesh.point_data["mises"]
+        mises = mesh.cell_data["mises [Pa]"][0] if part == 0 else mesh.point_data["mises [Pa]"]
         assert mises.max() <= y0 * (1.0 + 1e-9)
         if t == last_time:
             assert mises.max() >= 0.999 * y0
-        displacement = mesh.point_data["displacement"]
+        displacement = mesh.point_data["displacement [m]"]
         if t == 0.0:
             assert np.all(displacement == 0.0)
         else:
