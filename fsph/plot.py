@@ -1074,12 +1074,18 @@ def field_map(run_dir, field, times_us=None, output=None, dpi=150):
     return output
 
 
+#: colour of the failed runs of a sweep (crosses on the axis of sweep.png)
+FAILED_COLOUR = "red"
+
+
 def residual_velocity(points, fits=(), experiment=(), output="residual.png", title=None,
-                      dpi=120):
+                      dpi=120, failed=()):
     """Write a PNG of residual against striking velocity: `points` a list of
     (label, v_s, v_r) computed series, `fits` a list of (label, fit) with a
     fit of fsph.ballistics.fit_recht_ipson drawn as a curve, `experiment`
-    (v_s, v_r) pairs of measurements; returns the PNG path."""
+    (v_s, v_r) pairs of measurements, `failed` the striking velocities of
+    runs that failed (red crosses on the axis, v_r = 0, with their count in
+    the legend); returns the PNG path."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -1089,7 +1095,7 @@ def residual_velocity(points, fits=(), experiment=(), output="residual.png", tit
     output = Path(output)
     fig, ax = plt.subplots(figsize=(6, 4.5))
     top = max([max(v_s, default=0.0) for _, v_s, _ in points]
-              + [v for v, _ in experiment] + [1.0])
+              + [v for v, _ in experiment] + list(failed) + [1.0])
     grid = np.linspace(0.0, 1.05 * top, 300)
     for i, (label, v_s, v_r) in enumerate(points):
         ax.plot(v_s, v_r, "os^v"[i % 4], mfc="none" if i else None, label=label)
@@ -1098,6 +1104,9 @@ def residual_velocity(points, fits=(), experiment=(), output="residual.png", tit
     if experiment:
         v_s, v_r = zip(*experiment)
         ax.plot(v_s, v_r, "kx", ms=8, label="experiment")
+    if len(failed):
+        ax.plot(failed, np.zeros(len(failed)), "x", color=FAILED_COLOUR, ms=9, mew=2, ls="",
+                clip_on=False, zorder=5, label=f"failed run ({len(failed)})")
     ax.set_xlabel("striking velocity [m/s]")
     ax.set_ylabel("residual velocity [m/s]")
     if title:
