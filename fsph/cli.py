@@ -65,7 +65,8 @@ def _parser():
                                      "(shapes.png), energy and time-step histories "
                                      "(history.png), and where they apply the perforation "
                                      "histories (perforation.png) and the damage map "
-                                     "(damage.png)")
+                                     "(damage.png); with --field, pictures of fields "
+                                     "(field_NAME.png) instead")
     pl.add_argument("run_dir", help="output folder of `fsph run`")
     pl.add_argument("--times",
                     help="times in µs, comma separated: each panel draws the snapshot "
@@ -74,7 +75,14 @@ def _parser():
                          "are not at the times asked (default: four snapshots spread evenly "
                          "from the first to the last; a debris run: the snapshot of its "
                          "metrics)")
-    pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png)")
+    pl.add_argument("--field", metavar="NAME[,NAME...]",
+                    help="draw only these fields, each into RUN_DIR/field_NAME.png, at the "
+                         "times of shapes.png: eps_p (equivalent plastic strain), pressure "
+                         "[GPa], mises (von Mises stress [GPa]), temperature [K], damage, "
+                         "density [kg/m^3], material; elements and particles on one colour "
+                         "scale, mirrored about the axis")
+    pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png; with one "
+                                           "--field, its picture)")
     pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
     rp = sub.add_parser("report", help="run the validation decks (or reuse their outputs) and "
                                        "write a report with errors against the references")
@@ -123,9 +131,26 @@ def _plot_times(text):
     return times
 
 
+def _plot_fields(text, run_dir):
+    """--field as a list of distinct field names the run has; InputError
+    (one line: the field, why, the fields the run has) otherwise."""
+    from .plot import FIELDS, missing_fields
+    names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    if not names:
+        raise InputError(f"--field: expected field names separated by commas "
+                         f"({', '.join(FIELDS)}), got {text!r}")
+    missing = missing_fields(run_dir)
+    available = ", ".join(f for f in FIELDS if f not in missing)
+    for name in names:
+        if name not in FIELDS or name in missing:
+            why = missing.get(name, "no such field")
+            raise InputError(f"--field {name}: {why}; fields of this run: {available}")
+    return names
+
+
 def _plot(args):
     """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
-    from .plot import (damage_map, deformed_shapes, histories, nearest_note,
+    from .plot import (damage_map, deformed_shapes, field_map, histories, nearest_note,
                        perforation_histories, snapshot_choice)
     times = _plot_times(args.times) if args.times is not None else None
     if not PLOT_DPI[0] <= args.dpi <= PLOT_DPI[1]:
@@ -142,10 +167,18 @@ def _plot(args):
                              f"{', '.join(PLOT_FORMATS)}")
         if not output.parent.is_dir():
             raise InputError(f"-o {output}: expected an existing folder, no {output.parent}")
+    fields = _plot_fields(args.field, run_dir) if args.field is not None else None
+    if fields and len(fields) > 1 and args.output:
+        raise InputError(f"-o {args.output}: names one picture, --field asks for {len(fields)} "
+                         f"(without -o each goes to RUN_DIR/field_NAME.png)")
     try:
         note = nearest_note(snapshot_choice(run_dir, times)) if times else None
         if note:
             print(note)
+        if fields:
+            for name in fields:
+                print(field_map(run_dir, name, times, args.output, args.dpi))
+            return EXIT_OK
         print(deformed_shapes(run_dir, times, args.output, args.dpi))
         print(histories(run_dir, dpi=args.dpi))
         for extra in (perforation_histories(run_dir, dpi=args.dpi),

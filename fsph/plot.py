@@ -1,6 +1,8 @@
 """Pictures of a run: the deformed body at chosen times, elements and
 particles in different colours, with the experimental Taylor lengths marked
-(as Xiao et al. 2012 Fig. 8). Reads the outputs of `fsph run` (fsph.h5,
+(as Xiao et al. 2012 Fig. 8); fields (plastic strain, pressure, von Mises
+stress, temperature, damage, density, material) on the elements and
+particles at chosen times. Reads the outputs of `fsph run` (fsph.h5,
 summary.json); matplotlib with the Agg backend, no display needed."""
 
 import json
@@ -9,6 +11,9 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+
+from .errors import InputError
+from .output import STRESS_COMPONENTS
 
 #: colours of the bodies in deck order (repeating): (elements, particles);
 #: the first as Xiao et al. 2012 Fig. 8
@@ -710,12 +715,377 @@ def damage_map(run_dir, times_us=None, output=None, dpi=150):
     return output
 
 
+# ---------------------------------------------------------------- field pictures
+#: The fields `fsph plot --field` draws: NAME -> (what it is, unit, snapshot
+#: dataset, factor from the stored SI value to the unit, colour map). The
+#: pressure is the EOS's (an element's artificial viscosity q left out);
+#: mises is computed from the stored stress (_mises); material is categorical.
+FIELDS = {
+    "eps_p": ("equivalent plastic strain ε_p", "-", "plastic_strain", 1.0, "viridis"),
+    "pressure": ("pressure p, > 0 in compression", "GPa", "pressure", 1e-9, "coolwarm"),
+    "mises": ("von Mises stress σ_eq", "GPa", "stress", 1e-9, "plasma"),
+    "temperature": ("temperature T", "K", "temperature", 1.0, "inferno"),
+    "damage": ("damage D", "-", "damage", 1.0, "inferno_r"),
+    "density": ("density ρ", "kg/m³", "density", 1.0, "cividis"),
+    "material": ("material", None, "material", None, None),
+}
+#: colour of the points of a material without the field's model (damage,
+#: temperature), outside the colour map: the damage map's neutral colour
+NO_MODEL_COLOUR = UNDAMAGED_COLOUR
+#: colours of the materials in the material picture (deck order, repeating)
+MATERIAL_COLOURS = ("#4a7ab5", "#d9822b", "#74a96b", "#c2185b", "#d4b44a", "#7b3294",
+                    "#2b8c8c", "#8c564b")
+
+
+def field_label(field):
+    """The colour bar's label of a field: what it is and its unit."""
+    what, unit = FIELDS[field][:2]
+    return f"{what} [{unit}]" if unit else what
+
+
+def _mises(stress, components):
+    """von Mises stress [Pa] of the total Cauchy stress (n, 4) of a
+    snapshot, its columns named by `components` (the dataset's attribute,
+    fsph.output.STRESS_COMPONENTS: rr, zz, rz, tt), the hoop stress tt a
+    principal stress of the axisymmetric state:
+    sqrt(((s_rr - s_zz)^2 + (s_zz - s_tt)^2 + (s_tt - s_rr)^2) / 2 + 3 s_rz^2).
+    Differences of normal stresses: the pressure (and an element's
+    artificial viscosity, in its stored stress) drops out."""
+    col = {name: stress[:, k] for k, name in enumerate(components)}
+    rr, zz, tt, rz = col["rr"], col["zz"], col["tt"], col["rz"]
+    return np.sqrt(0.5 * ((rr - zz) ** 2 + (zz - tt) ** 2 + (tt - rr) ** 2) + 3.0 * rz ** 2)
+
+
+def _field_values(g, field):
+    """The field's values of the elements and of the particles of snapshot
+    group g, in its unit (FIELDS; material: 0-based indices): (elements,
+    particles), each None where the snapshot has none of them."""
+    dataset, scale = FIELDS[field][2:4]
+    out = []
+    for prefix, present in (("", "connectivity"), ("particles/", "particles/x")):
+        if present not in g or not len(g[present]) or f"{prefix}{dataset}" not in g:
+            out.append(None)
+            continue
+        data = g[f"{prefix}{dataset}"]
+        if field == "mises":
+            components = data.attrs.get("components", ",".join(STRESS_COMPONENTS))
+            out.append(_mises(data[...], str(components).split(",")) * scale)
+        elif field == "material":
+            out.append(data[...].astype(int))
+        else:
+            out.append(data[...] * scale)
+    return tuple(out)
+
+
+def _deck_materials(h5):
+    """The materials of the run's deck (fsph.h5 /deck), in deck order (the
+    order of the material indices of the snapshots): dicts of their keys,
+    library entry and defaults filled in; None when the deck cannot be read."""
+    import f90nml
+
+    from . import deck as deck_module
+    from .materials import LIBRARY
+    try:
+        text = h5["deck"][()]
+        text = text.decode() if isinstance(text, bytes) else str(text)
+        raw = deck_module._groups(f90nml.Parser().reads(text)).get("material", [])
+        group = deck_module.SCHEMA["material"]
+        out = []
+        for i, item in enumerate(raw):
+            lib = str(item.get("library", "")).strip()
+            base = {k: v for k, v in LIBRARY.get(lib, {}).items() if k != "source"}
+            out.append(deck_module._read_group("fsph.h5 deck", "material", group, item, i,
+                                               base or None))
+        return out
+    except Exception:       # f90nml raises many kinds; a hand-made file: the fields stored decide
+        return None
+
+
+def _has_damage(m):
+    """Whether a material has a damage model: HJC or Johnson-Cook failure."""
+    return m["strength"] == "hjc" or m["jc_d1"] is not None
+
+
+def _heats(m):
+    """Whether a material's temperature changes (as fsph.driver's peaks
+    decide): temperature from the internal energy, or heating by plastic
+    work of a plastic material with a specific heat."""
+    from .materials import temperature_model
+    return temperature_model(m) == "internal_energy" or (
+        m["strength"] not in ("elastic", "hjc") and m["specific_heat"] is not None)
+
+
+#: why a field is not in a run: no material with the model that makes it
+FIELD_MODELS = {
+    "damage": (_has_damage, "no material of this run has a damage model (HJC or Johnson-Cook "
+                            "failure)"),
+    "temperature": (_heats, "no material of this run has a temperature model (heating by "
+                            "plastic work with a specific heat, or from the internal energy)"),
+}
+
+
+def material_names(run_dir):
+    """The names of the run's materials in deck order (fsph.h5 /deck;
+    'material N' where it cannot be read)."""
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        materials = _deck_materials(h5) or []
+        n = max([len(materials)] + [int(g["material"][...].max(initial=-1)) + 1
+                                    for _, g in _snapshots(h5) if "material" in g])
+    return [materials[k]["name"] if k < len(materials) else f"material {k + 1}"
+            for k in range(n)]
+
+
+def missing_fields(run_dir):
+    """The fields of FIELDS a run does not have, each with why: its
+    dataset in none of the snapshots, or (damage, temperature) no material
+    of the deck with the model that computes it (their stored values are
+    then zero and room temperature throughout). A dict NAME -> reason."""
+    missing = {}
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        snaps = [g for _, g in _snapshots(h5)]
+        materials = _deck_materials(h5)
+        for field, (_, _, dataset, _, _) in FIELDS.items():
+            if not any(dataset in g or f"particles/{dataset}" in g for g in snaps):
+                missing[field] = "not stored in the snapshots of this run"
+            elif field in FIELD_MODELS and materials is not None:
+                has, why = FIELD_MODELS[field]
+                if not any(has(m) for m in materials):
+                    missing[field] = why
+    return missing
+
+
+def _field_norm(field, lo, hi):
+    """The colour scale of a field from lo to hi (its least and largest
+    value over the panels): pressure diverging about zero where it takes
+    both signs; the plastic strain on a square-root scale (a few converted
+    particles strain ten times more than the rest); a field of one value
+    gets a small range about it."""
+    from matplotlib.colors import Normalize, PowerNorm, TwoSlopeNorm
+    if not hi > lo:
+        pad = 0.01 * abs(lo) or 0.5
+        return Normalize(lo - pad, hi + pad)
+    if field == "pressure" and lo < 0.0 < hi:
+        return TwoSlopeNorm(0.0, lo, hi)
+    if field == "eps_p":
+        return PowerNorm(0.5, lo, hi)
+    return Normalize(lo, hi)
+
+
+def _without_model(h5, field):
+    """Indices of the materials whose points carry no value of the field
+    (damage, temperature: a material without the model; their stored zero
+    damage and room temperature mean nothing), as a set."""
+    materials = _deck_materials(h5) if field in FIELD_MODELS else None
+    if not materials:
+        return set()
+    has = FIELD_MODELS[field][0]
+    return {k for k, m in enumerate(materials) if not has(m)}
+
+
+def _panel(g, field, without):
+    """The drawing of a field in snapshot g: a dict with, where the snapshot
+    has them, 'nodes' (n, 2) [mm] and for the elements 'conn', 'values'
+    (the field in its unit) and 'own' (bool: of a material with the
+    field's model), and for the particles 'x' [mm], 'radius' [mm],
+    'p_values' and 'p_own'."""
+    elements, particles = _field_values(g, field)
+    out = {}
+    if elements is not None:
+        out["nodes"] = g["nodes"][...] * 1e3
+        out["conn"] = g["connectivity"][...]
+        out["values"] = elements
+        out["own"] = ~np.isin(g["material"][...], list(without))
+    if particles is not None:
+        out["x"] = g["particles/x"][...] * 1e3
+        out["radius"] = g["particles/radius"][...] * 1e3
+        out["p_values"] = particles
+        out["p_own"] = ~np.isin(g["particles/material"][...], list(without))
+    return out
+
+
+def _two_slope_ticks(lo, hi):
+    """Ticks of a colour bar from lo < 0 to hi > 0 with zero in its middle:
+    a few on each side (one linear locator over both leaves the short side
+    bare)."""
+    from matplotlib.ticker import MaxNLocator
+    below = MaxNLocator(3).tick_values(lo, 0.0)
+    above = MaxNLocator(4).tick_values(0.0, hi)
+    ticks = np.concatenate([below[below >= lo], above[(above <= hi) & (above > 0.0)]])
+    return np.unique(ticks)
+
+
+def _field_extent(panels, frame):
+    """Half-width and (z_low, z_high) [mm] of the panels of a field picture:
+    all the points drawn (perforation runs: frame, three hole diameters,
+    wide, and the points within it), with a margin."""
+    width, top, bottom = 0.0, -np.inf, np.inf
+    for _, p in panels:
+        points = ([p["nodes"][np.unique(p["conn"])]] if "conn" in p else []) + \
+                 ([p["x"]] if "x" in p else [])
+        if not points:
+            continue
+        xy = np.vstack(points)
+        width = max(width, xy[:, 0].max())
+        top = max(top, xy[:, 1].max())
+        near = xy[xy[:, 0] <= (frame or np.inf), 1]
+        bottom = min(bottom, near.min() if len(near) else xy[:, 1].min())
+    if not np.isfinite(top):
+        width, top, bottom = 1.0, 1.0, 0.0
+    margin = 0.04 * max(top - bottom, 1e-3)
+    return (frame if frame else 1.1 * width), (bottom - margin, top + margin)
+
+
+#: inches^2 of a panel of a field picture, and the width / height of the
+#: whole picture its grid of panels comes closest to
+FIELD_PANEL_AREA = 12.0
+FIELD_ASPECT = 1.8
+
+
+def _field_grid(n, ratio):
+    """(rows, columns) and (width, height) [inches] of the panels of a
+    field picture: n panels of height / width `ratio` (a rod: one row; a
+    plate or a debris cloud, wider than tall: a grid), each of about
+    FIELD_PANEL_AREA, at most 5.5 inches tall and 7 wide."""
+    width = min(max(np.sqrt(FIELD_PANEL_AREA / ratio), 1.3), 7.0)
+    height = min(max(width * ratio, 1.5), 5.5)
+    width = min(width, height / ratio) if ratio > 0 else width
+    cols = min(range(1, n + 1), key=lambda c: abs(np.log(c * width / (-(-n // c) * height))
+                                                  - np.log(FIELD_ASPECT)))
+    return (-(-n // cols), cols), (width, height)
+
+
+def _field_figure(run_dir, field, times_us=None):
+    """The figure of field_map (matplotlib Figure, not saved)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import ListedColormap, Normalize, TwoSlopeNorm
+    from matplotlib.patches import Patch
+
+    run_dir = Path(run_dir)
+    summary = json.loads((run_dir / "summary.json").read_text())
+    _, frame = _shape_marks(summary)
+    names = material_names(run_dir)
+    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+        without = _without_model(h5, field)
+        panels = [(time, _panel(g, field, without))
+                  for _, time, g in choose_snapshots(_snapshots(h5), times_us)]
+    if field == "material":
+        n = max(len(names), 1)
+        cmap = ListedColormap([MATERIAL_COLOURS[k % len(MATERIAL_COLOURS)] for k in range(n)])
+        norm = Normalize(-0.5, n - 0.5)
+    else:
+        values = [p[v][p[own]] for _, p in panels
+                  for v, own in (("values", "own"), ("p_values", "p_own")) if v in p]
+        values = [v for v in values if len(v)] or [np.zeros(1)]
+        cmap = plt.get_cmap(FIELDS[field][4])
+        norm = _field_norm(field, min(v.min() for v in values), max(v.max() for v in values))
+
+    half, (z_low, z_high) = _field_extent(panels, frame)
+    ratio = (z_high - z_low) / (2 * half)
+    (n_rows, n_cols), (panel_width, panel_height) = _field_grid(len(panels), ratio)
+    fig, grid = plt.subplots(n_rows, n_cols, sharex=True, sharey=True, squeeze=False,
+                             layout="constrained",
+                             figsize=(n_cols * panel_width + 1.6, n_rows * panel_height + 1.5))
+    axes = grid.ravel()[:len(panels)]
+    for ax in grid.ravel()[len(panels):]:
+        fig.delaxes(ax)
+    dots = []       # (axes, scatter, radius [mm]): sized once the layout is known
+    drawn = set()   # material indices drawn (the material picture's legend)
+    for k, (ax, (time, p)) in enumerate(zip(axes, panels)):
+        if field == "material":
+            drawn.update(np.unique(np.concatenate([p.get("values", []), p.get("p_values", [])]))
+                         .astype(int).tolist())
+        for side in (1.0, -1.0):
+            if "conn" in p:
+                x, z, own = side * p["nodes"][:, 0], p["nodes"][:, 1], p["own"]
+                if own.any():
+                    ax.tripcolor(x, z, p["conn"][own], facecolors=p["values"][own], cmap=cmap,
+                                 norm=norm, edgecolors="face", linewidth=0.4)
+                if not own.all():
+                    tri = np.stack([x, z], axis=1)[p["conn"][~own]]
+                    ax.add_collection(PolyCollection(tri, facecolors=NO_MODEL_COLOUR,
+                                                     edgecolors=NO_MODEL_COLOUR,
+                                                     linewidths=0.4))
+            if "x" in p:
+                own = p["p_own"]
+                for keep, style in ((own, {"c": p["p_values"][own], "cmap": cmap, "norm": norm}),
+                                    (~own, {"color": NO_MODEL_COLOUR})):
+                    if keep.any():
+                        dots.append((ax, ax.scatter(side * p["x"][keep, 0], p["x"][keep, 1],
+                                                    s=1.0, linewidths=0, **style),
+                                     p["radius"][keep]))
+        ax.set_title(f"{format_us(time * 1e6)} µs")
+        ax.set_xlim(-half, half)
+        ax.set_ylim(z_low, z_high)
+        ax.set_aspect("equal")
+        if k + n_cols >= len(panels):       # no panel below it
+            ax.set_xlabel("r [mm]")
+            ax.xaxis.set_tick_params(labelbottom=True)
+        if k % n_cols == 0:
+            ax.set_ylabel("z [mm]")
+    title = summary.get("title") or summary.get("case", "")
+    what = FIELDS[field][0]
+    fig.suptitle(textwrap.fill(title, width=int(14 * n_cols * panel_width)) + "\n"
+                 + (what if field in what.split() else f"{what} ({field})"))
+    if field == "material":
+        handles = [Patch(facecolor=cmap(k), label=names[k]) for k in sorted(drawn)]
+    else:
+        bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=list(axes),
+                           shrink=0.9, label=field_label(field))
+        if isinstance(norm, TwoSlopeNorm):      # ticks on both sides of zero
+            ticks = _two_slope_ticks(norm.vmin, norm.vmax)
+            bar.set_ticks(ticks, labels=[f"{t:g}" for t in ticks])
+        handles = [Patch(facecolor=NO_MODEL_COLOUR, label=f"{names[k]}: no {field} model")
+                   for k in sorted(without) if k < len(names)]
+    if handles:
+        fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 4),
+                   frameon=False, fontsize="small")
+    # the particles as discs of their radius at the panels' scale [pt/mm],
+    # at least a point across (smaller ones fall apart into single pixels)
+    fig.draw_without_rendering()
+    for ax, dot, r in dots:
+        pt_per_mm = ax.bbox.width * 72.0 / fig.dpi / np.diff(ax.get_xlim())[0]
+        dot.set_sizes(np.maximum(2.0 * r * pt_per_mm, 1.0) ** 2)
+    return fig
+
+
+def field_map(run_dir, field, times_us=None, output=None, dpi=150):
+    """Write a PNG of a field (FIELDS: eps_p, pressure, mises, temperature,
+    damage, density, material) at the chosen snapshots (choose_snapshots, as
+    shapes.png: the snapshot nearest each requested time [µs], each once;
+    without times, four spread evenly over the run), one panel each titled
+    with its snapshot's time: elements flat-coloured per triangle, particles
+    as discs of their radius, mirrored about the axis (a section through the
+    body), equal aspect, one colour scale over the picture from the field's
+    least to its largest value over the panels drawn, and a colour bar
+    naming the quantity and its unit; material: one colour per material of
+    the deck, named in the legend. A perforation run is framed as in
+    shapes.png (three hole diameters). Returns the PNG path (default
+    RUN_DIR/field_<field>.png); InputError for a field not in FIELDS or not
+    in the run (missing_fields)."""
+    run_dir = Path(run_dir)
+    missing = missing_fields(run_dir)
+    if field not in FIELDS or field in missing:
+        raise InputError(f"field {field}: {missing.get(field, 'no such field')}")
+    output = Path(output) if output else run_dir / f"field_{field}.png"
+    _save(_field_figure(run_dir, field, times_us), output, dpi, bbox_inches="tight")
+    return output
+
+
+#: colour of the failed runs of a sweep (crosses on the axis of sweep.png)
+FAILED_COLOUR = "red"
+
+
 def residual_velocity(points, fits=(), experiment=(), output="residual.png", title=None,
-                      dpi=120):
+                      dpi=120, failed=()):
     """Write a PNG of residual against striking velocity: `points` a list of
     (label, v_s, v_r) computed series, `fits` a list of (label, fit) with a
     fit of fsph.ballistics.fit_recht_ipson drawn as a curve, `experiment`
-    (v_s, v_r) pairs of measurements; returns the PNG path."""
+    (v_s, v_r) pairs of measurements, `failed` the striking velocities of
+    runs that failed (red crosses on the axis, v_r = 0, with their count in
+    the legend); returns the PNG path."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -725,7 +1095,7 @@ def residual_velocity(points, fits=(), experiment=(), output="residual.png", tit
     output = Path(output)
     fig, ax = plt.subplots(figsize=(6, 4.5))
     top = max([max(v_s, default=0.0) for _, v_s, _ in points]
-              + [v for v, _ in experiment] + [1.0])
+              + [v for v, _ in experiment] + list(failed) + [1.0])
     grid = np.linspace(0.0, 1.05 * top, 300)
     for i, (label, v_s, v_r) in enumerate(points):
         ax.plot(v_s, v_r, "os^v"[i % 4], mfc="none" if i else None, label=label)
@@ -734,6 +1104,9 @@ def residual_velocity(points, fits=(), experiment=(), output="residual.png", tit
     if experiment:
         v_s, v_r = zip(*experiment)
         ax.plot(v_s, v_r, "kx", ms=8, label="experiment")
+    if len(failed):
+        ax.plot(failed, np.zeros(len(failed)), "x", color=FAILED_COLOUR, ms=9, mew=2, ls="",
+                clip_on=False, zorder=5, label=f"failed run ({len(failed)})")
     ax.set_xlabel("striking velocity [m/s]")
     ax.set_ylabel("residual velocity [m/s]")
     if title:

@@ -494,7 +494,10 @@ def write_h5(path, frame, meta):
 
 def write_outputs(output, deck, params, frame, free_p=False):
     """sweep.csv, sweep.h5, sweep.json (the sweep, fits and failures) and,
-    for a velocity sweep of perforation runs, sweep.png; returns the fits."""
+    for a velocity sweep of perforation runs, sweep.png (the runs that
+    failed, crashed or errored drawn at their swept speed on the axis, not
+    left out; variants invalid or interrupted did not run to an end of
+    their own and are not drawn); returns the fits."""
     output = Path(output)
     fits = ballistic_fits(frame, params, free_p)
     meta = {"deck": str(Path(deck).resolve()),
@@ -507,12 +510,15 @@ def write_outputs(output, deck, params, frame, free_p=False):
     write_h5(output / "sweep.h5", frame, meta)
     (output / "sweep.json").write_text(json.dumps(meta, indent=2) + "\n")
     done = frame[frame["status"] == "completed"]
-    if _is_velocity_sweep(params, frame) and len(done):
+    failed = frame[~frame["status"].isin(("completed", INVALID, INTERRUPTED))]
+    if _is_velocity_sweep(params, frame) and (len(done) or len(failed)):
         from .plot import residual_velocity
+        swept = next(p for p in params if p.group == "body" and p.key == "velocity_z")
         residual_velocity([("fsph", done["perforation.striking_velocity_m_s"].to_numpy(),
                             done["perforation.residual_velocity_m_s"].to_numpy())],
                           [(_fit_label(f), f) for f in fits], experiment_points(deck),
-                          output / "sweep.png", title=Path(deck).stem)
+                          output / "sweep.png", title=Path(deck).stem,
+                          failed=np.abs(failed[swept.column].to_numpy(dtype=float)))
     return fits
 
 

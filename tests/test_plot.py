@@ -191,6 +191,8 @@ def test_plot_draws_the_damage_map_of_a_concrete_run(tmp_path, write_deck):
     (["--dpi", "0"], "--dpi: expected an integer from 10 to 2400, got 0"),
     (["-o", "shapes.txt"], "expected a file name ending in .png, .pdf, .svg"),
     (["-o", "no_such_folder/shapes.png"], "expected an existing folder, no no_such_folder"),
+    (["--field", "eps_p,mises", "-o", "f.png"], "-o f.png: names one picture, --field asks for 2"),
+    (["--field", "damage"], "--field damage: no material of this run has a damage model"),
 ])
 def test_bad_plot_arguments_are_one_line_errors(tmp_path, args, expected):
     """Each bad argument of `fsph plot` is refused before anything is drawn:
@@ -381,3 +383,110 @@ def test_times_are_in_microseconds_written_µs(block_run, monkeypatch, capsys):
     assert figures["history.png"].axes[-1].get_xlabel() == "t [µs]"
     assert figures["perforation.png"].axes[-1].get_xlabel() == "t [µs]"
     assert any("µs" in line for line in lines)
+
+
+def _field_range(run_dir, dataset, times_us, scale=1.0):
+    """Least and largest value of a field over the snapshots at times_us
+    [µs], elements and particles, from fsph.h5 (dataset 'mises': the von
+    Mises stress of the deviator of the stored stress) times scale."""
+    values = []
+    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+        snaps = h5["snapshots"]
+        for g in (snaps[k] for k in snaps if k.isdigit()):
+            if not any(g.attrs["time"] * 1e6 == t for t in times_us):
+                continue
+            for prefix in ("", "particles/"):
+                if dataset != "mises":
+                    values.append(g[prefix + dataset][...]) if prefix + dataset in g else None
+                    continue
+                if prefix + "stress" not in g:
+                    continue
+                stress = g[prefix + "stress"]
+                col = dict(zip(stress.attrs["components"].split(","), stress[...].T))
+                mean = (col["rr"] + col["zz"] + col["tt"]) / 3
+                dev = [col[c] - mean for c in ("rr", "zz", "tt")]
+                values.append(np.sqrt(1.5 * (sum(d ** 2 for d in dev) + 2 * col["rz"] ** 2)))
+    values = np.concatenate(values) * scale
+    return values.min(), values.max()
+
+
+def test_field_pictures_draw_elements_and_particles_on_one_scale(taylor_run, monkeypatch,
+                                                                 capsys):
+    """--field eps_p,pressure,mises on the adaptive rod: field_NAME.png for
+    each and no other picture, panels at the snapshots of --times (the
+    nearest named as for shapes.png), elements and particles both drawn on
+    each side of the axis, every one on the colour scale from the least to
+    the largest value over the panels, a colour bar naming the quantity and
+    its unit."""
+    from matplotlib.collections import PathCollection, PolyCollection
+    from fsph.plot import format_us
+    times = _snapshot_times_us(taylor_run)
+    drawn = [min(times, key=lambda t: abs(t - r)) for r in (0.0, 1.1, 2.0)]
+    code, lines, figures = plot_cli(monkeypatch, capsys, taylor_run, "--field",
+                                    "eps_p,pressure,mises", "--times", "0,1.1,2")
+    assert code == 0
+    assert set(figures) == {"field_eps_p.png", "field_pressure.png", "field_mises.png"}
+    note = f"fsph plot: drew the nearest snapshots: 1.1 µs → {format_us(drawn[1])} µs"
+    assert lines == [note, *(str(taylor_run / f"field_{name}.png")
+                             for name in ("eps_p", "pressure", "mises"))]
+    for name, dataset, scale, label in (
+            ("eps_p", "plastic_strain", 1.0, "equivalent plastic strain ε_p [-]"),
+            ("pressure", "pressure", 1e-9, "pressure p, > 0 in compression [GPa]"),
+            ("mises", "mises", 1e-9, "von Mises stress σ_eq [GPa]")):
+        fig = figures[f"field_{name}.png"]
+        panels = [ax for ax in fig.axes if ax.get_title()]
+        (bar,) = [ax for ax in fig.axes if not ax.get_title()]
+        assert bar.get_ylabel() == label
+        assert [ax.get_title() for ax in panels] == [f"{format_us(t)} µs" for t in drawn]
+        assert fig._suptitle.get_text().startswith("test rod\n")
+        lo, hi = _field_range(taylor_run, dataset, drawn, scale)
+        assert hi > lo
+        for ax in panels:
+            for coll in ax.collections:
+                assert coll.norm.vmin == pytest.approx(lo, rel=1e-12, abs=1e-12)
+                assert coll.norm.vmax == pytest.approx(hi, rel=1e-12)
+        last = panels[-1].collections
+        elements = [c for c in last if isinstance(c, PolyCollection) and c.get_array() is not None]
+        particles = [c for c in last if isinstance(c, PathCollection) and c.get_array() is not None]
+        assert len(elements) == 2 and len(particles) == 2           # r > 0 and mirrored
+        assert min(c.get_offsets()[:, 0].min() for c in particles) < 0.0 \
+            < max(c.get_offsets()[:, 0].max() for c in particles)
+        assert max(c.get_array().max() for c in last) == pytest.approx(
+            _field_range(taylor_run, dataset, drawn[-1:], scale)[1], rel=1e-12)
+
+
+def test_material_picture_names_the_deck_materials(block_run, monkeypatch, capsys):
+    """--field material: one colour per material, the legend naming the
+    deck's materials (not its bodies); --field damage: the steel, which has
+    no damage model, in the neutral colour and named so."""
+    from matplotlib.colors import to_hex
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run, "--field", "material,damage",
+                                "--times", "6")
+    assert code == 0
+    fig = figures["field_material.png"]
+    legend = fig.legends[0]
+    assert [t.get_text() for t in legend.get_texts()] == ["steel", "concrete"]
+    colours = [to_hex(h.get_facecolor()) for h in legend.legend_handles]
+    drawn = {to_hex(c) for c in fig.axes[0].collections for c in c.get_facecolors()}
+    assert len(set(colours)) == 2 and set(colours) <= drawn
+    assert len(fig.axes) == 1                   # no colour bar
+    damage = figures["field_damage.png"]
+    assert _legend_texts(damage) == ["steel: no damage model"]
+    assert [ax.get_ylabel() for ax in damage.axes if not ax.get_title()] == ["damage D [-]"]
+
+
+@pytest.mark.parametrize("field, why", [
+    ("damage", "no material of this run has a damage model"),
+    ("temperature", "no material of this run has a temperature model"),
+    ("strain", "no such field"),
+])
+def test_a_field_the_run_lacks_is_a_one_line_error(taylor_run, capsys, field, why):
+    """Armco iron has neither damage nor a temperature model: exit 2, one
+    line naming the field, why, and the fields the run has; nothing drawn."""
+    from fsph.cli import main
+    before = {p: p.stat().st_mtime_ns for p in taylor_run.glob("*.png")}
+    assert main(["plot", str(taylor_run), "--field", f"eps_p,{field}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"fsph: error: --field {field}: {why}")
+    assert err[0].endswith("; fields of this run: eps_p, pressure, mises, density, material")
+    assert {p: p.stat().st_mtime_ns for p in taylor_run.glob("*.png")} == before

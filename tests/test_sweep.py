@@ -257,6 +257,42 @@ def test_velocity_sweep_of_perforation_runs_fits_recht_ipson(tmp_path, monkeypat
     assert (out / "sweep.png").stat().st_size > 10_000
 
 
+def test_sweep_png_marks_the_failed_runs_on_the_axis(tmp_path, monkeypatch):
+    """A velocity sweep whose runs at 600 and 800 m/s failed and crashed:
+    sweep.png draws them as red crosses at v_r = 0 with their count in the
+    legend, the completed runs as before; the invalid and interrupted
+    variants (no run of their own to an end) are not drawn, and sweep.json
+    lists every variant that did not complete."""
+    import fsph.plot
+    from fsph.sweep import write_outputs
+    deck = tmp_path / "two.nml"
+    deck.write_text(_two_body_deck())
+    params, variants = plan(deck, ["body(rod).velocity_z=-500:-1000:6"], tmp_path / "out")
+    status = ["completed", "failed", "completed", "crashed", "invalid", "interrupted"]
+    v_s = np.array([abs(v.values["body(1).velocity_z"]) for v in variants])
+    done = np.array([s == "completed" for s in status])
+    frame = pd.DataFrame({"variant": range(6), "folder": [v.name for v in variants],
+                          "body(1).velocity_z": -v_s, "status": status,
+                          "error": ["" if s == "completed" else s for s in status],
+                          "perforation.striking_velocity_m_s": np.where(done, v_s, np.nan),
+                          "perforation.residual_velocity_m_s": np.where(done, 0.8 * v_s, np.nan)})
+    figures = {}
+
+    def keep(fig, output, dpi, **kwargs):
+        figures[output.name] = fig
+    monkeypatch.setattr(fsph.plot, "_save", keep)
+    write_outputs(tmp_path / "out", deck, params, frame)
+    ax = figures["sweep.png"].axes[0]
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    crosses = lines["failed run (2)"]
+    assert list(crosses.get_xdata()) == [600.0, 800.0] and list(crosses.get_ydata()) == [0, 0]
+    assert crosses.get_marker() == "x" and crosses.get_color() == "red"
+    assert list(lines["fsph"].get_xdata()) == [500.0, 700.0]
+    assert "failed run (2)" in [t.get_text() for t in ax.get_legend().get_texts()]
+    failed = json.loads((tmp_path / "out" / "sweep.json").read_text())["failed"]
+    assert sorted(failed) == sorted(v.name for v, s in zip(variants, status) if s != "completed")
+
+
 def test_a_crashing_run_is_recorded_not_raised(tmp_path, monkeypatch):
     """A child process killed by a signal (as a segmentation fault in the
     solver would) gives status 'crashed' with the signal, in the result and
