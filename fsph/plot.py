@@ -14,6 +14,7 @@ import numpy as np
 
 from .errors import InputError
 from .output import STRESS_COMPONENTS
+from .points import von_mises
 
 #: colours of the bodies in deck order (repeating): (elements, particles);
 #: the first as Xiao et al. 2012 Fig. 8
@@ -744,16 +745,11 @@ def field_label(field):
 
 
 def _mises(stress, components):
-    """von Mises stress [Pa] of the total Cauchy stress (n, 4) of a
-    snapshot, its columns named by `components` (the dataset's attribute,
-    fsph.output.STRESS_COMPONENTS: rr, zz, rz, tt), the hoop stress tt a
-    principal stress of the axisymmetric state:
-    sqrt(((s_rr - s_zz)^2 + (s_zz - s_tt)^2 + (s_tt - s_rr)^2) / 2 + 3 s_rz^2).
-    Differences of normal stresses: the pressure (and an element's
-    artificial viscosity, in its stored stress) drops out."""
-    col = {name: stress[:, k] for k, name in enumerate(components)}
-    rr, zz, tt, rz = col["rr"], col["zz"], col["tt"], col["rz"]
-    return np.sqrt(0.5 * ((rr - zz) ** 2 + (zz - tt) ** 2 + (tt - rr) ** 2) + 3.0 * rz ** 2)
+    """von Mises stress [Pa] (fsph.points.von_mises) of the total Cauchy
+    stress (n, 4) of a snapshot, its columns named by `components` (the
+    dataset's attribute; fsph.output.STRESS_COMPONENTS: rr, zz, rz, tt)."""
+    order = [list(components).index(name) for name in STRESS_COMPONENTS]
+    return von_mises(np.asarray(stress)[:, order])
 
 
 def _field_values(g, field):
