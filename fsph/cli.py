@@ -86,7 +86,9 @@ def _parser():
     pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
     rp = sub.add_parser("report", help="run the validation decks (or reuse their outputs) and "
                                        "write a report with errors against the references")
-    rp.add_argument("--cases", default="cases", help="folder of the decks (default cases)")
+    rp.add_argument("--cases", help="folder of the decks, their references in references/ "
+                                    "beside them (default: the validation decks installed "
+                                    "with fsph)")
     rp.add_argument("-o", "--output", default="out/report", help="report folder")
     rp.add_argument("--decks", help="comma-separated deck names (default: the validation set)")
     rp.add_argument("--rerun", action="store_true", help="run again even where outputs exist")
@@ -217,13 +219,18 @@ def main(argv=None):
         if args.command == "plot":
             return _plot(args)
         if args.command == "report":
-            from .report import VALIDATION_DECKS, write_report
+            from .report import VALIDATION_DECKS, installed_cases, write_report
             decks = tuple(d.strip() for d in args.decks.split(",")) if args.decks else VALIDATION_DECKS
+            cases = Path(args.cases) if args.cases is not None else installed_cases()
+            if not cases.is_dir():
+                raise InputError(f"{cases}: expected a folder of decks (--cases)"
+                                 if args.cases is not None else
+                                 f"{cases}: the validation decks are not installed with fsph; "
+                                 "name a folder of decks with --cases")
             for name in decks:
-                if not (Path(args.cases) / f"{name}.nml").is_file():
-                    print(f"fsph: error: {args.cases}: expected a deck {name}.nml", file=sys.stderr)
-                    return EXIT_DECK
-            print(write_report(args.cases, args.output, decks, args.rerun))
+                if not name or not (cases / f"{name}.nml").is_file():
+                    raise InputError(f"{cases}: expected a deck {name}.nml (--decks)")
+            print(write_report(cases, args.output, decks, args.rerun))
             return EXIT_OK
         if args.command == "decks-reference":
             from .deck import reference_markdown

@@ -1,16 +1,50 @@
 """`fsph report`: run the validation decks (or read the outputs of earlier
 runs) and write a markdown table of every metric against its reference,
-with the energy errors, wall times and pictures of the Taylor rods."""
+with the bar it is held to, the energy errors, wall times and pictures of
+the Taylor rods.
+
+The decks and their references are installed with the package
+(fsph/cases, `installed_cases()`); `--cases DIR` reads another folder.
+
+The bars live in the reference JSON files, beside the values:
+
+    "acceptance": {"source": "...", "each_percent": 4.0, "residual_velocity_percent": 3.0}
+    "acceptance_by_mode": {"source": "...", "sph": {"each_percent": 6.0}, "fem": {}}
+
+A run in a mode that `acceptance_by_mode` names is held to that entry (an
+empty entry: no bar), any other to `acceptance`. Within the entry a metric
+KEY (group.KEY of the comparison, e.g. front_mm) has the bar
+KEY_absolute (in the metric's unit), else STEM_percent (STEM: KEY without
+its unit, front_mm -> front), else each_percent; without any, no bar."""
 
 import json
+import math
+import re
 from pathlib import Path
 
+from . import deck as deck_module
+from . import references
 from .driver import run
+from .errors import InputError
 from .plot import deformed_shapes
 
-#: The decks of the validation report, in order.
+#: The decks of the validation report, in order (installed with the
+#: package: meson.build installs each and its reference into fsph/cases).
 VALIDATION_DECKS = ("elastic_bar", "elastic_bar_sph", "elastic_bar_coupled",
                     "taylor_armco_fem", "taylor_armco_sph", "taylor_armco")
+
+#: The units a metric's key may end in, as written in a bar.
+UNITS = {"mm": "mm", "m_s": "m/s", "GPa": "GPa", "MPa": "MPa", "kg": "kg", "J": "J"}
+_UNIT = re.compile(r"_(" + "|".join(UNITS) + r")$")
+
+
+def installed_cases():
+    """The folder of the validation decks installed with fsph (fsph/cases);
+    from a source checkout that is not installed, the checkout's cases/."""
+    package = Path(__file__).resolve().parent
+    if not (package / "cases").is_dir() and (package.parent / "meson.build").is_file():
+        return package.parent / "cases"
+    return package / "cases"
 
 
 def _summary(deck, outdir, rerun):
@@ -22,22 +56,107 @@ def _summary(deck, outdir, rerun):
     return run(deck, outdir, quiet=True)
 
 
+def _bad_bar(deck, where, value):
+    return InputError(f"{deck}: the reference's {where}: expected a non-negative number, got "
+                      f"{value!r}")
+
+
+def acceptance(reference, mode, deck="the deck"):
+    """The reference's bars for a run in `mode`: its acceptance_by_mode
+    entry if it names the mode, else its acceptance ({} without)."""
+    by_mode = reference.get("acceptance_by_mode", {})
+    block = by_mode.get(mode) if isinstance(by_mode, dict) and mode in by_mode \
+        else reference.get("acceptance", {})
+    if not isinstance(block, dict):
+        raise InputError(f"{deck}: the reference's acceptance for mode {mode}: expected a JSON "
+                         f"object of bars, got {block!r}")
+    return block
+
+
+def bar(block, key, deck="the deck"):
+    """The bar of metric `key` in an acceptance block: ('absolute', value)
+    in the metric's unit, ('percent', value), or None."""
+    m = _UNIT.search(key)
+    stem = key[:m.start()] if m else key
+    for name, kind in ((f"{key}_absolute", "absolute"), (f"{stem}_percent", "percent"),
+                       ("each_percent", "percent")):
+        if name in block:
+            value = block[name]
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value) or value < 0:
+                raise _bad_bar(deck, name, value)
+            return kind, float(value)
+    return None
+
+
+def _unit(key):
+    """The unit of a metric, from its key ('' without)."""
+    m = _UNIT.search(key)
+    return UNITS[m.group(1)] if m else ""
+
+
+def _bar_text(kind_value, key):
+    kind, value = kind_value
+    return f"{value:g} %" if kind == "percent" else f"{value:g} {_unit(key)}".rstrip()
+
+
+def within(kind_value, comparison):
+    """Whether a comparison entry (computed, reference, error_percent)
+    meets the bar."""
+    kind, value = kind_value
+    if kind == "percent":
+        return abs(comparison["error_percent"]) <= value
+    return abs(comparison["computed"] - comparison["reference"]) <= value
+
+
+def _acceptance_of(deck_path, mode):
+    """The acceptance block of the deck's reference for `mode` ({} without
+    a reference)."""
+    deck = deck_module.load(deck_path)
+    reference = references.load(deck)
+    return acceptance(reference, mode, deck_path) if reference is not None else {}
+
+
+def _summary_line(results, unfinished):
+    """'N of M metrics within their bars', the failures, the metrics
+    without a bar and the runs that did not complete."""
+    held = [r for r in results if r["bar"] is not None]
+    outside = [r for r in held if not r["within"]]
+    text = f"{len(held) - len(outside)} of {len(held)} metrics within their bars"
+    if outside:
+        text += "; outside: " + ", ".join(
+            f"{r['case']} {r['metric']} ({r['error']}, bar {r['bar']})" for r in outside)
+    else:
+        text += "."
+    lines = [text]
+    free = [r for r in results if r["bar"] is None]
+    if free:
+        lines.append(f"Without a bar ({len(free)}): "
+                     + ", ".join(f"{r['case']} {r['metric']} ({r['error']})" for r in free) + ".")
+    if unfinished:
+        lines.append("Not completed: " + ", ".join(f"{name} ({status})"
+                                                   for name, status in unfinished) + ".")
+    return lines
+
+
 def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
     """Run (or reuse) each deck's outputs under output_dir/runs/<deck> and
     write output_dir/report.md; returns its path."""
     cases_dir, output_dir = Path(cases_dir), Path(output_dir)
-    output_dir.mkdir(parents=True, exist_ok=True)
-    lines = ["# fsph validation report", "",
-             "Generated by `fsph report`; each row is a metric of a case against its "
-             "reference (`cases/references/`).", "",
-             "| case | mode | quantity | fsph | reference | error | energy (end / largest) "
-             "| cycles | wall [s] | warnings |",
-             "|---|---|---|---:|---:|---:|---|---:|---:|---|"]
-    pictures = []
+    try:
+        output_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"{output_dir}: cannot make the report folder: {err.strerror or err}") \
+            from None
+    table = ["| case | mode | quantity | fsph | reference | error | bar | within bar "
+             "| energy (end / largest) | cycles | wall [s] | warnings |",
+             "|---|---|---|---:|---:|---:|---:|---|---|---:|---:|---|"]
+    pictures, results, unfinished = [], [], []
     for name in decks:
         deck = cases_dir / f"{name}.nml"
         outdir = output_dir / "runs" / name
         summary = _summary(deck, outdir, rerun)
+        block = _acceptance_of(deck, summary["mode"])
         energy = summary["energy"]
         e_text = (f"{100 * energy['relative_error']:+.2f} % / "
                   f"{100 * energy.get('max_relative_error', energy['relative_error']):+.2f} %")
@@ -45,17 +164,34 @@ def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
         comparison = summary.get("reference", {}).get("comparison", {})
         rows = [(group, key, c) for group, values in comparison.items()
                 for key, c in values.items()]
+        if summary["status"] != "completed":
+            unfinished.append((name, summary["status"]))
         if summary["status"] != "completed" or (flags and not rows):
-            lines.append(f"| {name} | {summary['mode']} | status | {summary['status']} | | | "
+            table.append(f"| {name} | {summary['mode']} | status | {summary['status']} | | | | | "
                          f"{e_text} | {summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |")
         for group, key, c in rows:
-            lines.append(f"| {name} | {summary['mode']} | {group}.{key} | {c['computed']:.4g} | "
-                         f"{c['reference']:.4g} | {c['error_percent']:+.1f} % | {e_text} | "
-                         f"{summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |")
+            kind_value = bar(block, key, deck)
+            error = f"{c['error_percent']:+.2f} %"
+            result = {"case": name, "metric": f"{group}.{key}", "error": error, "bar": None,
+                      "within": None}
+            if kind_value is not None:
+                result.update(bar=_bar_text(kind_value, key), within=within(kind_value, c))
+                if kind_value[0] == "absolute":        # the difference in the bar's unit
+                    error += f" ({c['computed'] - c['reference']:+.3g} {_unit(key)})".replace(" )", ")")
+                    result["error"] = error
+            results.append(result)
+            verdict = "–" if result["within"] is None else ("yes" if result["within"] else "NO")
+            table.append(f"| {name} | {summary['mode']} | {group}.{key} | {c['computed']:.4g} | "
+                         f"{c['reference']:.4g} | {error} | {result['bar'] or 'none'} | {verdict} | "
+                         f"{e_text} | {summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |")
         if "taylor" in summary.get("metrics", {}):
             png = deformed_shapes(outdir, output=output_dir / f"{name}.png", dpi=80)
             pictures.append((name, png.name))
-    lines.append("")
+    lines = ["# fsph validation report", ""] + _summary_line(results, unfinished) + [
+        "", f"Generated by `fsph report` from the decks in `{cases_dir}`; each row is a metric "
+        "of a case against its reference (`references/` beside the decks) and the bar the "
+        "reference holds it to (its `acceptance`, per mode `acceptance_by_mode`; none: no "
+        "accuracy bar).", ""] + table + [""]
     for name, png in pictures:
         lines += [f"## {name}", "", f"![{name}]({png})", ""]
     path = output_dir / "report.md"

@@ -15,7 +15,7 @@ import pytest
 from fsph import deck as deck_module
 from fsph import metrics
 from fsph.report import write_report
-from conftest import CASES, rod_deck
+from conftest import CASES, reference, rod_deck
 
 
 def fsph_cli(args, cwd):
@@ -225,3 +225,169 @@ def test_malformed_reference_is_a_deck_error(tmp_path):
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "&output key 'reference': expected a readable JSON file" in lines[0]
     assert not (tmp_path / "o" / "fsph.h5").exists()
+
+
+# ---- fsph report: the installed decks and the bars ---------------------------------
+def _report_rows(text, case):
+    """The table cells of the rows of `case` in report.md."""
+    return [[cell.strip() for cell in line.strip("|").split("|")]
+            for line in text.splitlines() if line.startswith(f"| {case} |")]
+
+
+def test_installed_decks_are_the_validation_decks_with_their_references():
+    """meson.build installs every deck of the report and the reference it
+    names into fsph/cases, as in the checkout; the report finds them there,
+    not in the checkout (the report must not need the repository)."""
+    from fsph import references
+    from fsph.report import VALIDATION_DECKS, installed_cases
+    folder = installed_cases()
+    assert CASES.resolve() not in folder.resolve().parents and folder.resolve() != CASES.resolve()
+    for name in VALIDATION_DECKS:
+        deck_path = folder / f"{name}.nml"
+        assert deck_path.read_text() == (CASES / deck_path.name).read_text(), name
+        deck = deck_module.load(deck_path)
+        ref = deck["output"]["reference"]
+        assert ref is not None and references.load(deck) is not None, name
+        assert (folder / ref).read_text() == (CASES / ref).read_text(), name
+
+
+def test_report_runs_from_any_folder_with_the_installed_decks(tmp_path):
+    """`fsph report` from a folder without cases/ (outside the checkout):
+    the elastic bar from the installed decks, its two metrics within their
+    bars (3 %, 0.5 mm) and the summary line at the top."""
+    assert not (tmp_path / "cases").exists()
+    proc = fsph_cli(["report", "--decks", "elastic_bar", "-o", "rep"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert text.splitlines()[2] == "2 of 2 metrics within their bars."
+    rows = {row[2]: row for row in _report_rows(text, "elastic_bar")}
+    assert set(rows) == {"bar_wave.plateau_GPa", "bar_wave.front_mm"}
+    assert rows["bar_wave.plateau_GPa"][6:8] == ["3 %", "yes"]
+    assert rows["bar_wave.front_mm"][6:8] == ["0.5 mm", "yes"]
+    assert str(tmp_path) not in text.split("`")[1] and "fsph" in text.split("`")[3]
+
+
+@pytest.fixture(scope="module")
+def bar_runs(tmp_path_factory):
+    """The elastic bar with elements and with particles, run once; the
+    tests report on these runs against references of their own."""
+    runs = tmp_path_factory.mktemp("bar_runs")
+    for name in ("elastic_bar", "elastic_bar_sph"):
+        proc = fsph_cli(["run", str(CASES / f"{name}.nml"), "-o", str(runs / name), "--quiet"], runs)
+        assert proc.returncode == 0, proc.stderr
+    return runs
+
+
+def _report_on(bar_runs, tmp_path, acceptance_by_mode=None, acceptance=None,
+               decks=("elastic_bar", "elastic_bar_sph")):
+    """report.md of the bar runs, the decks in a cases folder of their own
+    with the elastic-bar reference given these bars."""
+    cases = tmp_path / "cases"
+    (cases / "references").mkdir(parents=True)
+    ref = json.loads((CASES / "references" / "elastic_bar.json").read_text())
+    ref.pop("acceptance_by_mode")
+    if acceptance_by_mode is not None:
+        ref["acceptance_by_mode"] = acceptance_by_mode
+    if acceptance is not None:
+        ref["acceptance"] = acceptance
+    (cases / "references" / "elastic_bar.json").write_text(json.dumps(ref))
+    (tmp_path / "rep" / "runs").mkdir(parents=True)
+    for name in decks:
+        (cases / f"{name}.nml").write_text((CASES / f"{name}.nml").read_text())
+        (tmp_path / "rep" / "runs" / name).symlink_to(bar_runs / name)
+    return write_report(cases, tmp_path / "rep", decks=decks).read_text()
+
+
+def test_within_bar_flags_a_metric_outside_its_bar(bar_runs, tmp_path):
+    """A bar the run cannot meet (the plateau, -1.2 % off, held to 0.01 %)
+    reads NO; the front, 0.26 mm short, is within 0.5 mm and reads yes, and
+    within 0.2 mm it reads NO; the summary names the failures."""
+    text = _report_on(bar_runs, tmp_path, decks=("elastic_bar",), acceptance_by_mode={
+        "source": "test", "fem": {"plateau_percent": 0.01, "front_mm_absolute": 0.5}})
+    rows = {row[2]: row for row in _report_rows(text, "elastic_bar")}
+    assert rows["bar_wave.plateau_GPa"][5] == "-1.21 %"
+    assert rows["bar_wave.plateau_GPa"][6:8] == ["0.01 %", "NO"]
+    assert rows["bar_wave.front_mm"][5] == "-1.69 % (-0.259 mm)"
+    assert rows["bar_wave.front_mm"][6:8] == ["0.5 mm", "yes"]
+    assert text.splitlines()[2] == ("1 of 2 metrics within their bars; outside: elastic_bar "
+                                    "bar_wave.plateau_GPa (-1.21 %, bar 0.01 %)")
+    text = _report_on(bar_runs, tmp_path / "tighter", decks=("elastic_bar",), acceptance_by_mode={
+        "source": "test", "fem": {"plateau_percent": 3.0, "front_mm_absolute": 0.2}})
+    rows = {row[2]: row for row in _report_rows(text, "elastic_bar")}
+    assert rows["bar_wave.plateau_GPa"][6:8] == ["3 %", "yes"]
+    assert rows["bar_wave.front_mm"][6:8] == ["0.2 mm", "NO"]
+
+
+def test_summary_line_counts_the_metrics_with_a_bar(bar_runs, tmp_path):
+    """Two decks, four metrics: a mode named in acceptance_by_mode takes its
+    bars, another mode the reference's acceptance (each_percent for every
+    metric); the count is of metrics with a bar, those without listed."""
+    text = _report_on(bar_runs, tmp_path, acceptance={"source": "test", "each_percent": 2.0},
+                      acceptance_by_mode={"source": "test", "fem": {"plateau_percent": 3.0}})
+    fem = {row[2]: row for row in _report_rows(text, "elastic_bar")}
+    sph = {row[2]: row for row in _report_rows(text, "elastic_bar_sph")}
+    assert fem["bar_wave.plateau_GPa"][6:8] == ["3 %", "yes"]
+    assert fem["bar_wave.front_mm"][6:8] == ["none", "–"]
+    assert sph["bar_wave.plateau_GPa"][6:8] == ["2 %", "NO"]       # +2.2 %
+    assert sph["bar_wave.front_mm"][6:8] == ["2 %", "NO"]          # -3.5 %
+    lines = text.splitlines()
+    assert lines[2] == ("1 of 3 metrics within their bars; outside: elastic_bar_sph "
+                        "bar_wave.plateau_GPa (+2.16 %, bar 2 %), elastic_bar_sph "
+                        "bar_wave.front_mm (-3.54 %, bar 2 %)")
+    assert lines[3] == "Without a bar (1): elastic_bar bar_wave.front_mm (-1.69 %)."
+
+
+def test_shipped_bars_are_the_bars_the_tests_assert():
+    """The bars of the report come from the reference files; those of the
+    validation decks are the ones their tests assert: the elastic bar's
+    BARS of tests/test_elastic_bar.py, 6 % each in pure SPH
+    (test_taylor_sph.py), the adaptive acceptance (test_taylor_adaptive.py)
+    and no bar for the FEM baseline (test_taylor_fem.py). The acceptance
+    keys of the other references name their metrics."""
+    from fsph.report import acceptance, bar
+    from test_elastic_bar import BARS
+    bar_ref, taylor = reference("elastic_bar"), reference("taylor_armco")
+    for name, (plateau, front) in BARS.items():
+        mode = deck_module.load(CASES / f"{name}.nml")["control"]["mode"]
+        block = acceptance(bar_ref, mode)
+        assert bar(block, "plateau_GPa") == ("percent", pytest.approx(100 * plateau)), name
+        assert bar(block, "front_mm") == ("absolute", pytest.approx(front)), name
+    for mode, expected in (("sph", ("percent", 6.0)), ("adaptive", ("percent", 4.0)), ("fem", None)):
+        for key in ("L_mm", "D_mm", "W_mm"):
+            assert bar(acceptance(taylor, mode), key) == expected, (mode, key)
+    debris = acceptance(reference("debris_cu_al_1"), "sph")
+    assert bar(debris, "front_ratio") == ("percent", 5.0)
+    assert bar(debris, "target_front_mm") == ("percent", 5.0)
+    assert bar(debris, "intersection_radius_mm") == ("percent", 10.0)
+    assert bar(debris, "flyer_front_mm") is None
+    assert bar(acceptance(reference("concrete_1058"), "fem"), "residual_velocity_m_s") == ("percent", 3.0)
+
+
+@pytest.mark.parametrize("args, message, checked_first", [
+    (["--cases", "nothere"], "nothere: expected a folder of decks (--cases)", True),
+    (["--cases", "deck.nml"], "deck.nml: expected a folder of decks (--cases)", True),
+    (["--cases", "cases", "--decks", "elastic_bar,taylor"], "cases: expected a deck taylor.nml (--decks)",
+     True),
+    (["--decks", "elastic_bar,nothere"], "expected a deck nothere.nml (--decks)", True),
+    (["--cases", "cases", "--decks", "orphan"], "&output key 'reference': expected an existing JSON",
+     False),
+    (["--cases", "cases", "--decks", "elastic_bar"], "the reference's front_mm_absolute: expected a "
+                                                     "non-negative number, got '0.5 mm'", False),
+])
+def test_bad_cases_folder_or_deck_is_one_line_and_exit_2(tmp_path, args, message, checked_first):
+    """A --cases that is no folder or a deck missing from it (checked before
+    anything runs), a deck whose reference is missing, a bar that is not a
+    number: exit 2, one line, no traceback."""
+    (tmp_path / "deck.nml").write_text((CASES / "elastic_bar.nml").read_text())
+    (tmp_path / "cases" / "references").mkdir(parents=True)
+    for name in ("elastic_bar", "orphan"):
+        (tmp_path / "cases" / f"{name}.nml").write_text((CASES / "elastic_bar.nml").read_text().replace(
+            "references/elastic_bar.json", f"references/{name}.json"))
+    ref = reference("elastic_bar")
+    ref["acceptance_by_mode"]["fem"]["front_mm_absolute"] = "0.5 mm"
+    (tmp_path / "cases" / "references" / "elastic_bar.json").write_text(json.dumps(ref))
+    proc = fsph_cli(["report", *args, "-o", "rep"], tmp_path)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fsph: error: ") and message in lines[0], lines
+    assert (tmp_path / "rep").exists() != checked_first
