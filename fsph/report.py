@@ -196,4 +196,51 @@ def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
         lines += [f"## {name}", "", f"![{name}]({png})", ""]
     path = output_dir / "report.md"
     path.write_text("\n".join(lines))
+    (output_dir / "report.html").write_text(_html(_summary_line(results, unfinished), table, pictures))
     return path
+
+
+def _cells(row):
+    """The cells of a markdown table row."""
+    return [c.strip() for c in row.strip().strip("|").split("|")]
+
+
+def _inline(text):
+    """Markdown's **bold** and `code` of a cell or line as HTML (escaped)."""
+    import html
+    import re
+    text = html.escape(text)
+    text = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", text)
+    return re.sub(r"`(.+?)`", r"<code>\1</code>", text)
+
+
+def _html(summary_lines, table, pictures):
+    """report.html: the summary, the table (rows outside their bar in red)
+    and the pictures beside it."""
+    head, body = _cells(table[0]), [_cells(r) for r in table[2:]]
+    verdict = head.index("within bar")
+    rows = "\n".join(
+        "<tr{}>{}</tr>".format(' class="no"' if cells[verdict] == "NO" else "",
+                               "".join(f"<td>{_inline(c)}</td>" for c in cells)) for cells in body)
+    figures = "\n".join(f'<figure><img src="{png}" alt="{name}"><figcaption>{name}</figcaption></figure>'
+                         for name, png in pictures)
+    summary = "\n".join(f"<p>{_inline(line)}</p>" for line in summary_lines if line.strip())
+    return f"""<!DOCTYPE html>
+<html><head><meta charset="utf-8"><title>fsph validation report</title>
+<style>
+body {{ font-family: sans-serif; margin: 1.5em; }}
+.page {{ display: flex; gap: 2em; align-items: flex-start; flex-wrap: wrap; }}
+table {{ border-collapse: collapse; font-size: 0.85em; }}
+td, th {{ border: 1px solid #ccc; padding: 0.2em 0.5em; }}
+tr.no td {{ background: #fdd; }}
+figure {{ margin: 0 0 1em 0; }} img {{ max-width: 520px; }}
+</style></head>
+<body><h1>fsph validation report</h1>
+{summary}
+<div class="page"><table>
+<tr>{"".join(f"<th>{_inline(h)}</th>" for h in head)}</tr>
+{rows}
+</table>
+<div>{figures}</div></div>
+</body></html>
+"""

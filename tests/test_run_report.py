@@ -311,6 +311,33 @@ def test_within_bar_flags_a_metric_outside_its_bar(bar_runs, tmp_path):
     assert rows["bar_wave.front_mm"][6:8] == ["0.5 mm", "yes"]
     assert text.splitlines()[2] == ("1 of 2 metrics within their bars; outside: elastic_bar "
                                     "bar_wave.plateau_GPa (-1.21 %, bar 0.01 %)")
+    # report.html: the same rows, the one outside its bar marked, the summary on top
+    import html.parser
+    page = (tmp_path / "rep" / "report.html").read_text()
+
+    class Rows(html.parser.HTMLParser):
+        rows, marked, cell = [], [], None
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "tr":
+                self.rows.append([])
+                self.marked.append(dict(attrs).get("class") == "no")
+            elif tag == "td":
+                self.cell = ""
+
+        def handle_data(self, data):
+            if self.cell is not None:
+                self.cell += data
+
+        def handle_endtag(self, tag):
+            if tag == "td":
+                self.rows[-1].append(self.cell.strip())
+                self.cell = None
+    parser = Rows()
+    parser.feed(page)
+    body = [(r, m) for r, m in zip(parser.rows, parser.marked) if r]
+    assert [(r[2], m) for r, m in body] == [("bar_wave.plateau_GPa", True), ("bar_wave.front_mm", False)]
+    assert "1 of 2 metrics within their bars" in page.split("<table>")[0]
     text = _report_on(bar_runs, tmp_path / "tighter", decks=("elastic_bar",), acceptance_by_mode={
         "source": "test", "fem": {"plateau_percent": 3.0, "front_mm_absolute": 0.2}})
     rows = {row[2]: row for row in _report_rows(text, "elastic_bar")}
