@@ -77,6 +77,8 @@ BODY_COLUMNS = (
     ("kinetic", "J", "kinetic energy of the body's nodes and particles (half-step velocities)"),
     ("internal", "J", "internal energy of the body's elements and particles"),
     ("momentum_z", "N s", "axial momentum of the body's nodes and particles"),
+    ("plastic_work", "J", "plastic work done in the body's elements and particles (and in the "
+     "elements they were converted from)"),
 )
 
 # ---- checkpoint: state arrays by name (fsph_restart) ----------------------
@@ -207,6 +209,8 @@ MATERIAL_HISTORY = (
     ("mu_max", "-", "largest volumetric strain reached (HJC)"),
     ("failed", "-", "1 once the point has failed (no deviator, no tension), else 0"),
     ("melted", "-", "1 while the point is at or above its melting temperature, else 0"),
+    ("plastic_work", "J/kg", "plastic work per unit mass: the sum of flow stress x plastic strain "
+     "increment / density over the steps"),
 )
 STRENGTH_MODELS = (
     ("elastic", "elastic"),

@@ -16,7 +16,7 @@ module fsph_material
   ! the property table, the material history and the model ids: fsph_layouts
   ! (generated from fsph/layouts.py)
   use fsph_layouts, only: eos_hjc, eos_linear, eos_mie_gruneisen, hist_damage, hist_mu_max, hist_failed, &
-                          hist_melted, n_hist, n_props, prop_bulk, prop_c0, prop_chi, prop_cv, prop_eps0, &
+                          hist_melted, hist_plastic_work, n_hist, n_props, prop_bulk, prop_c0, prop_chi, prop_cv, prop_eps0, &
                           prop_gamma0, prop_hard, prop_hjc_a, prop_hjc_b, prop_hjc_c, prop_hjc_d1, prop_hjc_d2, &
                           prop_hjc_efmin, prop_hjc_fc, prop_hjc_k1, prop_hjc_k2, prop_hjc_k3, &
                           prop_hjc_mucrush, prop_hjc_mulock, prop_hjc_muplock, prop_hjc_n, prop_hjc_pcrush, &
@@ -763,6 +763,7 @@ contains
         s = 0.0_wp
       else
         call strength_update(props, istrength, dt, d, spin, rho_new, p, s, eps_p, temp, s_old, d_dev, deps_p, sy)
+        if (deps_p > 0.0_wp) hist(hist_plastic_work) = hist(hist_plastic_work) + sy*deps_p/rho_new
         if (nint(props(prop_jcf_on)) == 1) then
           call jc_damage(props, dt, p, deps_p, sy, temp, melting_temperature(props, rho_new), hist)
           if (point_failed(hist)) s = 0.0_wp
@@ -938,6 +939,7 @@ contains
     if (seq > sy) then
       deps_p = (seq - sy)/(3.0_wp*props(prop_shear))
       s = s*(sy/seq)
+      hist(hist_plastic_work) = hist(hist_plastic_work) + sy*deps_p/rho
     end if
     eps_p = eps_p + deps_p
     if (deps_p + dmu_p > 0.0_wp) then

@@ -10,7 +10,7 @@ module fsph_solver
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
                           prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
                           hcol_dt, hcol_plane_impulse_z, energy_first, body_columns, bcol_kinetic, &
-                          bcol_internal, bcol_momentum_z, &
+                          bcol_internal, bcol_momentum_z, bcol_plastic_work, hist_plastic_work, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
@@ -806,12 +806,14 @@ contains
       do e = 1, el%n
         b = el%body(e)
         books(bcol_internal, b) = books(bcol_internal, b) + el%mass(e)*el%e(e)
+        books(bcol_plastic_work, b) = books(bcol_plastic_work, b) + el%mass(e)*el%hist(hist_plastic_work, e)
       end do
       do i = 1, pt%n
         b = pt%body(i)
         books(bcol_kinetic, b) = books(bcol_kinetic, b) + 0.5_wp*pt%mass(i)*(pt%v(1, i)**2 + pt%v(2, i)**2)
         books(bcol_internal, b) = books(bcol_internal, b) + pt%mass(i)*pt%e(i)
         books(bcol_momentum_z, b) = books(bcol_momentum_z, b) + pt%mass(i)*pt%v(2, i)
+        books(bcol_plastic_work, b) = books(bcol_plastic_work, b) + pt%mass(i)*pt%hist(hist_plastic_work, i)
       end do
     end associate
   end function body_budget

@@ -35,7 +35,8 @@ def test_bodies_add_up_to_the_whole(plate_run):
     record (to round-off), with their units."""
     summary, hist, bodies, units = plate_run
     assert sorted(bodies) == ["plate", "projectile"]
-    assert units == {"kinetic": "J", "internal": "J", "momentum_z": "N s", "force_z": "N"}
+    assert units == {"kinetic": "J", "internal": "J", "momentum_z": "N s", "plastic_work": "J",
+                     "force_z": "N"}
     scale = hist["kinetic"][0]
     for key in ("kinetic", "internal"):
         total = sum(b[key] for b in bodies.values())
@@ -58,3 +59,26 @@ def test_contact_forces_are_equal_and_opposite(plate_run):
     books = summary["bodies"]["projectile"]
     assert books["momentum_z_N_s"] == pytest.approx(rod["momentum_z"][-1], rel=1e-12)
     assert books["peak_force_z_N"] == pytest.approx(np.abs(rod["force_z"]).max(), rel=1e-12)
+
+
+@pytest.mark.parametrize("deck", ["taylor_armco_fem.nml", "taylor_armco.nml"])
+def test_plastic_work_of_a_perfectly_plastic_rod(deck):
+    """Elastic-perfectly-plastic Armco iron flows at Y0 = 0.6 GPa: the
+    body's plastic work is the sum of Y0 d(eps_p)/rho over its points, so
+    within the density's change (under 2 %) sum m Y0 eps_p / rho of the
+    snapshot; it stays below the internal energy, which also holds the
+    elastic and the viscous part (FEM and adaptive, to 20 us)."""
+    import fsph
+    from fsph.materials import LIBRARY
+    y0 = LIBRARY["armco_iron"]["yield_stress"]
+    sim = fsph.Simulation.from_deck(CASES / deck)
+    sim.advance(20e-6)
+    _, bodies = sim.drain_histories()
+    work = bodies[-1, 0, 3]
+    snap = sim.snapshot()
+    estimate = np.sum(snap["element_mass"] * y0 * snap["plastic_strain"] / snap["density"])
+    if "particles" in snap:
+        part = snap["particles"]
+        estimate += np.sum(part["mass"] * y0 * part["plastic_strain"] / part["density"])
+    assert work == pytest.approx(estimate, rel=0.02)
+    assert 0.5 * bodies[-1, 0, 1] < work < bodies[-1, 0, 1]
