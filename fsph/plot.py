@@ -478,14 +478,17 @@ def _history_figure(run_dir):
     run_dir = Path(run_dir)
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
         hist = {k: h5["history"][k][...] for k in h5["history"]}
+        body_force = {name: g["force_z"][...] for name, g in h5.get("body_history", {}).items()}
     summary_path = run_dir / "summary.json"
     summary = json.loads(summary_path.read_text()) if summary_path.is_file() else {}
     t = hist["time"] * 1e6
     # the rigid planes' force, where a plane has acted (runs before it have no column)
     force = hist.get("plane_force_z")
     with_force = force is not None and bool(np.any(force))
-    n_panels = 4 if with_force else 3
-    fig, axes = plt.subplots(n_panels, 1, figsize=(7, 8 + 2 * with_force), sharex=True,
+    # each body's axial force where two or more bodies meet (a projectile's deceleration)
+    with_bodies = len(body_force) > 1 and any(np.any(f) for f in body_force.values())
+    n_panels = 3 + with_force + with_bodies
+    fig, axes = plt.subplots(n_panels, 1, figsize=(7, 8 + 2 * (with_force + with_bodies)), sharex=True,
                              height_ratios=(2,) + (1,) * (n_panels - 1), layout="constrained")
     ax_e, ax_err, ax_dt = axes[0], axes[1], axes[-1]
     if with_force:
@@ -494,6 +497,13 @@ def _history_figure(run_dir):
                      label=f"axial, on the bodies; impulse {impulse:.4g} N s at the end")
         axes[2].set_ylabel("rigid-plane force [kN]")
         axes[2].legend(frameon=False, fontsize="small")
+    if with_bodies:
+        ax_b = axes[2 + with_force]
+        for name, f in body_force.items():
+            ax_b.plot(t, f * 1e-3, lw=0.9, label=name)
+        ax_b.axhline(0.0, color="0.6", lw=0.6)
+        ax_b.set_ylabel("axial force on\neach body [kN]")
+        ax_b.legend(frameon=False, fontsize="small")
     ax_e.plot(t, hist["kinetic"], label="kinetic")
     ax_e.plot(t, hist["internal"], label="internal")
     if "contact" in hist and hist["contact"].any():
@@ -536,7 +546,9 @@ def histories(run_dir, output=None, dpi=150):
     energy of summary.json, else the first total), the quantity of
     summary.json's energy.relative_error; where a rigid plane acted, its
     axial force on the bodies (history plane_force_z, averaged between
-    history rows; a Taylor test's anvil force); and the time step. The time-step
+    history rows; a Taylor test's anvil force); where two or more bodies
+    are, the axial force on each (body_history force_z: a projectile's
+    deceleration force); and the time step. The time-step
     curve leaves out the step of the first row (none) and, when the run
     reached its end time, the rows of the landing on it (_landing_rows: the
     solver shortens the last one or two steps to end on the end time, which

@@ -490,3 +490,20 @@ def test_a_field_the_run_lacks_is_a_one_line_error(taylor_run, capsys, field, wh
     assert len(err) == 1 and err[0].startswith(f"fsph: error: --field {field}: {why}")
     assert err[0].endswith("; fields of this run: eps_p, pressure, mises, density, material")
     assert {p: p.stat().st_mtime_ns for p in taylor_run.glob("*.png")} == before
+
+
+def test_history_draws_each_bodys_force(block_run, monkeypatch, capsys):
+    """history.png of a two-body run: a panel of the axial force on each
+    body, one curve per body; nothing else acts on them, so the impulses
+    under the two curves are equal and opposite within 0.5 % (the bar of
+    the momentum balance of the perforation runs)."""
+    code, _, figures = plot_cli(monkeypatch, capsys, block_run)
+    assert code == 0
+    axes = {ax.get_ylabel(): ax for ax in figures["history.png"].axes}
+    curves = {line.get_label(): (line.get_xdata(), line.get_ydata())
+              for line in axes["axial force on\neach body [kN]"].get_lines()
+              if not line.get_label().startswith("_")}
+    assert set(curves) == {"rod", "block"}
+    impulse = {name: np.sum(f[1:] * np.diff(t)) for name, (t, f) in curves.items()}
+    assert impulse["rod"] > 0.0
+    assert abs(impulse["rod"] + impulse["block"]) <= 0.005 * impulse["rod"]
