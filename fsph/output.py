@@ -24,6 +24,11 @@ BODY_FIELDS = tuple(name for name, _, _ in layouts.BODY_COLUMNS)
 #: The body history dataset derived from its momentum (RunWriter._body_rows).
 BODY_FORCE = ("force_z", "N", "axial force on the body from everything outside it (contact, "
               "rigid planes), averaged between history rows (the rate of momentum_z)")
+#: Rows per chunk of the history datasets: a chunk is allocated whole at the
+#: first write (4 kB), so a short run's file stays small and its first
+#: snapshot's growth, on which the room check bases its estimate, is the
+#: snapshot's own.
+HISTORY_CHUNK = 512
 #: The history dataset derived from the planes' impulse (RunWriter._plane_force).
 PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bodies, averaged "
                "between history rows (the rate of plane_impulse_z); the bodies push the planes "
@@ -232,13 +237,14 @@ class RunWriter:
             hist = h5.create_group("history")
             for name, unit, meaning in layouts.HISTORY_COLUMNS + (PLANE_FORCE,):
                 hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
-                                    chunks=(4096,))
+                                    chunks=(HISTORY_CHUNK,))
                 hist[name].attrs["units"] = unit
                 hist[name].attrs["description"] = meaning
             for body in body_names:
                 group = h5.create_group(f"body_history/{body}")
                 for name, unit, meaning in layouts.BODY_COLUMNS + (BODY_FORCE,):
-                    group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
+                    group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
+                                         chunks=(HISTORY_CHUNK,))
                     group[name].attrs["units"] = unit
                     group[name].attrs["description"] = meaning
             h5.create_group("snapshots")
