@@ -80,6 +80,33 @@ BODY_COLUMNS = (
     ("plastic_work", "J", "plastic work done in the body's elements and particles (and in the "
      "elements they were converted from)"),
 )
+#: Each gauge's record at every history record (fsph_gauges gauge_row):
+#: the values of the element containing the point or of the nearest
+#: particle (docs/method.md, Gauges); every field but r, z and inside is
+#: NaN while the point is in no material (inside = 0).
+GAUGE_COLUMNS = (
+    ("r", "m", "radial position of the gauge (a fixed gauge: its point)"),
+    ("z", "m", "axial position of the gauge (a fixed gauge: its point)"),
+    ("velocity_r", "m/s", "radial velocity (an element's nodal velocities interpolated at the point)"),
+    ("velocity_z", "m/s", "axial velocity (an element's nodal velocities interpolated at the point)"),
+    ("pressure", "Pa", "pressure of the equation of state (no artificial viscosity)"),
+    ("stress_zz", "Pa", "axial Cauchy stress s_zz - p (elements: - q as well; tension positive), as "
+     "the snapshots' stress_zz"),
+    ("von_mises", "Pa", "von Mises stress sqrt(3/2 s:s) of the deviator (hoop component included)"),
+    ("plastic_strain", "-", "equivalent plastic strain"),
+    ("temperature", "K", "temperature"),
+    ("density", "kg/m^3", "density"),
+    ("internal_energy", "J/kg", "specific internal energy"),
+    ("damage", "-", "damage D of the material history (0 where the model has none)"),
+    ("inside", "-", "1 while the point lies in material, 0 otherwise"),
+)
+#: Kinds of gauge (&gauge kind): the Fortran ids gauge_kind_*.
+GAUGE_KINDS = (
+    ("material", "follows the material point that is there at t = 0"),
+    ("fixed", "a point fixed in space, sampling whatever material is there"),
+)
+#: What a gauge samples (fsph_gauges): nothing, an element or a particle (0-based ids gauge_on_*).
+GAUGE_SOURCES = ("nothing", "element", "particle")
 
 # ---- checkpoint: state arrays by name (fsph_restart) ----------------------
 # Each is a (rows, cols) view of one state array; the order is the order
@@ -354,6 +381,11 @@ def fortran_source():
     out.append("  ! columns of a body's books at a history record")
     out += _constants("bcol_", [n for n, _, _ in BODY_COLUMNS],
                       [f"{d} [{u}]" for _, u, d in BODY_COLUMNS], count="body_columns")
+    out.append("  ! columns of a gauge's record, kinds of gauge, what a gauge samples")
+    out += _constants("gcol_", [n for n, _, _ in GAUGE_COLUMNS],
+                      [f"{d} [{u}]" for _, u, d in GAUGE_COLUMNS], count="gauge_columns")
+    out += _constants("gauge_kind_", [n for n, _ in GAUGE_KINDS], [d for _, d in GAUGE_KINDS])
+    out += _constants("gauge_on_", GAUGE_SOURCES, first=0)
     out.append("  ! checkpoint: real and integer state arrays, real and integer scalars")
     out += _constants("ckr_", [_ident(n) for n in CHECKPOINT_REAL], count="n_real_arrays")
     out += _constants("cki_", [_ident(n) for n in CHECKPOINT_INT], count="n_int_arrays")

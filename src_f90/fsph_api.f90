@@ -20,7 +20,7 @@ module fsph_api
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
   public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
   public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
-  public :: drain_history, get_body_history
+  public :: drain_history, get_body_history, set_gauges, get_gauge_history, get_gauge_state
 
 contains
 
@@ -786,5 +786,88 @@ contains
     if (n > 0) records = sim%body_history(:, :, 1:n)
     ierr = status_ok
   end subroutine get_body_history
+
+  !> The gauges (&gauge; fsph_gauges): kinds (n, fsph_layouts
+  !> gauge_kind_*) and points (2, n) (r, z) [m]. Call once the state is
+  !> set up (initialise) or restored (restore_end), before advancing: the
+  !> gauges are located in the initial configuration and the records
+  !> waiting (at set-up, t = 0) get their rows. on(k): what material
+  !> gauge k follows (fsph_layouts gauge_on_*: 0 nothing, its point in no
+  !> body).
+  subroutine set_gauges(run, n, kinds, points, on, ierr)
+    use fsph_gauges, only: gauges_define
+    use fsph_layouts, only: gauge_kind_material, gauge_kind_fixed
+    use fsph_solver, only: locate_gauges
+    use fsph_status, only: status_ok, status_bad_input, status_not_ready
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: n
+    integer, intent(in) :: kinds(n)
+    real(wp), intent(in) :: points(2, n)
+    integer, intent(out) :: on(n)
+    integer, intent(out) :: ierr
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    on = 0
+    ierr = status_not_ready
+    if (.not. sim%ready) return
+    ierr = status_bad_input
+    if (any(kinds /= gauge_kind_material .and. kinds /= gauge_kind_fixed)) return
+    call gauges_define(sim%gauges, n, kinds, points)
+    call locate_gauges(sim)
+    on = sim%gauges%on
+    ierr = status_ok
+  end subroutine set_gauges
+
+  !> The gauges' rows at the records drain_history returns (call it first,
+  !> with the count history_count gave before): (nc, ng, n) with nc =
+  !> fsph_layouts gauge_columns, ng gauges; empties nothing itself.
+  subroutine get_gauge_history(run, nc, ng, n, records, ierr)
+    use fsph_layouts, only: gauge_columns
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: nc, ng, n
+    real(wp), intent(out) :: records(nc, ng, n)
+    integer, intent(out) :: ierr
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    records = 0.0_wp
+    ierr = status_bad_input
+    if (nc /= gauge_columns .or. ng /= sim%gauges%n) return
+    ierr = status_ok
+    if (ng == 0 .or. n == 0) return
+    if (.not. allocated(sim%gauges%history)) return
+    if (n > size(sim%gauges%history, 3)) then
+      ierr = status_bad_input
+      return
+    end if
+    records = sim%gauges%history(:, :, 1:n)
+  end subroutine get_gauge_history
+
+  !> What each of the n gauges samples now: on (fsph_layouts gauge_on_*;
+  !> a fixed gauge: 0, it is searched at each record) and the element or
+  !> particle index (1-based, 0 none); when a material gauge moved from its
+  !> element to a particle and when its element was deleted [s] (-1 never).
+  subroutine get_gauge_state(run, n, on, index, switch_time, lost_time, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: n
+    integer, intent(out) :: on(n), index(n)
+    real(wp), intent(out) :: switch_time(n), lost_time(n)
+    integer, intent(out) :: ierr
+    type(simulation_t), pointer :: sim
+    sim => run_state(run)
+    on = 0
+    index = 0
+    switch_time = -1.0_wp
+    lost_time = -1.0_wp
+    ierr = status_bad_input
+    if (n /= sim%gauges%n) return
+    ierr = status_ok
+    if (n == 0) return
+    on = sim%gauges%on
+    index = sim%gauges%index
+    switch_time = sim%gauges%switch_time
+    lost_time = sim%gauges%lost_time
+  end subroutine get_gauge_state
 
 end module fsph_api

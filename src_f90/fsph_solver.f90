@@ -10,7 +10,7 @@ module fsph_solver
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
                           prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
                           hcol_dt, hcol_plane_impulse_z, energy_first, body_columns, bcol_kinetic, &
-                          bcol_internal, bcol_momentum_z, bcol_plastic_work, hist_plastic_work, &
+                          bcol_internal, bcol_momentum_z, bcol_plastic_work, hist_plastic_work, gauge_columns, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
@@ -38,11 +38,14 @@ module fsph_solver
   use fsph_erosion, only: erode_elements
   use fsph_timers, only: timer_start, timer_stop, wall_clock
   use fsph_threads, only: governor_begin, governor_cycle, governor_end
+  use fsph_gauges, only: gauges_unlocate, gauges_locate_elements, gauges_locate_particles, gauges_track, &
+                         gauges_refind, gauges_switch, gauges_lose, gauges_begin_record, gauges_find_elements, &
+                         gauges_find_particles, gauges_element_rows, gauges_particle_rows
   implicit none
   private
 
   public :: solver_initialise, solver_advance, energy_budget, solver_stable_step, solver_forces
-  public :: prepare_particle_sums, update_particle_radius
+  public :: prepare_particle_sums, update_particle_radius, locate_gauges
 
   !> Particles may come no closer to the axis than this fraction of their
   !> radius [-].
@@ -320,7 +323,7 @@ contains
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
-    integer :: n_new
+    integer :: n_new, n_eroded
 
     ! 1. forces at t^n: element nodal forces; imaginary particles,
     !    particle neighbours, SPH accelerations, particle contact; coupling
@@ -357,10 +360,13 @@ contains
     ! 7. erosion of over-strained elements (FEM baseline), conversion of
     !    distorted element groups, surface and ties
     call timer_start(sim%timers, phase_conversion)
+    if (sim%gauges%n > 0 .and. sim%elements%n > 0 .and. (sim%erosion%enabled .or. sim%conversion%enabled)) &
+      call gauges_track(sim%gauges, sim%elements%n, sim%nodes%n, sim%elements%conn, sim%nodes%x)
     call erode_elements(sim%erosion, sim%elements, sim%nodes, sim%particles, sim%coupling, sim%contact, &
-                        sim%continuum_of_body, n_new)
+                        sim%continuum_of_body, n_eroded)
     call convert_elements(sim%elements, sim%nodes, sim%particles, sim%coupling, sim%conversion, sim%contact, &
                           sim%continuum_of_body, sim%body_coupled, n_new)
+    if (sim%gauges%n > 0 .and. n_eroded + n_new > 0) call follow_gauges(sim, n_new > 0)
     call timer_stop(sim%timers, phase_conversion)
     ! 8. next stable step
     call timer_start(sim%timers, phase_time_step)
@@ -777,7 +783,77 @@ contains
       record(energy_first:) = energy_budget(sim)
     end associate
     if (n_bodies > 0) sim%body_history(:, :, sim%n_history) = body_budget(sim, n_bodies)
+    if (sim%gauges%n > 0) call record_gauges(sim, sim%n_history, sim%n_history)
   end subroutine record_history
+
+  !> The gauges' rows of the current state (fsph_gauges: what each
+  !> samples, then the rows of those on elements and on particles) at
+  !> records first..last of the buffer, which grows with the history.
+  subroutine record_gauges(sim, first, last)
+    type(simulation_t), intent(inout) :: sim
+    integer, intent(in) :: first, last
+    real(wp), allocatable :: grown(:, :, :)
+    integer :: k, kept, src(sim%gauges%n), idx(sim%gauges%n)
+    real(wp) :: w(3, sim%gauges%n)
+    associate (g => sim%gauges, el => sim%elements, nd => sim%nodes, pt => sim%particles)
+      if (.not. allocated(g%history)) allocate (g%history(gauge_columns, g%n, size(sim%history, 2)))
+      if (size(g%history, 3) < size(sim%history, 2)) then
+        kept = min(sim%n_history, size(g%history, 3))
+        allocate (grown(gauge_columns, g%n, size(sim%history, 2)))
+        grown(:, :, 1:kept) = g%history(:, :, 1:kept)
+        call move_alloc(grown, g%history)
+      end if
+      if (last < first) return
+      call gauges_begin_record(g, src, idx, w, g%history(:, :, first))
+      if (el%n > 0) then
+        call gauges_find_elements(g, el%n, nd%n, el%conn, nd%x, src, idx, w)
+        call gauges_element_rows(g, src, idx, w, nd%n, nd%x, nd%v, el%n, el%conn, el%p, el%q, el%s, el%eps_p, &
+                                 el%temp, el%rho, el%e, el%hist, g%history(:, :, first))
+      end if
+      if (pt%n > 0) then
+        call gauges_find_particles(g, pt%n, pt%x, pt%h, pt%body, src, idx)
+        call gauges_particle_rows(g, src, idx, pt%n, pt%x, pt%v, pt%p, pt%s, pt%eps_p, pt%temp, pt%rho, pt%e, &
+                                  pt%hist, g%history(:, :, first))
+      end if
+      do k = first + 1, last
+        g%history(:, :, k) = g%history(:, :, first)
+      end do
+    end associate
+  end subroutine record_gauges
+
+  !> Locate the gauges (fsph_gauges: in the initial configuration, among
+  !> the elements, then the particles) once the state is set up or
+  !> restored, and give the records waiting in the history (set-up: the
+  !> one at t = 0, where no cycle has run) their gauge rows of the current
+  !> state.
+  subroutine locate_gauges(sim)
+    type(simulation_t), intent(inout) :: sim
+    associate (g => sim%gauges, el => sim%elements, nd => sim%nodes, pt => sim%particles)
+      if (g%n == 0) return
+      call gauges_unlocate(g)
+      if (el%n > 0) call gauges_locate_elements(g, el%n, nd%n, el%conn, el%body, nd%x0)
+      if (pt%n > 0) call gauges_locate_particles(g, pt%n, pt%x0, pt%h, pt%body)
+      if (allocated(sim%history)) call record_gauges(sim, 1, sim%n_history)
+    end associate
+  end subroutine locate_gauges
+
+  !> After erosion or conversion removed elements: the material gauges
+  !> find their elements again, or move to a particle (converted: the
+  !> cycle converted elements) or to no material (fsph_gauges).
+  subroutine follow_gauges(sim, converted)
+    type(simulation_t), intent(inout) :: sim
+    logical, intent(in) :: converted
+    logical :: gone(sim%gauges%n)
+    associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
+      call gauges_refind(sim%gauges, el%n, nd%n, el%conn, el%body, nd%x0, gone)
+      if (.not. any(gone)) return
+      if (converted) then
+        call gauges_switch(sim%gauges, gone, pt%n, pt%x, pt%h, pt%body, sim%time)
+      else
+        call gauges_lose(sim%gauges, gone, sim%time)
+      end if
+    end associate
+  end subroutine follow_gauges
 
   !> Each body's books (body_columns of fsph_layouts, in their order):
   !> kinetic energy (half-step velocities) [J], internal energy [J] and

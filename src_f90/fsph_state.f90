@@ -1,6 +1,6 @@
 !> The types of a run's state: nodes, elements, particles, coupling,
-!> conversion, contact, erosion, materials, boundaries, control parameters
-!> and clock, gathered in simulation_t. The module holds no state: each run
+!> conversion, contact, erosion, materials, boundaries, control parameters,
+!> clock and gauges, gathered in simulation_t. The module holds no state: each run
 !> is an instance owned by fsph_runs, and procedures receive the parts they
 !> touch as arguments. Derived types never cross the f2py boundary;
 !> fsph_api copies plain arrays in and out.
@@ -11,6 +11,7 @@ module fsph_state
   use fsph_arrays, only: grow
   use fsph_timers, only: phase_timers_t
   use fsph_threads, only: thread_governor_t
+  use fsph_gauges, only: gauge_set_t
   implicit none
   private
 
@@ -263,6 +264,9 @@ module fsph_state
     real(wp), allocatable :: history(:, :) !< (history_columns, capacity), drained by the API
     !> each body's books at the same records: (body_columns, bodies, capacity), fsph_solver body_budget
     real(wp), allocatable :: body_history(:, :, :)
+    !> the gauges (&gauge; fsph_gauges) and their records at the same records; not part of a
+    !> checkpoint: a restart locates them again from the deck
+    type(gauge_set_t) :: gauges
     type(phase_timers_t) :: timers        !< wall time of each phase of the cycle
     type(thread_governor_t) :: governor   !< OpenMP threads of each cycle (fsph_threads)
   end type simulation_t
