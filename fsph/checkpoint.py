@@ -24,11 +24,12 @@ from .simulation import STATUS_OK, _api
 FORMAT = 4
 
 #: What a restart may change in the deck: these keys of &control, and the
-#: whole of &output and &metrics. Everything else must be as in the
+#: whole of &output, &metrics and the &gauge groups (gauges only read the
+#: state; a restart locates them again). Everything else must be as in the
 #: checkpoint's deck.
 RESTART_MAY_CHANGE = {"control": ("title", "end_time", "max_cycles", "energy_error_warning",
                                   "energy_error_limit"),
-                      "output": None, "metrics": None}
+                      "output": None, "metrics": None, "gauge": None}
 _REAL, _INT = 1, 2    # the solver's kinds of state array
 
 
@@ -110,7 +111,8 @@ def _check_same_deck(sim, h5, path):
     change; the starting mesh has the checkpoint's counts."""
     ours, theirs = _restart_identity(sim.deck), json.loads(h5.attrs["deck"])
     where = sim.deck.get("path", "<deck>")
-    may = ("&control " + ", ".join(RESTART_MAY_CHANGE["control"]) + ", &output and &metrics")
+    may = ("&control " + ", ".join(RESTART_MAY_CHANGE["control"]) + ", &output, &metrics and "
+           "&gauge")
     for gname in sorted(set(ours) | set(theirs)):
         a, b = theirs.get(gname, []), ours.get(gname, [])
         if len(a) != len(b):
@@ -191,7 +193,11 @@ def _restore_arrays(sim, h5, path):
 def restore(sim, path):
     """Replace the state of `sim` by the checkpoint at `path`, written from
     the same deck (but for RESTART_MAY_CHANGE; a DeckError names what
-    differs). Returns the books given to save."""
+    differs). The gauges are not in a checkpoint: they are located again
+    from the deck (Simulation.locate_gauges), so a material gauge whose
+    element had converted follows the particle that started nearest its
+    point, and its switch time is not carried over. Returns the books
+    given to save."""
     path = Path(path)
     try:
         h5 = h5py.File(path, "r")
@@ -208,6 +214,8 @@ def restore(sim, path):
             raise DeckError(path, None, None, "checkpoint scalars that fit this build", "others")
         _restore_arrays(sim, h5, path)
         _api.restore_end(sim._run)
+        # not in the checkpoint: located again, in the initial configuration
+        sim.locate_gauges()
         sim.initial_energy = float(h5.attrs["initial_energy"])
         sim.particle_radius0 = h5["particle_radius0"][...]
         return json.loads(h5.attrs["books"])

@@ -548,6 +548,33 @@ SCHEMA = {
         },
         repeatable=True,
     ),
+    "gauge": Group(
+        "A gauge: the time history of the material state at a point, recorded at every "
+        "history record (&output history_every; the rows of fsph.h5 /history) into fsph.h5 "
+        "/gauge_history/<name>/<field> (r, z, velocity, pressure, axial stress, von Mises "
+        "stress, plastic strain, temperature, density, internal energy, damage, inside: "
+        "fsph.layouts GAUGE_COLUMNS, each with its units), with the peak |pressure| and the "
+        "last values in summary.json `gauges`. Repeatable. The value is that of the element "
+        "containing the point (nodal velocities interpolated), else of the nearest particle "
+        "within its kernel support (no smoothing); where neither, inside = 0 and the fields "
+        "are NaN (docs/method.md, Gauges). Gauges only read the state; a restart locates "
+        "them again from the deck (they may be added or changed on restart).",
+        {
+            "name": Key("str", REQUIRED, "-", "Gauge name, unique, without '/' (an HDF5 group)."),
+            "point": Key("float2", REQUIRED, "m",
+                         "The point (r, z), r >= 0: the material point there at t = 0 (kind "
+                         "material) or a point fixed in space (kind fixed)."),
+            "kind": Key("str", "material", "-",
+                        "material: a Lagrangian tracer that follows the material point at "
+                        "`point` at t = 0 (in its element, with fixed barycentric weights; "
+                        "when the element turns into particles, the particle of its body "
+                        "nearest the gauge then; when it is eroded, no material from then "
+                        "on); the point must lie in a body at t = 0. fixed: a point fixed in "
+                        "space that samples whatever material is there, nothing when empty.",
+                        choices=tuple(name for name, _ in layouts.GAUGE_KINDS)),
+        },
+        repeatable=True,
+    ),
     "output": Group(
         "What is written and how often.",
         {
@@ -1349,7 +1376,7 @@ def _check_output(path, deck):
 def _cross_check(path, deck):
     """Checks across keys and groups, in this order: bodies
     (discretisation, geometry, size, joins), erosion and conversion, rod
-    radii, unique names, materials, boundaries, metrics, output. Fills in
+    radii, unique names, materials, boundaries, gauges, metrics, output. Fills in
     the bodies' default discretisation and the deck's material warnings."""
     mode = deck["control"]["mode"]
     _check_discretisation(path, deck["body"], mode)
@@ -1379,6 +1406,11 @@ def _cross_check(path, deck):
         if bc["normal"][0] == 0.0 and bc["normal"][1] == 0.0:
             raise DeckError(path, f"boundary #{i + 1}", "normal", "a non-zero vector",
                             list(bc["normal"]))
+    _unique_names(path, "gauge", deck["gauge"])
+    for i, gauge in enumerate(deck["gauge"]):
+        if gauge["point"][0] < 0.0:
+            raise DeckError(path, f"gauge #{i + 1}", "point", "a point (r, z) with r >= 0 (the "
+                            "axis is r = 0)", list(gauge["point"]))
     _check_metrics(path, deck["metrics"], deck["body"])
     _check_output(path, deck)
 

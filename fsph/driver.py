@@ -303,7 +303,8 @@ def _set_up(deck_path, outdir, restart):
         writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
                            vtu=deck["output"]["vtu"], body_names=sim.body_names,
                            material_names=sim.material_names,
-                           revolve=(deck["output"]["revolve_segments"], deck["output"]["revolve_angle"]))
+                           revolve=(deck["output"]["revolve_segments"], deck["output"]["revolve_angle"]),
+                           gauges=deck["gauge"])
     except BaseException:
         lock.release()
         raise
@@ -435,6 +436,13 @@ def _advance_to(sim, t, land, flag, energy_limit, checkpoints, bar):
             bar.update(sim)
 
 
+def _drain_history(sim, writer):
+    """Hand the history records waiting in `sim` (with the bodies' books
+    and the gauges' rows) and the gauges' state to `writer`."""
+    writer.gauge_state = sim.gauge_state()
+    writer.append_history(*sim.drain_histories())
+
+
 def _stop_on_signal(say, sim, signum, checkpoints, bar):
     """Close the bar, write the checkpoint (when the deck keeps one) and say
     where the run stopped; returns the signal's name."""
@@ -458,7 +466,7 @@ def _record_failure(say, err, sim, writer, books, bar, outputs_usable=True):
         bar.close()
     books.failure = err
     if outputs_usable:
-        writer.append_history(*sim.drain_histories())
+        _drain_history(sim, writer)
         writer.mark_failure(str(err))
     say(f"fsph: run failed: {err}")
     say(f"fsph: last good snapshot t = {books.last_good['time'] * 1e6:.4g} us kept in "
@@ -499,7 +507,7 @@ def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
                 # intermediate outputs never shorten a step; the run ends on end_time
                 _advance_to(sim, t, t >= ctrl["end_time"], flag, ctrl["energy_error_limit"],
                             checkpoints, bar)
-                writer.append_history(*sim.drain_histories())
+                _drain_history(sim, writer)
                 if flag["signal"]:
                     books.interrupted = _stop_on_signal(say, sim, flag["signal"], checkpoints, bar)
                     break
@@ -634,6 +642,7 @@ def _summary(setup, books, t_wall0):
         "energy": _energy_summary(sim, energies, writer),
         "rigid_planes": _plane_summary(sim, deck, writer),
         "bodies": _body_summary(writer),
+        "gauges": writer.gauge_summary(),
         "metrics": case_metrics,
         "peaks": peaks,
         "material_state": {b["name"]: state_masses(books.last_good, ib)
@@ -730,7 +739,7 @@ def _run(say, setup, restart, kind, stream, t_wall0):
     books = _Books()
     checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"],
                                            setup.writer)
-    setup.writer.append_history(*setup.sim.drain_histories())
+    _drain_history(setup.sim, setup.writer)
     _snapshot(setup, books, t_wall0)
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None

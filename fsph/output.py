@@ -21,6 +21,7 @@ from .points import von_mises
 #: columns of the time history (fsph.layouts), the energy total included
 HISTORY_FIELDS = tuple(name for name, _, _ in layouts.HISTORY_COLUMNS)
 BODY_FIELDS = tuple(name for name, _, _ in layouts.BODY_COLUMNS)
+GAUGE_FIELDS = tuple(name for name, _, _ in layouts.GAUGE_COLUMNS)
 #: The body history dataset derived from its momentum (RunWriter._body_rows).
 BODY_FORCE = ("force_z", "N", "axial force on the body from everything outside it (contact, "
               "rigid planes), averaged between history rows (the rate of momentum_z)")
@@ -197,7 +198,10 @@ class RunWriter:
     energy removed by the rigid planes and the particles' axis wall [J],
     total [J]; each with its `units`); /body_history/<body>/<field> at the
     same rows (kinetic [J], internal [J], axial momentum [N s], axial force
-    on the body [N]); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
+    on the body [N]); /gauge_history/<gauge>/<field> at the same rows
+    (fsph.layouts GAUGE_COLUMNS, each with its `units` and `description`;
+    the group's attributes: kind, point (r, z) [m], switch_time and
+    lost_time [s], NaN where none); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
     fields; attributes time [s] and cycle; particles, if any, in
     /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
@@ -222,7 +226,7 @@ class RunWriter:
     """
 
     def __init__(self, outdir, deck_text, title, vtu=True, body_names=(), material_names=(),
-                 revolve=(0, 360.0)):
+                 revolve=(0, 360.0), gauges=()):
         self.outdir = Path(outdir)
         self.h5_path = self.outdir / "fsph.h5"
         self.lock_warning = ""      # set once a write could not wait for a reader
@@ -247,6 +251,18 @@ class RunWriter:
                                          chunks=(HISTORY_CHUNK,))
                     group[name].attrs["units"] = unit
                     group[name].attrs["description"] = meaning
+            for gauge in gauges:
+                group = h5.create_group(f"gauge_history/{gauge['name']}")
+                group.attrs["kind"] = gauge["kind"]
+                group.attrs["point"] = np.asarray(gauge["point"], dtype=float)
+                group.attrs["point_units"] = "m"
+                group.attrs["switch_time"] = np.nan
+                group.attrs["lost_time"] = np.nan
+                for name, unit, meaning in layouts.GAUGE_COLUMNS:
+                    group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
+                                         chunks=(HISTORY_CHUNK,))
+                    group[name].attrs["units"] = unit
+                    group[name].attrs["description"] = meaning
             h5.create_group("snapshots")
         self.n_snapshots = 0
         self._history = []          # history rows not yet written
@@ -260,6 +276,12 @@ class RunWriter:
         self._body_last = None      # (time [s], momenta [N s]) of the last history row
         self.body_force_peak = [(0.0, 0.0)] * len(self.body_names)  # (force [N], time [s])
         self.body_books = {}        # each body's books at the last history row
+        self.gauges = [dict(g) for g in gauges]
+        self._gauges = []           # the gauges' rows not yet written (k, gauges, columns)
+        # each gauge's largest |pressure| so far: (signed value [Pa], time [s]), and last row
+        self.gauge_peak = [(None, None)] * len(self.gauges)
+        self.gauge_last = [None] * len(self.gauges)
+        self.gauge_state = {}       # Simulation.gauge_state() at the last history drained
         self._plane_last = None     # (time [s], impulse [N s]) of the last history row
         self.plane_force_peak = 0.0       # [N]
         self.plane_force_peak_time = 0.0  # [s]
@@ -330,10 +352,12 @@ class RunWriter:
                               f"the next snapshot needs about {need / 2**20:.1f} MiB "
                               f"(and {other_bytes / 2**20:.1f} MiB for the checkpoint)")
 
-    def append_history(self, records, bodies=None):
+    def append_history(self, records, bodies=None, gauges=None):
         """records: (k, len(HISTORY_FIELDS)) rows; bodies: the bodies' books
         at the same rows (k, bodies, len(BODY_COLUMNS)), or None for a writer
-        without bodies. Also tracks the largest
+        without bodies; gauges: the gauges' rows (k, gauges,
+        len(GAUGE_COLUMNS)), or None for a writer without gauges. Also
+        tracks each gauge's peak |pressure| and last row, and the largest
         departure of the total energy (kinetic + internal + the work of the
         contact corrections + the energy erosion removed + the energy the
         rigid planes removed, summed by the solver) from its first value.
@@ -355,6 +379,45 @@ class RunWriter:
         self._history.append(np.column_stack([records, force]))
         if self.body_names:
             self._bodies.append(self._body_rows(records[:, HISTORY_FIELDS.index("time")], bodies))
+        if self.gauges:
+            self._gauges.append(self._gauge_rows(records[:, HISTORY_FIELDS.index("time")], gauges))
+
+    def _gauge_rows(self, t, gauges):
+        """The gauges' rows (k, gauges, columns), tracking each gauge's
+        largest |pressure| (the first time it is reached) and last row."""
+        gauges = np.asarray(gauges, dtype=float).reshape(len(t), len(self.gauges), len(GAUGE_FIELDS))
+        pressure = gauges[:, :, GAUGE_FIELDS.index("pressure")]
+        for g in range(len(self.gauges)):
+            self.gauge_last[g] = (float(t[-1]), gauges[-1, g].copy())
+            p = np.abs(pressure[:, g])
+            if np.all(np.isnan(p)):         # in no material at any of these rows
+                continue
+            k = int(np.nanargmax(p))
+            best = self.gauge_peak[g][0]
+            if best is None or p[k] > abs(best):
+                self.gauge_peak[g] = (float(pressure[k, g]), float(t[k]))
+        return gauges
+
+    def gauge_summary(self):
+        """Each gauge's summary.json entry: kind, point (r, z) [m], the
+        pressure [Pa] where |pressure| was largest and its time [s], when a
+        material gauge moved from its element to a particle and when its
+        element was deleted [s] (None: never) and its last row by field
+        (None where NaN: no material there)."""
+        out = {}
+        for g, gauge in enumerate(self.gauges):
+            peak, time = self.gauge_peak[g]
+            state = self.gauge_state.get(gauge["name"], {})
+            last_time, last = self.gauge_last[g] if self.gauge_last[g] is not None else (None, None)
+            out[gauge["name"]] = {
+                "kind": gauge["kind"], "point_m": [float(v) for v in gauge["point"]],
+                "peak_pressure_Pa": peak, "peak_pressure_time_s": time,
+                "switch_time_s": state.get("switch_time"), "lost_time_s": state.get("lost_time"),
+                "last_time_s": last_time,
+                "last": None if last is None else {
+                    name: (None if np.isnan(v) else float(v)) for name, v in zip(GAUGE_FIELDS, last)},
+            }
+        return out
 
     def _body_rows(self, t, bodies):
         """The bodies' rows with their axial force [N] appended: the change
@@ -414,6 +477,17 @@ class RunWriter:
                     group[name].resize((n1,))
                     group[name][n0:n1] = rows[:, b, j]
             self._bodies = []
+        if self._gauges:
+            rows = np.concatenate(self._gauges)
+            for g, gauge in enumerate(self.gauges):
+                group = h5[f"gauge_history/{gauge['name']}"]
+                state = self.gauge_state.get(gauge["name"], {})
+                for key in ("switch_time", "lost_time"):
+                    group.attrs[key] = np.nan if state.get(key) is None else state[key]
+                for j, name in enumerate(GAUGE_FIELDS):
+                    group[name].resize((n1,))
+                    group[name][n0:n1] = rows[:, g, j]
+            self._gauges = []
 
     def _name_ids(self, g):
         """The names the body and material fields of a snapshot group (and

@@ -143,6 +143,13 @@ class Simulation:
         ierr, ifault = _api.initialise(self._run)
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault, during="set-up")
+        self.gauge_names = [g["name"] for g in deck["gauge"]]
+        on = self.locate_gauges()
+        for k, g in enumerate(deck["gauge"]):
+            if g["kind"] == "material" and on[k] == "nothing":
+                raise DeckError(deck.get("path", "deck"), f"gauge #{k + 1}", "point",
+                                "a point inside a body at t = 0 (kind 'material' follows the "
+                                "material there)", list(g["point"]))
         self.initial_energy = self.energy_budget()["total"]
         # radii at set-up (a snapshot's radius0 for the particles present then)
         self.particle_radius0 = self._raw_snapshot()["particle_fields"][:, _PF["radius"]].copy()
@@ -363,6 +370,40 @@ class Simulation:
     def reset_phase_times(self):
         _api.reset_phase_times(self._run)
 
+    def locate_gauges(self):
+        """Locate the deck's gauges (&gauge) in the current state, in the
+        initial configuration (fsph_gauges): at set-up, and after a restart
+        (the gauges are not in a checkpoint). Returns what each samples
+        now: 'element', 'particle' or 'nothing' (a material gauge whose
+        point is in no body; a fixed gauge, searched at every record)."""
+        gauges = self.deck["gauge"]
+        if not gauges:
+            return []
+        kinds = [name for name, _ in layouts.GAUGE_KINDS]
+        on, ierr = _api.set_gauges(self._run, fortran_index([kinds.index(g["kind"]) for g in gauges]),
+                                   np.asfortranarray(np.array([g["point"] for g in gauges], dtype=float).T))
+        if ierr != STATUS_OK:
+            raise FsphError(f"set-up of the gauges rejected by the solver: {layouts.status_text(int(ierr))}")
+        return [layouts.GAUGE_SOURCES[int(k)] for k in on]
+
+    def gauge_state(self):
+        """What each gauge (in deck order) samples now, by name: 'on'
+        ('element', 'particle' or 'nothing'; a fixed gauge is searched at
+        each record and says 'nothing'), 'index' (0-based, -1 none), and
+        the times [s] at which a material gauge moved from its element to a
+        particle ('switch_time') and at which its element was deleted
+        ('lost_time'), None where it has not."""
+        n = len(self.gauge_names)
+        if n == 0:
+            return {}
+        on, index, switch, lost, ierr = _api.get_gauge_state(self._run, n)
+        if ierr != STATUS_OK:
+            raise FsphError("gauge state: the solver holds other gauges than the deck")
+        return {name: {"on": layouts.GAUGE_SOURCES[int(on[k])], "index": int(python_index(index[k])),
+                       "switch_time": float(switch[k]) if switch[k] >= 0.0 else None,
+                       "lost_time": float(lost[k]) if lost[k] >= 0.0 else None}
+                for k, name in enumerate(self.gauge_names)}
+
     def drain_history(self):
         """Time-history records (k, len(fsph.layouts.HISTORY_COLUMNS))
         recorded by the cycle since the last call: time [s], cycle, dt [s],
@@ -372,18 +413,25 @@ class Simulation:
         return self.drain_histories()[0]
 
     def drain_histories(self):
-        """(records, bodies): the time-history records of drain_history and,
-        at the same records, each body's books (k, bodies, 3):
-        kinetic [J], internal [J], axial momentum [N s]
-        (fsph.layouts.BODY_COLUMNS)."""
+        """(records, bodies, gauges): the time-history records of
+        drain_history and, at the same records, each body's books (k,
+        bodies, 3): kinetic [J], internal [J], axial momentum [N s]
+        (fsph.layouts.BODY_COLUMNS), and each gauge's row (k, gauges,
+        len(fsph.layouts.GAUGE_COLUMNS)), gauges in deck order."""
         n = int(_api.history_count(self._run))
         bodies, ierr = _api.get_body_history(self._run, len(layouts.BODY_COLUMNS), len(self.body_names), n)
         if ierr != STATUS_OK:
             raise FsphError("body history: layout mismatch, rebuild the package")
+        gauges = np.zeros((len(layouts.GAUGE_COLUMNS), 0, n))
+        if self.gauge_names:
+            gauges, ierr = _api.get_gauge_history(self._run, len(layouts.GAUGE_COLUMNS), len(self.gauge_names), n)
+            if ierr != STATUS_OK:
+                raise FsphError("gauge history: layout mismatch, rebuild the package")
         records, ierr = _api.drain_history(self._run, len(layouts.HISTORY_COLUMNS), n)
         if ierr != STATUS_OK:
             raise FsphError("time history: layout mismatch, rebuild the package")
-        return records.T.copy(), np.transpose(bodies, (2, 1, 0)).copy()
+        return (records.T.copy(), np.transpose(bodies, (2, 1, 0)).copy(),
+                np.transpose(gauges, (2, 1, 0)).copy())
 
     @property
     def list_rebuilds(self):
