@@ -240,3 +240,33 @@ def test_gauge_histories_do_not_depend_on_the_thread_count(tmp_path):
     assert inside[:, [0, 1, 3]].all()
     # the bulge gauge starts beyond the rod's radius and is reached by its mushrooming face
     assert inside[0, 2] == 0.0 and inside[-1, 2] == 1.0
+
+
+# ---- restart ---------------------------------------------------------------
+def test_gauges_are_located_again_after_a_restart(tmp_path):
+    """Gauges are not in a checkpoint: a restart locates them from the
+    deck. A material gauge whose element is still there and a fixed gauge
+    then record after the checkpoint exactly what the uninterrupted run
+    records; the face gauge, whose element converted before the
+    checkpoint, follows a particle (inside) without the switch time."""
+    from fsph import checkpoint
+    deck = case_deck("taylor_armco", [{"name": "face", "point": [0.5e-3, 0.3e-3]},
+                                      {"name": "shank", "point": [3.0e-3, 10.0e-3]},
+                                      {"name": "bulge", "point": [4.5e-3, 0.5e-3], "kind": "fixed"}])
+    sim = fsph.Simulation(deck)
+    sim.advance(6.0e-6, land=False)
+    first = sim.drain_histories()
+    path = checkpoint.save(sim, tmp_path / "ckpt.h5")
+    assert sim.gauge_state()["face"]["switch_time"] is not None
+    sim.advance(10.0e-6, land=False)
+    after = sim.drain_histories()
+    restarted = fsph.Simulation(deck)
+    checkpoint.restore(restarted, path)
+    state = restarted.gauge_state()
+    assert state["face"]["on"] == "particle" and state["face"]["switch_time"] is None
+    assert state["shank"]["on"] == "element"
+    restarted.advance(10.0e-6, land=False)
+    again = restarted.drain_histories()
+    assert np.array_equal(after[0], again[0]) and first[0][-1, 0] < again[0][0, 0]
+    assert np.array_equal(after[2][:, 1:], again[2][:, 1:], equal_nan=True)
+    assert np.all(again[2][:, 0, col("inside")] == 1.0)
