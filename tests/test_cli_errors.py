@@ -98,6 +98,13 @@ BAD_DECKS = {
                        ["&body #1", "'rod' clear of &body #2 ('cap')", "of its cells inside it"]),
     "zero_normal": (rod_deck().replace("normal = 0.0, 1.0", "normal = 0.0, 0.0"),
                     ["&boundary #1", "'normal'", "non-zero"]),
+    "gauge_outside_body": (rod_deck() + "&gauge\n name = 'air'\n point = 2.0e-3, 1.0e-3\n/\n",
+                           ["&gauge #1", "'point'", "a point inside a body at t = 0", "[0.002, 0.001]"]),
+    "gauge_name_twice": (rod_deck() + "&gauge name = 'g' point = 0.0, 1.0e-3 /\n"
+                         "&gauge name = 'g' point = 0.5e-3, 1.0e-3 /\n",
+                         ["&gauge #2", "'name'", "not used by another &gauge"]),
+    "gauge_behind_axis": (rod_deck() + "&gauge name = 'g' point = -0.5e-3, 1.0e-3 kind = 'fixed' /\n",
+                          ["&gauge #1", "'point'", "r >= 0"]),
 }
 
 
