@@ -440,7 +440,7 @@ def _drain_history(sim, writer):
     """Hand the history records waiting in `sim` (with the bodies' books
     and the gauges' rows) and the gauges' state to `writer`."""
     writer.gauge_state = sim.gauge_state()
-    writer.append_history(*sim.drain_histories())
+    writer.append_history(*sim.drain_histories(gauges=True))
 
 
 def _stop_on_signal(say, sim, signum, checkpoints, bar):

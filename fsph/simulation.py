@@ -412,26 +412,27 @@ class Simulation:
         erosion and the rigid planes, total)."""
         return self.drain_histories()[0]
 
-    def drain_histories(self):
-        """(records, bodies, gauges): the time-history records of
-        drain_history and, at the same records, each body's books (k,
-        bodies, 3): kinetic [J], internal [J], axial momentum [N s]
-        (fsph.layouts.BODY_COLUMNS), and each gauge's row (k, gauges,
-        len(fsph.layouts.GAUGE_COLUMNS)), gauges in deck order."""
+    def drain_histories(self, gauges=False):
+        """(records, bodies): the time-history records of drain_history and,
+        at the same records, each body's books (k, bodies,
+        len(fsph.layouts.BODY_COLUMNS): kinetic [J], internal [J], axial
+        momentum [N s], plastic work [J]); with gauges=True (records,
+        bodies, gauges), gauges each gauge's row at the same records (k,
+        gauges, len(fsph.layouts.GAUGE_COLUMNS)), in deck order."""
         n = int(_api.history_count(self._run))
         bodies, ierr = _api.get_body_history(self._run, len(layouts.BODY_COLUMNS), len(self.body_names), n)
         if ierr != STATUS_OK:
             raise FsphError("body history: layout mismatch, rebuild the package")
-        gauges = np.zeros((len(layouts.GAUGE_COLUMNS), 0, n))
+        rows = np.zeros((len(layouts.GAUGE_COLUMNS), 0, n))
         if self.gauge_names:
-            gauges, ierr = _api.get_gauge_history(self._run, len(layouts.GAUGE_COLUMNS), len(self.gauge_names), n)
+            rows, ierr = _api.get_gauge_history(self._run, len(layouts.GAUGE_COLUMNS), len(self.gauge_names), n)
             if ierr != STATUS_OK:
                 raise FsphError("gauge history: layout mismatch, rebuild the package")
         records, ierr = _api.drain_history(self._run, len(layouts.HISTORY_COLUMNS), n)
         if ierr != STATUS_OK:
             raise FsphError("time history: layout mismatch, rebuild the package")
-        return (records.T.copy(), np.transpose(bodies, (2, 1, 0)).copy(),
-                np.transpose(gauges, (2, 1, 0)).copy())
+        drained = (records.T.copy(), np.transpose(bodies, (2, 1, 0)).copy())
+        return drained + (np.transpose(rows, (2, 1, 0)).copy(),) if gauges else drained
 
     @property
     def list_rebuilds(self):

@@ -43,7 +43,7 @@ def run_gauges(deck, t_end):
     (k, gauges, columns) and the run."""
     sim = fsph.Simulation(deck)
     sim.advance(t_end)
-    records, _, gauges = sim.drain_histories()
+    records, _, gauges = sim.drain_histories(gauges=True)
     return records[:, 0], gauges, sim
 
 
@@ -215,7 +215,7 @@ sim = fsph.Simulation(dm.from_groups(groups, sys.argv[1], sys.argv[4]))
 rows = []
 for step in range(1, 5):
     sim.advance(float(sys.argv[2]) * step / 4)
-    rows.append(sim.drain_histories()[2])
+    rows.append(sim.drain_histories(gauges=True)[2])
 np.save(sys.argv[3], np.concatenate(rows))
 print(fsph.threads())
 """
@@ -255,18 +255,18 @@ def test_gauges_are_located_again_after_a_restart(tmp_path):
                                       {"name": "bulge", "point": [4.5e-3, 0.5e-3], "kind": "fixed"}])
     sim = fsph.Simulation(deck)
     sim.advance(6.0e-6, land=False)
-    first = sim.drain_histories()
+    first = sim.drain_histories(gauges=True)
     path = checkpoint.save(sim, tmp_path / "ckpt.h5")
     assert sim.gauge_state()["face"]["switch_time"] is not None
     sim.advance(10.0e-6, land=False)
-    after = sim.drain_histories()
+    after = sim.drain_histories(gauges=True)
     restarted = fsph.Simulation(deck)
     checkpoint.restore(restarted, path)
     state = restarted.gauge_state()
     assert state["face"]["on"] == "particle" and state["face"]["switch_time"] is None
     assert state["shank"]["on"] == "element"
     restarted.advance(10.0e-6, land=False)
-    again = restarted.drain_histories()
+    again = restarted.drain_histories(gauges=True)
     assert np.array_equal(after[0], again[0]) and first[0][-1, 0] < again[0][0, 0]
     assert np.array_equal(after[2][:, 1:], again[2][:, 1:], equal_nan=True)
     assert np.all(again[2][:, 0, col("inside")] == 1.0)
