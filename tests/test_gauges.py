@@ -160,7 +160,8 @@ def test_taylor_gauge_moves_to_a_particle_when_its_element_converts():
     by the impact face starts in an element at -221 m/s, moves to a
     particle when its element converts (the switch time recorded) and
     follows that particle (its rows are the particle's position and
-    velocity), always inside; its axial velocity ends near rest."""
+    velocity), always inside; its axial velocity ends near rest. The run
+    ends in the state of the run without the gauge, bit for bit."""
     deck = case_deck("taylor_armco", [{"name": "face", "point": [0.5e-3, 0.3e-3]}])
     t, gauges, sim = run_gauges(deck, 15.0e-6)
     state = sim.gauge_state()["face"]
@@ -177,6 +178,10 @@ def test_taylor_gauge_moves_to_a_particle_when_its_element_converts():
     assert np.array_equal(rows[-1, [col("r"), col("z")]], part["x"][i])
     assert np.array_equal(rows[-1, [col("velocity_r"), col("velocity_z")]], part["velocity"][i])
     assert rows[-1, col("plastic_strain")] == part["plastic_strain"][i] > 0.4
+    # the gauge only reads: the run ends in the state of the run without it
+    from fsph.checkpoint import state_digest
+    _, _, plain = run_gauges(case_deck("taylor_armco", []), 15.0e-6)
+    assert state_digest(sim) == state_digest(plain)
 
 
 # ---- 4. bad gauges ---------------------------------------------------------
