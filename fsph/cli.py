@@ -152,7 +152,7 @@ def _plot_fields(text, run_dir):
 
 def _plot(args):
     """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
-    from .plot import (damage_map, deformed_shapes, field_map, histories, nearest_note,
+    from .plot import (damage_map, deformed_shapes, field_map, gauge_histories, histories, nearest_note,
                        perforation_histories, snapshot_choice)
     times = _plot_times(args.times) if args.times is not None else None
     if not PLOT_DPI[0] <= args.dpi <= PLOT_DPI[1]:
@@ -184,7 +184,8 @@ def _plot(args):
         print(deformed_shapes(run_dir, times, args.output, args.dpi))
         print(histories(run_dir, dpi=args.dpi))
         for extra in (perforation_histories(run_dir, dpi=args.dpi),
-                      damage_map(run_dir, times, dpi=args.dpi)):
+                      damage_map(run_dir, times, dpi=args.dpi),
+                      gauge_histories(run_dir, dpi=args.dpi)):
             if extra:
                 print(extra)
     except OSError as err:

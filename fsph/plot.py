@@ -619,6 +619,51 @@ def perforation_histories(run_dir, output=None, dpi=150):
     return output
 
 
+#: The gauge fields gauges.png draws: (field, label, scale to the label's unit).
+GAUGE_PANELS = (("pressure", "pressure [GPa]", 1e-9), ("stress_zz", "axial stress σ_zz [GPa]", 1e-9),
+                ("velocity_z", "axial velocity [m/s]", 1.0), ("plastic_strain", "plastic strain [-]", 1.0))
+
+
+def _gauge_figure(run_dir):
+    """The figure of gauge_histories (None for a run without gauges)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        if "gauge_history" not in h5 or not len(h5["gauge_history"]):
+            return None
+        t = h5["history/time"][...] * 1e6
+        gauges = {name: ({f: g[f][...] for f, _, _ in GAUGE_PANELS if f in g}, g.attrs.get("kind", ""))
+                  for name, g in h5["gauge_history"].items()}
+        title = h5.attrs.get("title", "")
+    fig, axes = plt.subplots(len(GAUGE_PANELS), 1, figsize=(7, 2.2 * len(GAUGE_PANELS) + 0.6), sharex=True,
+                             layout="constrained")
+    for (field, label, scale), ax in zip(GAUGE_PANELS, axes):
+        for name, (fields, kind) in gauges.items():
+            if field in fields:
+                ax.plot(t, fields[field] * scale, lw=0.9, label=f"{name} ({kind})" if kind else name)
+        ax.set_ylabel(label)
+    axes[0].legend(frameon=False, fontsize="small")
+    axes[-1].set_xlabel("t [µs]")
+    fig.suptitle(f"{title}: gauges" if title else "gauges")
+    return fig
+
+
+def gauge_histories(run_dir, output=None, dpi=150):
+    """Write a PNG of the run's gauges (&gauge; fsph.h5 gauge_history):
+    pressure, axial stress, axial velocity and plastic strain against time,
+    one curve per gauge, gaps where a gauge is in no material. Returns the
+    PNG path, or None for a run without gauges."""
+    run_dir = Path(run_dir)
+    fig = _gauge_figure(run_dir)
+    if fig is None:
+        return None
+    output = Path(output) if output else run_dir / "gauges.png"
+    _save(fig, output, dpi)
+    return output
+
+
 #: colour of the bodies never damaged in a damage map (outside the damage colour map)
 UNDAMAGED_COLOUR = "#8fa3b8"
 #: where the damage map's default panels fall, as fractions of the run

@@ -507,3 +507,23 @@ def test_history_draws_each_bodys_force(block_run, monkeypatch, capsys):
     impulse = {name: np.sum(f[1:] * np.diff(t)) for name, (t, f) in curves.items()}
     assert impulse["rod"] > 0.0
     assert abs(impulse["rod"] + impulse["block"]) <= 0.005 * impulse["rod"]
+
+
+def test_gauges_png_draws_each_gauge(tmp_path, monkeypatch, capsys):
+    """A run with two gauges: gauges.png has a curve per gauge in every
+    panel, named with its kind, starting at the rod's striking velocity
+    (-50 m/s here), and a run without gauges draws no gauges.png."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck(body="velocity_z = -50.0")
+                    + "&gauge\n name = 'top'\n point = 0.0, 3.5e-3\n kind = 'material'\n/\n"
+                    + "&gauge\n name = 'face'\n point = 0.5e-3, 0.1e-3\n kind = 'material'\n/\n")
+    run(deck, tmp_path / "out", quiet=True)
+    code, _, figures = plot_cli(monkeypatch, capsys, tmp_path / "out")
+    assert code == 0
+    axes = {ax.get_ylabel(): ax for ax in figures["gauges.png"].axes}
+    for label in ("pressure [GPa]", "axial velocity [m/s]"):
+        names = [line.get_label() for line in axes[label].get_lines()]
+        assert sorted(names) == ["face (material)", "top (material)"]
+    for line in axes["axial velocity [m/s]"].get_lines():
+        assert line.get_ydata()[0] == pytest.approx(-50.0)
+    assert (tmp_path / "out" / "gauges.png").is_file()
