@@ -238,19 +238,9 @@ class RunWriter:
             h5.attrs["body_names"] = list(body_names)
             h5.attrs["material_names"] = list(material_names)
             h5["deck"] = deck_text
-            hist = h5.create_group("history")
-            for name, unit, meaning in layouts.HISTORY_COLUMNS + (PLANE_FORCE,):
-                hist.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
-                                    chunks=(HISTORY_CHUNK,))
-                hist[name].attrs["units"] = unit
-                hist[name].attrs["description"] = meaning
+            _history_datasets(h5.create_group("history"), layouts.HISTORY_COLUMNS + (PLANE_FORCE,))
             for body in body_names:
-                group = h5.create_group(f"body_history/{body}")
-                for name, unit, meaning in layouts.BODY_COLUMNS + (BODY_FORCE,):
-                    group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
-                                         chunks=(HISTORY_CHUNK,))
-                    group[name].attrs["units"] = unit
-                    group[name].attrs["description"] = meaning
+                _history_datasets(h5.create_group(f"body_history/{body}"), layouts.BODY_COLUMNS + (BODY_FORCE,))
             for gauge in gauges:
                 group = h5.create_group(f"gauge_history/{gauge['name']}")
                 group.attrs["kind"] = gauge["kind"]
@@ -258,11 +248,7 @@ class RunWriter:
                 group.attrs["point_units"] = "m"
                 group.attrs["switch_time"] = np.nan
                 group.attrs["lost_time"] = np.nan
-                for name, unit, meaning in layouts.GAUGE_COLUMNS:
-                    group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
-                                         chunks=(HISTORY_CHUNK,))
-                    group[name].attrs["units"] = unit
-                    group[name].attrs["description"] = meaning
+                _history_datasets(group, layouts.GAUGE_COLUMNS)
             h5.create_group("snapshots")
         self.n_snapshots = 0
         self._history = []          # history rows not yet written
@@ -602,6 +588,15 @@ SNAPSHOT_UNITS = {
     "damage": "-", "material": "-", "body": "-", "id": "-", "mass": "kg", "h": "m", "radius": "m",
     "radius0": "m", "sound_speed": "m/s", "failed": "-", "melted": "-",
 }
+
+
+def _history_datasets(group, columns):
+    """Empty extendable datasets in `group`, one per (name, unit, meaning)
+    of columns, each with its `units` and `description`."""
+    for name, unit, meaning in columns:
+        group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(HISTORY_CHUNK,))
+        group[name].attrs["units"] = unit
+        group[name].attrs["description"] = meaning
 
 
 def _vtu_unit(name):

@@ -610,11 +610,15 @@ def perforation_histories(run_dir, output=None, dpi=150):
     the run is compared with (summary.json reference.comparison.perforation)
     is a star at the end time on a dashed line, with its legend entry.
     Returns the PNG path, or None for other runs."""
-    run_dir = Path(run_dir)
-    fig = _perforation_figure(run_dir)
+    return _save_if_drawn(_perforation_figure(Path(run_dir)), run_dir, "perforation.png", output, dpi)
+
+
+def _save_if_drawn(fig, run_dir, name, output, dpi):
+    """Save a figure that may not apply to a run (None: nothing drawn) to
+    output or RUN_DIR/name; returns the path or None."""
     if fig is None:
         return None
-    output = Path(output) if output else run_dir / "perforation.png"
+    output = Path(output) if output else Path(run_dir) / name
     _save(fig, output, dpi)
     return output
 
@@ -655,13 +659,7 @@ def gauge_histories(run_dir, output=None, dpi=150):
     pressure, axial stress, axial velocity and plastic strain against time,
     one curve per gauge, gaps where a gauge is in no material. Returns the
     PNG path, or None for a run without gauges."""
-    run_dir = Path(run_dir)
-    fig = _gauge_figure(run_dir)
-    if fig is None:
-        return None
-    output = Path(output) if output else run_dir / "gauges.png"
-    _save(fig, output, dpi)
-    return output
+    return _save_if_drawn(_gauge_figure(Path(run_dir)), run_dir, "gauges.png", output, dpi)
 
 
 #: colour of the bodies never damaged in a damage map (outside the damage colour map)
