@@ -511,7 +511,7 @@ def _history_figure(run_dir):
     if "eroded" in hist and hist["eroded"].any():
         ax_e.plot(t, hist["eroded"], label="removed by erosion")
     if "plane" in hist and hist["plane"].any():
-        ax_e.plot(t, hist["plane"], label="removed by rigid planes")
+        ax_e.plot(t, hist["plane"], label="removed by rigid planes and the axis wall")
     ax_e.plot(t, hist["total"], "k", lw=1.2, label="total")
     ax_e.set_ylabel("energy [J]")
     ax_e.legend(frameon=False)
