@@ -86,11 +86,7 @@ def _state_arrays(sim):
 
 def _scalars(sim):
     """The clock and books as (real, int) arrays in the order of fsph.layouts."""
-    r, i, ierr = _api.get_scalar_state(sim._run, len(layouts.CHECKPOINT_REAL_SCALARS),
-                                       len(layouts.CHECKPOINT_INT_SCALARS))
-    if ierr != STATUS_OK:
-        raise FsphError("checkpoint scalars: layout mismatch, rebuild the package")
-    return r, i
+    return sim.scalar_state()
 
 
 def _restart_identity(deck):

@@ -410,13 +410,8 @@ class RunWriter:
         of each body's momentum since the row before over the time between
         (0 at the first row)."""
         bodies = np.asarray(bodies, dtype=float).reshape(len(t), len(self.body_names), len(BODY_FIELDS))
-        p = bodies[:, :, BODY_FIELDS.index("momentum_z")]
-        t_prev, p_prev = self._body_last if self._body_last is not None else (t[0], p[0])
-        t_before = np.concatenate([[t_prev], t[:-1]])
-        p_before = np.concatenate([p_prev[None, :], p[:-1]])
-        span = (t - t_before)[:, None]
-        force = np.divide(p - p_before, span, out=np.zeros_like(p), where=span > 0.0)
-        self._body_last = (t[-1], p[-1].copy())
+        force, self._body_last = _rate_between_rows(t, bodies[:, :, BODY_FIELDS.index("momentum_z")],
+                                                    self._body_last)
         worst = np.abs(force).argmax(axis=0)
         for b, k in enumerate(worst):
             if abs(force[k, b]) > abs(self.body_force_peak[b][0]):
@@ -430,13 +425,8 @@ class RunWriter:
         of their impulse since the row before over the time between (0 at
         the first row); tracks its largest magnitude."""
         t = records[:, HISTORY_FIELDS.index("time")]
-        impulse = records[:, HISTORY_FIELDS.index("plane_impulse_z")]
-        t_before = np.concatenate([[t[0] if self._plane_last is None else self._plane_last[0]], t[:-1]])
-        i_before = np.concatenate([[impulse[0] if self._plane_last is None else self._plane_last[1]],
-                                   impulse[:-1]])
-        span = t - t_before
-        force = np.divide(impulse - i_before, span, out=np.zeros_like(span), where=span > 0.0)
-        self._plane_last = (t[-1], impulse[-1])
+        force, self._plane_last = _rate_between_rows(t, records[:, HISTORY_FIELDS.index("plane_impulse_z")],
+                                                     self._plane_last)
         worst = int(np.abs(force).argmax())
         if abs(force[worst]) > abs(self.plane_force_peak):
             self.plane_force_peak = float(force[worst])
@@ -588,6 +578,21 @@ SNAPSHOT_UNITS = {
     "damage": "-", "material": "-", "body": "-", "id": "-", "mass": "kg", "h": "m", "radius": "m",
     "radius0": "m", "sound_speed": "m/s", "failed": "-", "melted": "-",
 }
+
+
+def _rate_between_rows(t, values, last):
+    """The rate of change of values (k,) or (k, m) between consecutive
+    history rows at times t (k,) [s]: the change since the row before over
+    the time between, 0 where no time passed (the first row of a run).
+    last: (time, values) of the row before these, None at the first rows.
+    Returns (rates, (time, values) of the last row)."""
+    values = np.asarray(values, dtype=float)
+    t_prev, v_prev = last if last is not None else (t[0], values[0])
+    t_before = np.concatenate([[t_prev], t[:-1]])
+    v_before = np.concatenate([np.asarray(v_prev, dtype=float)[None], values[:-1]])
+    span = (t - t_before).reshape((-1,) + (1,) * (values.ndim - 1))
+    rates = np.divide(values - v_before, span, out=np.zeros_like(values), where=span > 0.0)
+    return rates, (t[-1], values[-1].copy())
 
 
 def _history_datasets(group, columns):

@@ -515,11 +515,17 @@ class Simulation:
         """Axial impulse of the rigid planes on the bodies since t = 0 [N s]
         (kinematic condition and mirror images); with a plane the only
         external load, it equals the bodies' change of axial momentum."""
-        r, _, ierr = _api.get_scalar_state(self._run, len(layouts.CHECKPOINT_REAL_SCALARS),
+        real, _ = self.scalar_state()
+        return float(real[layouts.CHECKPOINT_REAL_SCALARS.index("plane_impulse_z")])
+
+    def scalar_state(self):
+        """The clock and books as (real, int) arrays in the order of
+        fsph.layouts CHECKPOINT_REAL_SCALARS and CHECKPOINT_INT_SCALARS."""
+        r, i, ierr = _api.get_scalar_state(self._run, len(layouts.CHECKPOINT_REAL_SCALARS),
                                            len(layouts.CHECKPOINT_INT_SCALARS))
         if ierr != STATUS_OK:
             raise FsphError("scalar state: layout mismatch, rebuild the package")
-        return float(r[layouts.CHECKPOINT_REAL_SCALARS.index("plane_impulse_z")])
+        return r, i
 
     def energies(self):
         """Kinetic, internal, contact-dissipated, plane-dissipated, eroded

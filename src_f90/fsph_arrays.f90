@@ -33,7 +33,7 @@ module fsph_arrays
   !> when mirror images need more room than was reserved).
   public :: grow
   interface grow
-    module procedure grow_r1, grow_r2, grow_i1, grow_i2, grow_l1
+    module procedure grow_r1, grow_r2, grow_r3, grow_i1, grow_i2, grow_l1
   end interface grow
 
   !> Reallocate to n items (contents discarded, set to zero).
@@ -191,6 +191,18 @@ contains
     b(:, 1:k) = a(:, 1:k)
     call move_alloc(b, a)
   end subroutine grow_r2
+
+  subroutine grow_r3(a, n)
+    real(wp), allocatable, intent(inout) :: a(:, :, :)
+    integer, intent(in) :: n
+    real(wp), allocatable :: b(:, :, :)
+    integer :: k
+    allocate (b(size(a, 1), size(a, 2), n))
+    b = 0.0_wp
+    k = min(n, size(a, 3))
+    b(:, :, 1:k) = a(:, :, 1:k)
+    call move_alloc(b, a)
+  end subroutine grow_r3
 
   subroutine grow_i1(a, n)
     integer, allocatable, intent(inout) :: a(:)

@@ -18,6 +18,7 @@ module fsph_gauges
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use fsph_kinds, only: wp
   use fsph_kernel, only: kernel_support
+  use fsph_material, only: equivalent_stress
   use fsph_layouts, only: n_hist, hist_damage, gauge_columns, gcol_r, gcol_z, gcol_velocity_r, &
                           gcol_velocity_z, gcol_pressure, gcol_stress_zz, gcol_von_mises, gcol_plastic_strain, &
                           gcol_temperature, gcol_density, gcol_internal_energy, gcol_damage, gcol_inside, &
@@ -136,8 +137,7 @@ contains
     row(gcol_velocity_z) = v(2)
     row(gcol_pressure) = p
     row(gcol_stress_zz) = s(2) - p - q
-    ! s_rz twice: s:s counts the rz and zr entries
-    row(gcol_von_mises) = sqrt(1.5_wp*(s(1)**2 + s(2)**2 + s(4)**2 + 2.0_wp*s(3)**2))
+    row(gcol_von_mises) = equivalent_stress(s)
     row(gcol_plastic_strain) = eps_p
     row(gcol_temperature) = temp
     row(gcol_density) = rho

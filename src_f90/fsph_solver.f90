@@ -6,7 +6,7 @@ module fsph_solver
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
   use fsph_state, only: simulation_t, particle_set_t, state_grow_particles
-  use fsph_arrays, only: reserve
+  use fsph_arrays, only: reserve, grow
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
                           prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
                           hcol_dt, hcol_plane_impulse_z, energy_first, body_columns, bcol_kinetic, &
@@ -756,7 +756,6 @@ contains
   !> the API drains it).
   subroutine record_history(sim)
     type(simulation_t), intent(inout) :: sim
-    real(wp), allocatable :: grown(:, :), grown_bodies(:, :, :)
     integer, parameter :: initial_capacity = 256
     integer :: n_bodies
     n_bodies = 0
@@ -766,12 +765,8 @@ contains
       allocate (sim%body_history(body_columns, n_bodies, initial_capacity))
     end if
     if (sim%n_history == size(sim%history, 2)) then
-      allocate (grown(history_columns, 2*size(sim%history, 2)))
-      grown(:, 1:sim%n_history) = sim%history(:, 1:sim%n_history)
-      call move_alloc(grown, sim%history)
-      allocate (grown_bodies(body_columns, n_bodies, size(sim%history, 2)))
-      grown_bodies(:, :, 1:sim%n_history) = sim%body_history(:, :, 1:sim%n_history)
-      call move_alloc(grown_bodies, sim%body_history)
+      call grow(sim%history, 2*size(sim%history, 2))
+      call grow(sim%body_history, size(sim%history, 2))
     end if
     sim%history_cycle = sim%cycle
     sim%n_history = sim%n_history + 1
@@ -792,17 +787,11 @@ contains
   subroutine record_gauges(sim, first, last)
     type(simulation_t), intent(inout) :: sim
     integer, intent(in) :: first, last
-    real(wp), allocatable :: grown(:, :, :)
-    integer :: k, kept, src(sim%gauges%n), idx(sim%gauges%n)
+    integer :: k, src(sim%gauges%n), idx(sim%gauges%n)
     real(wp) :: w(3, sim%gauges%n)
     associate (g => sim%gauges, el => sim%elements, nd => sim%nodes, pt => sim%particles)
       if (.not. allocated(g%history)) allocate (g%history(gauge_columns, g%n, size(sim%history, 2)))
-      if (size(g%history, 3) < size(sim%history, 2)) then
-        kept = min(sim%n_history, size(g%history, 3))
-        allocate (grown(gauge_columns, g%n, size(sim%history, 2)))
-        grown(:, :, 1:kept) = g%history(:, :, 1:kept)
-        call move_alloc(grown, g%history)
-      end if
+      if (size(g%history, 3) < size(sim%history, 2)) call grow(g%history, size(sim%history, 2))
       if (last < first) return
       call gauges_begin_record(g, src, idx, w, g%history(:, :, first))
       if (el%n > 0) then
