@@ -591,16 +591,17 @@ def _plane_summary(sim, deck, writer):
 
 
 def _body_summary(writer):
-    """Each body's kinetic and internal energy [J] and axial momentum [N s]
-    at the last history row, and the largest axial force on it between
-    history rows [N] with its time [s] (fsph.h5 body_history)."""
+    """Each body's books at the last history row (layouts.BODY_COLUMNS,
+    keyed name_unit: kinetic_J, internal_J, momentum_z_N_s, plastic_work_J,
+    viscous_work_J, hourglass_work_J, contact_work_J), and the largest
+    axial force on it between history rows [N] with its time [s] (fsph.h5
+    body_history)."""
     out = {}
     for b, name in enumerate(writer.body_names):
         books = writer.body_books.get(name, {})
         force, time = writer.body_force_peak[b]
-        out[name] = {"kinetic_J": books.get("kinetic"), "internal_J": books.get("internal"),
-                     "momentum_z_N_s": books.get("momentum_z"), "peak_force_z_N": force,
-                     "peak_force_time_s": time}
+        out[name] = {f"{key}_{unit.replace(' ', '_')}": books.get(key) for key, unit, _ in layouts.BODY_COLUMNS}
+        out[name].update(peak_force_z_N=force, peak_force_time_s=time)
     return out
 
 

@@ -79,6 +79,14 @@ BODY_COLUMNS = (
     ("momentum_z", "N s", "axial momentum of the body's nodes and particles"),
     ("plastic_work", "J", "plastic work done in the body's elements and particles (and in the "
      "elements they were converted from)"),
+    ("viscous_work", "J", "heat of the artificial viscosity in the body's elements and particles (and in "
+     "the elements they were converted from)"),
+    ("hourglass_work", "J", "heat of the particles' hourglass viscosity in the body (T3 elements have no "
+     "hourglass mode)"),
+    ("contact_work", "J", "energy the body received through contact: the work of the slide lines' "
+     "corrections on its nodes and particles and of the particle contact's forces (with the heat it "
+     "gives; the 'potential' particle contact is not counted); summed over the bodies, minus the history's "
+     "contact column"),
 )
 #: Each gauge's record at every history record (fsph_gauges gauge_row):
 #: the values of the element containing the point or of the nearest
@@ -238,6 +246,13 @@ MATERIAL_HISTORY = (
     ("melted", "-", "1 while the point is at or above its melting temperature, else 0"),
     ("plastic_work", "J/kg", "plastic work per unit mass: the sum of flow stress x plastic strain "
      "increment / density over the steps"),
+    ("viscous_work", "J/kg", "heat of the artificial viscosity per unit mass (elements: -q dv; particles: "
+     "their share of the pairs' viscous work)"),
+    ("hourglass_work", "J/kg", "heat of the hourglass viscosity per unit mass (particles: their share of "
+     "the pairs' hourglass work, of either sign; 0 in elements)"),
+    ("contact_work", "J/kg", "energy received through contact per unit mass: the work of the slide-line "
+     "corrections on the point (an element: its share of its nodes') and of the particle contact's forces "
+     "with the heat it gives"),
 )
 STRENGTH_MODELS = (
     ("elastic", "elastic"),

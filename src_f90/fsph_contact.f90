@@ -34,6 +34,7 @@ module fsph_contact
   use fsph_kinds, only: wp
   use fsph_state, only: contact_t, contact_grid_t, node_set_t, element_set_t, particle_set_t
   use fsph_arrays, only: reserve
+  use fsph_layouts, only: hist_contact_work
   use fsph_topology, only: elements_with_edge
   implicit none
   private
@@ -331,10 +332,11 @@ contains
   !> predicted position x + dt v penetrates another body's surface, and
   !> book the work of the contact impulses. dt_v is the step of the kick
   !> that produced the velocities (mean of the two position steps) [s].
-  subroutine contact_correct(ct, nd, pt, dt, dt_v)
+  subroutine contact_correct(ct, nd, pt, el, dt, dt_v)
     type(contact_t), intent(inout) :: ct
     type(node_set_t), intent(inout) :: nd
     type(particle_set_t), intent(inout) :: pt
+    type(element_set_t), intent(inout) :: el !< its material history takes the books of its nodes' corrections
     real(wp), intent(in) :: dt, dt_v
     integer :: pass, j, a, i, n_pairs
     type(contact_pair_t) :: pair
@@ -367,7 +369,7 @@ contains
       if (pass == 1) ct%n_active = n_pairs
       if (n_pairs == 0) exit
     end do
-    ct%dissipated = ct%dissipated - impulse_work(ct, nd, pt, dt_v)
+    ct%dissipated = ct%dissipated - impulse_work(ct, nd, pt, el, dt_v)
   end subroutine contact_correct
 
   !> Velocities of nodes and free particles before the corrections.
@@ -385,27 +387,44 @@ contains
   !> mean of the velocities before and after the whole kick (the measure
   !> under which the central difference balances kinetic energy against
   !> the work of the forces): surfaces that stay together do no work, an
-  !> inelastic closing of a gap removes kinetic energy.
-  real(wp) function impulse_work(ct, nd, pt, dt_v) result(work)
+  !> inelastic closing of a gap removes kinetic energy. Each point books
+  !> the work done on it in its material history (hist_contact_work, per
+  !> unit mass, for the bodies' books, fsph_solver body_budget): a free
+  !> particle its own, a node's goes to the elements at its corners in
+  !> proportion to the third of their mass each lumps onto it.
+  real(wp) function impulse_work(ct, nd, pt, el, dt_v) result(work)
     type(contact_t), intent(in) :: ct
     type(node_set_t), intent(in) :: nd
-    type(particle_set_t), intent(in) :: pt
+    type(particle_set_t), intent(inout) :: pt
+    type(element_set_t), intent(inout) :: el
     real(wp), intent(in) :: dt_v
-    real(wp) :: dv(2), v_before(2)
-    integer :: a, i
+    real(wp) :: dv(2), v_before(2), w, lumped
+    integer :: a, i, m, ie
     work = 0.0_wp
     do a = 1, nd%n
       dv = nd%v(:, a) - ct%v_node0(:, a)
       if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
       v_before = ct%v_node0(:, a) - (dt_v/nd%mass_total(a))*nd%f(:, a)
-      work = work + nd%mass_total(a)*dot_product(dv, 0.5_wp*(v_before + nd%v(:, a)))
+      w = nd%mass_total(a)*dot_product(dv, 0.5_wp*(v_before + nd%v(:, a)))
+      work = work + w
+      lumped = 0.0_wp
+      do m = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
+        lumped = lumped + el%mass((nd%corner_list(m) - 1)/3 + 1)/3.0_wp
+      end do
+      if (.not. (lumped > 0.0_wp)) cycle
+      do m = nd%corner_ptr(a), nd%corner_ptr(a + 1) - 1
+        ie = (nd%corner_list(m) - 1)/3 + 1
+        el%hist(hist_contact_work, ie) = el%hist(hist_contact_work, ie) + w/(3.0_wp*lumped)
+      end do
     end do
     do i = 1, pt%n
       if (pt%tie_a(i) > 0) cycle
       dv = pt%v(:, i) - ct%v_part0(:, i)
       if (dv(1) == 0.0_wp .and. dv(2) == 0.0_wp) cycle
       v_before = ct%v_part0(:, i) - dt_v*pt%acc(:, i)
-      work = work + pt%mass(i)*dot_product(dv, 0.5_wp*(v_before + pt%v(:, i)))
+      w = dot_product(dv, 0.5_wp*(v_before + pt%v(:, i)))
+      work = work + pt%mass(i)*w
+      pt%hist(hist_contact_work, i) = pt%hist(hist_contact_work, i) + w
     end do
   end function impulse_work
 

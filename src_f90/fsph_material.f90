@@ -16,7 +16,8 @@ module fsph_material
   ! the property table, the material history and the model ids: fsph_layouts
   ! (generated from fsph/layouts.py)
   use fsph_layouts, only: eos_hjc, eos_linear, eos_mie_gruneisen, hist_damage, hist_mu_max, hist_failed, &
-                          hist_melted, hist_plastic_work, n_hist, n_props, prop_bulk, prop_c0, prop_chi, prop_cv, prop_eps0, &
+                          hist_melted, hist_plastic_work, hist_viscous_work, &
+                          n_hist, n_props, prop_bulk, prop_c0, prop_chi, prop_cv, prop_eps0, &
                           prop_gamma0, prop_hard, prop_hjc_a, prop_hjc_b, prop_hjc_c, prop_hjc_d1, prop_hjc_d2, &
                           prop_hjc_efmin, prop_hjc_fc, prop_hjc_k1, prop_hjc_k2, prop_hjc_k3, &
                           prop_hjc_mucrush, prop_hjc_mulock, prop_hjc_muplock, prop_hjc_n, prop_hjc_pcrush, &
@@ -781,6 +782,7 @@ contains
     dw_dev = dt*deviator_double_contraction(0.5_wp*(s_old + s), d_dev)*(2.0_wp*rho_old*rho_new*inv)
     dv = (rho_old - rho_new)*rho_sum*inv
     e_star = e + dw_dev - (q + 0.5_wp*p)*dv
+    hist(hist_viscous_work) = hist(hist_viscous_work) - q*dv
     e = (e_star - 0.5_wp*a*dv)/(1.0_wp + 0.5_wp*b*dv)
     p_new = a + b*e
     p_floor = pressure_floor(props, hist)

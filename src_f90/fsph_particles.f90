@@ -5,7 +5,8 @@ module fsph_particles
   use fsph_kinds, only: wp, pi, two_pi
   use fsph_status, only: status_ok, status_nonfinite_particle, status_eos_range, &
                          status_particle_axis
-  use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc
+  use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc, hist_viscous_work, &
+                          hist_hourglass_work, hist_contact_work
   use fsph_material, only: material_update, eos_pressure, sound_speed, cut_pressure, state_temperature, &
                            melt_update, shear_modulus
   use fsph_ordered, only: first_fault
@@ -104,8 +105,8 @@ contains
   !> energy-independent pressure. ierr/ifault: the first particle with a
   !> non-finite energy or pressure, or a density beyond the range of its
   !> equation of state.
-  subroutine particle_energy_update(n, nmat, props, istrength, ieos, mat, dt, debris_ratio, e_old, de, rho, &
-                                    e, p, s, temp, hist, c, ierr, ifault)
+  subroutine particle_energy_update(n, nmat, props, istrength, ieos, mat, dt, debris_ratio, e_old, de, de_parts, &
+                                    rho, e, p, s, temp, hist, c, ierr, ifault)
     integer, intent(in) :: n, nmat
     real(wp), intent(in) :: props(n_props, nmat)
     integer, intent(in) :: istrength(nmat), ieos(nmat), mat(n)
@@ -113,6 +114,7 @@ contains
     real(wp), intent(in) :: dt            !< time step [s]
     real(wp), intent(in) :: e_old(n)      !< specific internal energy at the start of the step [J/kg]
     real(wp), intent(in) :: de(n)         !< its rate [W/kg]
+    real(wp), intent(in) :: de_parts(3, n) !< its viscous, hourglass and contact parts [W/kg], booked in hist
     real(wp), intent(in) :: rho(n)        !< density at the end of the step [kg/m^3]
     real(wp), intent(inout) :: e(n)       !< specific internal energy [J/kg]
     real(wp), intent(inout) :: p(n)       !< pressure [Pa]
@@ -126,11 +128,14 @@ contains
     f_nan = n + 1
     f_eos = n + 1
     !$omp parallel do default(none) &
-    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, e_old, de, rho, e, p, s, temp, hist, c) &
+    !$omp shared(n, props, istrength, ieos, mat, dt, debris_ratio, e_old, de, de_parts, rho, e, p, s, temp, hist, c) &
     !$omp private(i, im, ierr_i, a, b, dadrho) reduction(min:f_nan, f_eos)
     do i = 1, n
       im = mat(i)
       e(i) = e_old(i) + dt*de(i)
+      hist(hist_viscous_work, i) = hist(hist_viscous_work, i) + dt*de_parts(1, i)
+      hist(hist_hourglass_work, i) = hist(hist_hourglass_work, i) + dt*de_parts(2, i)
+      hist(hist_contact_work, i) = hist(hist_contact_work, i) + dt*de_parts(3, i)
       if (ieos(im) == eos_hjc .or. rho(i) <= debris_ratio*props(prop_rho0, im)) then
         ! energy-independent pressure with history, or debris: already final
         if (.not. ieee_is_finite(e(i))) f_nan = min(f_nan, i)
@@ -421,27 +426,35 @@ contains
   !> v* and the opposite force). A mirror image is not a particle of its
   !> own: the heat of its entry is minus the work of its force on the
   !> particle, axially relative to the image (fsph_sph ghost_work).
-  subroutine riemann_contact_heat(n, v_bar, mass, cnt_ptr, cnt_list, force, v_star, de)
+  subroutine riemann_contact_heat(n, v_bar, mass, cnt_ptr, cnt_list, force, v_star, de, de_parts)
     integer, intent(in) :: n
     real(wp), intent(in) :: v_bar(2, n), mass(n)
     integer, intent(in) :: cnt_ptr(n + 1), cnt_list(*)
     real(wp), intent(in) :: force(2, *), v_star(2, *)
     real(wp), intent(inout) :: de(n)
+    real(wp), intent(inout) :: de_parts(3, n) !< row 3 out: energy the contact gives the particle, for the books [W/kg]
     integer :: i, k, j
-    real(wp) :: heat
-    !$omp parallel do default(none) schedule(dynamic, 64) shared(n, v_bar, mass, cnt_ptr, cnt_list, force, v_star, de) &
-    !$omp private(i, k, j, heat)
+    real(wp) :: heat, given
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, v_bar, mass, cnt_ptr, cnt_list, force, v_star, de, de_parts) private(i, k, j, heat, given)
     do i = 1, n
       heat = 0.0_wp
+      given = 0.0_wp
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = abs(cnt_list(k))
         if (cnt_list(k) < 0) then
           heat = heat - mass(j)*ghost_work(force(:, k), v_bar(:, i), v_bar(2, j))
+          ! the force's work on the motion plus the heat: axially at the
+          ! mean of the particle's and the image's velocities
+          given = given + mass(j)*0.5_wp*force(2, k)*(v_bar(2, i) + v_bar(2, j))
         else
           heat = heat - mass(j)*(force(1, k)*(v_bar(1, i) - v_star(1, k)) + force(2, k)*(v_bar(2, i) - v_star(2, k)))
+          ! the force's work on the motion plus the heat: at the interface velocity
+          given = given + mass(j)*(force(1, k)*v_star(1, k) + force(2, k)*v_star(2, k))
         end if
       end do
       de(i) = de(i) + heat
+      de_parts(3, i) = given
     end do
     !$omp end parallel do
   end subroutine riemann_contact_heat

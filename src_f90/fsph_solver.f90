@@ -11,6 +11,8 @@ module fsph_solver
                           prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
                           hcol_dt, hcol_plane_impulse_z, energy_first, body_columns, bcol_kinetic, &
                           bcol_internal, bcol_momentum_z, bcol_plastic_work, hist_plastic_work, gauge_columns, &
+                          bcol_viscous_work, bcol_hourglass_work, bcol_contact_work, hist_viscous_work, &
+                          hist_hourglass_work, hist_contact_work, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
@@ -336,7 +338,7 @@ contains
     ! 3. contact between bodies, then boundary conditions on the half-step
     !    velocities; tied particles follow their edges
     call timer_start(sim%timers, phase_contact)
-    call contact_correct(sim%contact, sim%nodes, sim%particles, dt_step, 0.5_wp*(sim%dt_last + dt_step))
+    call contact_correct(sim%contact, sim%nodes, sim%particles, sim%elements, dt_step, 0.5_wp*(sim%dt_last + dt_step))
     call timer_stop(sim%timers, phase_contact)
     call timer_start(sim%timers, phase_integrate)
     call apply_boundaries(sim, dt_step)
@@ -473,7 +475,7 @@ contains
       call reserve(pt%nbr_grad, 2, size(pt%nbr_list))
       call reserve(pt%pair_force, 2, size(pt%nbr_list))
       call reserve(pt%pair_hg, 2, size(pt%nbr_list))
-      call reserve(pt%pair_work, size(pt%nbr_list))
+      call reserve(pt%pair_work, 3, size(pt%nbr_list))
       call reserve(pt%pair_in, size(pt%nbr_list))
       call reserve(pt%cnt_force, 2, size(pt%cnt_list))
       call reserve(pt%cnt_vstar, 2, size(pt%cnt_list))
@@ -736,14 +738,16 @@ contains
         call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, &
                              pt%wgt, pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
                              pt%low_other, &
-                             pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de)
+                             pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de, &
+                             pt%de_parts)
+        pt%de_parts(3, 1:n) = 0.0_wp
         if (sim%control%particle_contact == particle_contact_riemann) &
           call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_vstar, &
-                                    pt%de)
+                                    pt%de, pt%de_parts)
         call timer_stop(sim%timers, phase_sph_sums)
         call timer_start(sim%timers, phase_particle_update)
         call particle_energy_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, dt_step, &
-                                    sim%control%debris_ratio, pt%e_old, pt%de, pt%rho, pt%e, pt%p, pt%s, &
+                                    sim%control%debris_ratio, pt%e_old, pt%de, pt%de_parts, pt%rho, pt%e, pt%p, pt%s, &
                                     pt%temp, pt%hist, pt%c, ierr, ifault)
         call timer_stop(sim%timers, phase_particle_update)
       end if
@@ -872,6 +876,8 @@ contains
         b = el%body(e)
         books(bcol_internal, b) = books(bcol_internal, b) + el%mass(e)*el%e(e)
         books(bcol_plastic_work, b) = books(bcol_plastic_work, b) + el%mass(e)*el%hist(hist_plastic_work, e)
+        books(bcol_viscous_work, b) = books(bcol_viscous_work, b) + el%mass(e)*el%hist(hist_viscous_work, e)
+        books(bcol_contact_work, b) = books(bcol_contact_work, b) + el%mass(e)*el%hist(hist_contact_work, e)
       end do
       do i = 1, pt%n
         b = pt%body(i)
@@ -879,6 +885,9 @@ contains
         books(bcol_internal, b) = books(bcol_internal, b) + pt%mass(i)*pt%e(i)
         books(bcol_momentum_z, b) = books(bcol_momentum_z, b) + pt%mass(i)*pt%v(2, i)
         books(bcol_plastic_work, b) = books(bcol_plastic_work, b) + pt%mass(i)*pt%hist(hist_plastic_work, i)
+        books(bcol_viscous_work, b) = books(bcol_viscous_work, b) + pt%mass(i)*pt%hist(hist_viscous_work, i)
+        books(bcol_hourglass_work, b) = books(bcol_hourglass_work, b) + pt%mass(i)*pt%hist(hist_hourglass_work, i)
+        books(bcol_contact_work, b) = books(bcol_contact_work, b) + pt%mass(i)*pt%hist(hist_contact_work, i)
       end do
     end associate
   end function body_budget

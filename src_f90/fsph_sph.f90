@@ -478,8 +478,14 @@ contains
   !>  - a ghost: minus the work m_j pair_force . v_visc,i its force does on
   !>    the particle;
   !>  - the hoop work sig_tt v_r/(rho r).
+  !> de_parts(1:2) [J/(kg s)] are the parts of de that the viscous
+  !> pressure and the hourglass term make (bookkeeping: each particle's
+  !> share of its pairs' work, a ghost's at its force's viscous and
+  !> hourglass parts with the weights given; de itself is summed as
+  !> without them).
   subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, &
-                             low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, pair_work_k, de)
+                             low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, pair_work_k, de, &
+                             de_parts)
     integer, intent(in) :: n, ntot
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
@@ -488,31 +494,42 @@ contains
     integer, intent(in) :: tie(n)        !< first node of the edge a particle is tied to (0: free)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: pair_q(*), pair_hg(2, *), pair_force(2, *), grad(2, *)
-    real(wp), intent(out) :: pair_work_k(*) !< the partner's work rate per unit mass of i [m^2/(kg s^3)]
+    !> the partner's work rate per unit mass of i, then its viscous and
+    !> hourglass parts [m^2/(kg s^3)]
+    real(wp), intent(out) :: pair_work_k(3, *)
     real(wp), intent(out) :: de(n)
-    integer :: i, k, j, m
-    real(wp) :: dvji(2), vq(2), wi, wj, sum_e, w_own, w_partner, q_work
+    real(wp), intent(inout) :: de_parts(3, n) !< rows 1, 2 out: the viscous and hourglass parts of de [J/(kg s)]
+    integer :: i, k, j, m, o
+    real(wp) :: dvji(2), vq(2), wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work, sum_visc, sum_hg, &
+                f_part(2)
     real(wp), parameter :: zero4(4) = 0.0_wp
     !$omp parallel default(none) &
     !$omp shared(n, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, low_ptr, low_pair) &
     !$omp shared(low_other) &
-    !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de) &
-    !$omp private(i, k, j, m, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work)
+    !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de, de_parts) &
+    !$omp private(i, k, j, m, o, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work) &
+    !$omp private(sum_visc, sum_hg, f_part)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       wi = wgt(i)
       sum_e = 0.0_wp
+      sum_visc = 0.0_wp
+      sum_hg = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         j = abs(nbr_list(k))
         if (nbr_list(k) < 0) then
           ! a ghost: the work of its force on the particle becomes heat,
           ! axially at the velocity relative to the image (ghost_work)
-          pair_work_k(k) = 0.0_wp
+          pair_work_k(:, k) = 0.0_wp
           sum_e = sum_e - mass(j)*ghost_work(pair_force(:, k), v_visc(:, i), v_visc(2, j))
+          f_part = -two_pi*(wi + wgt(j))*pair_q(k)*grad(:, k)
+          sum_visc = sum_visc - mass(j)*ghost_work(f_part, v_visc(:, i), v_visc(2, j))
+          f_part = two_pi*(wi + wgt(j))*pair_hg(:, k)
+          sum_hg = sum_hg - mass(j)*ghost_work(f_part, v_visc(:, i), v_visc(2, j))
           cycle
         end if
         if (tie(i) /= 0 .and. j > n .and. j <= n + n_imag) then
-          pair_work_k(k) = 0.0_wp
+          pair_work_k(:, k) = 0.0_wp
           cycle
         end if
         wj = wgt(j)
@@ -520,23 +537,37 @@ contains
         vq = v_visc(:, j) - v_visc(:, i)
         ! viscous and hourglass work per unit (w_i + w_j)
         q_work = -pair_q(k)*(vq(1)*grad(1, k) + vq(2)*grad(2, k)) + pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
+        visc_work = -pair_q(k)*(vq(1)*grad(1, k) + vq(2)*grad(2, k))
+        hg_work = pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
+        sum_visc = sum_visc + two_pi*mass(j)*wi*visc_work
+        sum_hg = sum_hg + two_pi*mass(j)*wi*hg_work
         w_own = pair_work(pair_stress(acts_on(intact(i), intact(j))*wi, sig(:, i), 0.0_wp, zero4, 1.0_wp), &
                           dvji, grad(:, k)) + wi*q_work
         w_partner = pair_work(pair_stress(acts_on(intact(j), intact(i))*wj, sig(:, j), 0.0_wp, zero4, 1.0_wp), &
                               dvji, grad(:, k)) + wj*q_work
-        pair_work_k(k) = two_pi*w_partner
+        pair_work_k(:, k) = two_pi*[w_partner, wj*visc_work, wj*hg_work]
         sum_e = sum_e + two_pi*mass(j)*w_own
       end do
       de(i) = sum_e
+      de_parts(1, i) = sum_visc
+      de_parts(2, i) = sum_hg
     end do
     !$omp end do
     ! the partners' side of the half entries, then the rates
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       sum_e = de(i)
+      sum_visc = de_parts(1, i)
+      sum_hg = de_parts(2, i)
       do m = low_ptr(i), low_ptr(i + 1) - 1
-        sum_e = sum_e + mass(low_other(m))*pair_work_k(low_pair(m))
+        k = low_pair(m)
+        o = low_other(m)
+        sum_e = sum_e + mass(o)*pair_work_k(1, k)
+        sum_visc = sum_visc + mass(o)*pair_work_k(2, k)
+        sum_hg = sum_hg + mass(o)*pair_work_k(3, k)
       end do
+      de_parts(1, i) = sum_visc
+      de_parts(2, i) = sum_hg
       de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + sum_e
     end do
     !$omp end do

@@ -96,6 +96,7 @@ module fsph_state
     real(wp), allocatable :: eps_p(:), e(:), temp(:), c(:) !< [-], [J/kg], [K], [m/s]
     real(wp), allocatable :: hist(:, :)   !< material history (n_hist, capacity): damage, ...
     real(wp), allocatable :: drho(:), de(:), d(:, :), spin(:) !< rates of the last step
+    real(wp), allocatable :: de_parts(:, :) !< viscous, hourglass and contact parts of de (3, capacity) [W/kg]
     real(wp), allocatable :: grad_v(:, :) !< velocity gradient of the last step (dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz) [1/s]
     real(wp), allocatable :: switch(:)    !< compression switch of the pairwise viscosity [-]
     integer, allocatable :: mirror_of(:)  !< particle of each mirror image (index - n - n_imag)
@@ -116,7 +117,8 @@ module fsph_state
     real(wp), allocatable :: pair_q(:)    !< viscous pressure per neighbour entry [Pa]
     real(wp), allocatable :: pair_force(:, :) !< acceleration per unit neighbour mass per entry [m/(kg s^2)]
     real(wp), allocatable :: pair_hg(:, :) !< hourglass term per entry [kg/(m^4 s^2)]
-    real(wp), allocatable :: pair_work(:) !< partner's work rate per entry and unit mass [m^2/(kg s^3)]
+    real(wp), allocatable :: pair_work(:, :) !< partner's work rate per entry and unit mass, its viscous and
+                                             !< hourglass parts (3, entries) [m^2/(kg s^3)]
     logical, allocatable :: pair_in(:)    !< entry within the kernel support at the start of the cycle
     real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
     real(wp), allocatable :: contact_excess(:) !< work: particle contact stiffness times excess filling
@@ -318,7 +320,7 @@ contains
       allocate (pt%x(2, cap), pt%x0(2, cap), pt%x_old(2, cap), pt%x_mid(2, cap), pt%v(2, cap), &
                 pt%v_bar(2, cap), pt%acc(2, cap), pt%acc_imag(2, cap), pt%mass(cap), pt%h(cap), pt%radius(cap), &
                 pt%mat(cap), pt%body(cap), pt%rho(cap), pt%s(4, cap), pt%sig(4, cap), pt%p(cap), &
-                pt%eps_p(cap), pt%e(cap), pt%temp(cap), pt%c(cap), pt%drho(cap), pt%de(cap), &
+                pt%eps_p(cap), pt%e(cap), pt%temp(cap), pt%c(cap), pt%drho(cap), pt%de(cap), pt%de_parts(3, cap), &
                 pt%d(4, cap), pt%spin(cap), pt%e_old(cap), pt%rho_old(cap), pt%rho_mid(cap), &
                 pt%sig_mid(4, cap), pt%nbr_ptr(cap + 1), pt%cnt_ptr(cap + 1), pt%imag_elem(cap), &
                 pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap), &
@@ -332,7 +334,7 @@ contains
       pt%v_bar = 0.0_wp; pt%acc = 0.0_wp; pt%acc_imag = 0.0_wp; pt%mass = 0.0_wp; pt%h = 0.0_wp; pt%radius = 0.0_wp
       pt%mat = 0; pt%body = 0; pt%rho = 0.0_wp; pt%s = 0.0_wp; pt%sig = 0.0_wp; pt%p = 0.0_wp
       pt%eps_p = 0.0_wp; pt%e = 0.0_wp; pt%temp = 0.0_wp; pt%c = 0.0_wp; pt%drho = 0.0_wp
-      pt%de = 0.0_wp; pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%e_old = 0.0_wp; pt%rho_old = 0.0_wp
+      pt%de = 0.0_wp; pt%de_parts = 0.0_wp; pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%e_old = 0.0_wp; pt%rho_old = 0.0_wp
       pt%rho_mid = 0.0_wp; pt%sig_mid = 0.0_wp; pt%imag_elem = 0; pt%continuum = 0
       pt%tie_a = 0; pt%tie_b = 0; pt%tie_xi = 0.0_wp; pt%assoc = 0
     end associate
@@ -354,6 +356,7 @@ contains
       call grow(pt%body, cap); call grow(pt%rho, cap); call grow(pt%s, cap); call grow(pt%sig, cap)
       call grow(pt%p, cap); call grow(pt%eps_p, cap); call grow(pt%e, cap); call grow(pt%temp, cap)
       call grow(pt%c, cap); call grow(pt%drho, cap); call grow(pt%de, cap); call grow(pt%d, cap)
+      call grow(pt%de_parts, cap)
       call grow(pt%spin, cap); call grow(pt%e_old, cap); call grow(pt%rho_old, cap); call grow(pt%rho_mid, cap)
       call grow(pt%sig_mid, cap); call grow(pt%nbr_ptr, cap + 1); call grow(pt%cnt_ptr, cap + 1)
       call grow(pt%imag_elem, cap); call grow(pt%continuum, cap); call grow(pt%tie_a, cap)

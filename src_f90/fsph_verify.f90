@@ -62,7 +62,7 @@ contains
       ! the energy equation with the stress, viscosity and velocities of this state
       call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, &
                            pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
-                           pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, de)
+                           pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, de, pt%de_parts)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates

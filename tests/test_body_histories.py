@@ -36,7 +36,7 @@ def test_bodies_add_up_to_the_whole(plate_run):
     summary, hist, bodies, units = plate_run
     assert sorted(bodies) == ["plate", "projectile"]
     assert units == {"kinetic": "J", "internal": "J", "momentum_z": "N s", "plastic_work": "J",
-                     "force_z": "N"}
+                     "viscous_work": "J", "hourglass_work": "J", "contact_work": "J", "force_z": "N"}
     scale = hist["kinetic"][0]
     for key in ("kinetic", "internal"):
         total = sum(b[key] for b in bodies.values())
@@ -82,3 +82,73 @@ def test_plastic_work_of_a_perfectly_plastic_rod(deck):
         estimate += np.sum(part["mass"] * y0 * part["plastic_strain"] / part["density"])
     assert work == pytest.approx(estimate, rel=0.02)
     assert 0.5 * bodies[-1, 0, 1] < work < bodies[-1, 0, 1]
+
+
+def test_contact_work_is_each_bodys_energy_change(plate_run):
+    """The energy each body received through contact: summed over the
+    bodies it is minus the kinetic energy the slide lines' corrections
+    removed (the history's contact column) to round-off; the projectile
+    (elements only, nothing else acts on it) changes its kinetic and
+    internal energy by its contact work within 0.1 % of it, the plate
+    within 1 % (its particles' share of the run's energy error)."""
+    _, hist, bodies, _ = plate_run
+    work = {b: books["contact_work"] for b, books in bodies.items()}
+    transferred = np.abs(work["projectile"]).max()
+    assert transferred > 100.0                        # joules: the plate is being perforated
+    total = work["projectile"] + work["plate"]
+    assert np.allclose(total, -hist["contact"], rtol=0.0, atol=1e-9 * transferred)
+    for body, tolerance in (("projectile", 1e-3), ("plate", 1e-2)):
+        energy = bodies[body]["kinetic"] + bodies[body]["internal"]
+        assert energy[-1] - energy[0] == pytest.approx(work[body][-1], rel=tolerance)
+
+
+def test_viscous_and_hourglass_books(plate_run):
+    """The elements' viscous work -q dv (q acts in compression; a step
+    charges the mean of the q before and after it, so a step that expands
+    right after a compression may give a little back) is positive and never
+    falls below zero; the hourglass viscosity exists only in particles, so the
+    projectile (elements) books none and the plate (converted particles)
+    some; each part is below the body's internal energy."""
+    _, _, bodies, _ = plate_run
+    projectile, plate = bodies["projectile"], bodies["plate"]
+    assert projectile["viscous_work"][-1] > 0.0
+    assert projectile["viscous_work"].min() >= -1e-12 * projectile["viscous_work"][-1]
+    assert np.all(projectile["hourglass_work"] == 0.0)
+    assert plate["hourglass_work"][-1] != 0.0
+    for books in (projectile, plate):
+        for key in ("plastic_work", "viscous_work", "hourglass_work"):
+            assert abs(books[key][-1]) < books["internal"][-1]
+
+
+@pytest.fixture(scope="module")
+def sph_plate_run(tmp_path_factory):
+    """The pure SPH 508 m/s plate to 20 us: the bodies touch only through
+    the Riemann particle contact."""
+    folder = tmp_path_factory.mktemp("plate_sph_bodies")
+    deck = folder / "plate.nml"
+    text = (CASES / "al_plate_508_sph.nml").read_text()
+    assert "end_time = 200.0e-6" in text
+    deck.write_text(text.replace("end_time = 200.0e-6", "end_time = 20.0e-6").replace(
+        "references/", str(CASES / "references") + "/"))
+    run(deck, folder / "out", quiet=True)
+    with h5py.File(folder / "out" / "fsph.h5") as h5:
+        hist = {k: h5["history"][k][...] for k in h5["history"]}
+        bodies = {b: {k: g[k][...] for k in g} for b, g in h5["body_history"].items()}
+    return hist, bodies
+
+
+def test_particle_contact_transfers_energy_between_bodies(sph_plate_run):
+    """The Riemann contact's pair forces are equal and opposite and work
+    at one interface velocity: what one body receives the other gives
+    (within 0.1 % of the transfer: the images across the axis have no
+    partner), and each body's energy changes by what it received within
+    1 % (no slide line: the contact column stays 0)."""
+    hist, bodies = sph_plate_run
+    work = {b: books["contact_work"][-1] for b, books in bodies.items()}
+    transferred = abs(work["projectile"])
+    assert transferred > 100.0
+    assert np.all(hist["contact"] == 0.0)
+    assert abs(work["projectile"] + work["plate"]) < 1e-3 * transferred
+    for body, books in bodies.items():
+        energy = books["kinetic"] + books["internal"]
+        assert energy[-1] - energy[0] == pytest.approx(work[body], rel=1e-2)
