@@ -152,8 +152,8 @@ def _plot_fields(text, run_dir):
 
 def _plot(args):
     """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
-    from .plot import (damage_map, deformed_shapes, field_map, gauge_histories, histories, nearest_note,
-                       perforation_histories, snapshot_choice)
+    from .plot import (body_energies, damage_map, deformed_shapes, field_map, gauge_histories, histories,
+                       nearest_note, perforation_histories, snapshot_choice)
     times = _plot_times(args.times) if args.times is not None else None
     if not PLOT_DPI[0] <= args.dpi <= PLOT_DPI[1]:
         raise InputError(f"--dpi: expected an integer from {PLOT_DPI[0]} to {PLOT_DPI[1]}, "
@@ -185,7 +185,8 @@ def _plot(args):
         print(histories(run_dir, dpi=args.dpi))
         for extra in (perforation_histories(run_dir, dpi=args.dpi),
                       damage_map(run_dir, times, dpi=args.dpi),
-                      gauge_histories(run_dir, dpi=args.dpi)):
+                      gauge_histories(run_dir, dpi=args.dpi),
+                      body_energies(run_dir, dpi=args.dpi)):
             if extra:
                 print(extra)
     except OSError as err:

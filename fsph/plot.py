@@ -662,6 +662,49 @@ def gauge_histories(run_dir, output=None, dpi=150):
     return _save_if_drawn(_gauge_figure(Path(run_dir)), run_dir, "gauges.png", output, dpi)
 
 
+#: The books bodies.png draws for each body: (body_history column, legend label).
+BODY_CURVES = (("kinetic", "kinetic"), ("internal", "internal"), ("plastic_work", "plastic work"),
+               ("viscous_work", "viscous work"), ("hourglass_work", "hourglass work"),
+               ("contact_work", "received through contact"))
+
+
+def _body_figure(run_dir):
+    """The figure of body_energies (None for a run without body books)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        if "body_history" not in h5 or not len(h5["body_history"]):
+            return None
+        t = h5["history/time"][...] * 1e6
+        bodies = {name: {k: g[k][...] for k, _ in BODY_CURVES if k in g} for name, g in h5["body_history"].items()}
+        title = h5.attrs.get("title", "")
+    fig, axes = plt.subplots(len(bodies), 1, figsize=(7, 3.2 * len(bodies) + 0.6), sharex=True,
+                             layout="constrained", squeeze=False)
+    for ax, (name, books) in zip(axes[:, 0], bodies.items()):
+        for k, (key, label) in enumerate(BODY_CURVES):
+            # a book that stays zero (no hourglass in elements, no contact) is left out;
+            # each book keeps its colour in every panel
+            if key in books and np.any(books[key]):
+                ax.plot(t, books[key], lw=0.9, color=f"C{k}", label=label)
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.set_ylabel(f"{name}: energy [J]")
+        ax.legend(frameon=False, fontsize="small")
+    axes[-1, 0].set_xlabel("t [µs]")
+    fig.suptitle(f"{title}\neach body's energies" if title else "each body's energies")
+    return fig
+
+
+def body_energies(run_dir, output=None, dpi=150):
+    """Write a PNG of each body's books (fsph.h5 body_history) against
+    time, a panel per body: kinetic and internal energy, plastic, viscous
+    and hourglass work and the energy received through contact (negative:
+    given away), books that stay zero left out. Returns the PNG path, or
+    None for a run without body books."""
+    return _save_if_drawn(_body_figure(Path(run_dir)), run_dir, "bodies.png", output, dpi)
+
+
 #: colour of the bodies never damaged in a damage map (outside the damage colour map)
 UNDAMAGED_COLOUR = "#8fa3b8"
 #: where the damage map's default panels fall, as fractions of the run

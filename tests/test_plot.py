@@ -368,14 +368,14 @@ def test_damage_map_honours_times_and_greys_the_undamaged_body(block_run, monkey
 
 
 def test_times_are_in_microseconds_written_µs(block_run, monkeypatch, capsys):
-    """Every label, title and legend of the four pictures, the printed lines
+    """Every label, title and legend of the five pictures, the printed lines
     and the help of `fsph plot` write µs, never us."""
     import re
     from matplotlib.text import Text
     from fsph.cli import _parser
     code, lines, figures = plot_cli(monkeypatch, capsys, block_run, "--times", "2,6")
     assert code == 0
-    assert set(figures) == {"shapes.png", "history.png", "perforation.png", "damage.png"}
+    assert set(figures) == {"shapes.png", "history.png", "perforation.png", "damage.png", "bodies.png"}
     texts = [t.get_text() for fig in figures.values() for t in fig.findobj(Text)]
     texts += lines + [_parser()._subparsers._group_actions[0].choices["plot"].format_help()]
     assert not [t for t in texts if re.search(r"\bus\b", t)]
@@ -507,6 +507,33 @@ def test_history_draws_each_bodys_force(block_run, monkeypatch, capsys):
     impulse = {name: np.sum(f[1:] * np.diff(t)) for name, (t, f) in curves.items()}
     assert impulse["rod"] > 0.0
     assert abs(impulse["rod"] + impulse["block"]) <= 0.005 * impulse["rod"]
+
+
+def test_bodies_png_draws_each_bodys_books(block_run, monkeypatch, capsys):
+    """bodies.png of a two-body run: a panel per body with its kinetic and
+    internal energy and the energy received through contact; what the rod
+    gives the block receives but for the kinetic energy the slide lines'
+    corrections removed (the history's contact column), and a book that
+    stays zero is not drawn (hourglass work: the block's converted
+    particles have some, the rod stays elements)."""
+    import h5py
+    code, printed, figures = plot_cli(monkeypatch, capsys, block_run)
+    assert code == 0
+    assert str(block_run / "bodies.png") in printed
+    curves = {}
+    for ax in figures["bodies.png"].axes:
+        body = ax.get_ylabel().split(":")[0]
+        curves[body] = {line.get_label(): line.get_ydata() for line in ax.get_lines()
+                        if not line.get_label().startswith("_")}
+    assert set(curves) == {"rod", "block"}
+    for books in curves.values():
+        assert {"kinetic", "internal", "received through contact"} <= set(books)
+    with h5py.File(block_run / "fsph.h5") as h5:
+        removed = h5["history/contact"][-1]
+    given, received = curves["rod"]["received through contact"][-1], curves["block"]["received through contact"][-1]
+    assert "hourglass work" in curves["block"] and "hourglass work" not in curves["rod"]
+    assert given < 0.0 < received
+    assert given + received == pytest.approx(-removed, abs=1e-9 * received)
 
 
 def test_gauges_png_draws_each_gauge(tmp_path, monkeypatch, capsys):
