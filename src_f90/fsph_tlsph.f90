@@ -2,10 +2,9 @@
 !> and over explicit arrays (the solver's cycle does not call them yet).
 !> Everything is evaluated on the reference configuration X = (R, Z) of
 !> t = 0: the neighbour lists, the kernel gradients and the correction
-!> matrices are built once and never change (Wang, Xu & Yang 2022, the
-!> corrected gradient of Randles & Libersky 1996 and Bonet & Lok 1999 in
-!> a total-Lagrangian frame; docs/method.md, "Total-Lagrangian particles
-!> (kernels)").
+!> matrices are built once and never change (Wang et al. 2022; the
+!> corrected gradient of Randles & Libersky 1996 and Bonet & Lok 1999;
+!> docs/method.md, "Total-Lagrangian particles (kernels)").
 !>
 !> Conventions, as fsph_sph: coordinates (1, 2) = (r, z); particles carry
 !> full-ring masses m = 2 pi R rho0 A with A their planar (meridian) area
@@ -104,10 +103,10 @@ module fsph_tlsph
   !> inside and 0.27 at a corner (0.29 with h = 1.2 spacings, the paper's
   !> ratio), 0.15 at the worst particle of a lattice jittered by up to 0.3
   !> spacings, and 0 for a particle alone or a single row of particles
-  !> (measured; the h = 1.3 figures are tested in tests/test_tlsph_kernels.py).
-  !> A tenth of a lattice corner's
-  !> value flags a particle whose neighbours barely span the plane: its
-  !> condition number would exceed about 40 [-].
+  !> (measured; the h = 1.3 figures are tested in
+  !> tests/test_tlsph_kernels.py). A tenth of a lattice corner's value
+  !> flags a particle whose neighbours barely span the plane: its condition
+  !> number would exceed about 40 [-].
   real(wp), parameter, public :: correction_min_eigenvalue = 2.7e-2_wp
   !> Largest number of cells of the reference grid per particle [-]: the
   !> cells grow when the particles are spread out (memory stays O(N)).
