@@ -79,7 +79,10 @@
 !> one. Its price: next to the axis the radial image terms are not the
 !> derivative of the strain energy, so their work is not the stress power
 !> P : dF/dt of the particles, and the time loop must book it (as fsph_sph
-!> books the work of its mirror images as heat).
+!> books the work of its mirror images as heat): in a uniform radial
+!> expansion of a disc under a uniform pressure the forces' power fell
+!> short of the stress power by 9 % of that of the two columns next to
+!> the axis (measured, d = 0.05 on [0, 1]^2); an axial stretch has none.
 !>
 !> Each loop writes only its own particle's entries and sums its row in
 !> list order, so results do not depend on the thread count.
