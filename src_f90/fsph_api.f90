@@ -21,6 +21,8 @@ module fsph_api
   public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
   public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
   public :: drain_history, get_body_history, set_gauges, get_gauge_history, get_gauge_state
+  public :: tlsph_neighbour_count, tlsph_neighbours, tlsph_kernel_gradients, tlsph_correction
+  public :: tlsph_scalar_gradient, tlsph_deformation, tlsph_piola, tlsph_ring_forces
 
 contains
 
@@ -869,5 +871,116 @@ contains
     switch_time = sim%gauges%switch_time
     lost_time = sim%gauges%lost_time
   end subroutine get_gauge_state
+
+  ! ---- total-Lagrangian particles (fsph_tlsph): its kernels on given
+  ! arrays, for the tests (no run's state). x0 reference positions (R, Z)
+  ! [m], h smoothing lengths [m], area planar areas [m^2]; the lists in CSR
+  ! form (ptr, nbr: 1-based, mirror images across the axis as -j).
+
+  !> Number of entries nnz of the reference neighbour lists of n particles
+  !> (fsph_tlsph reference_neighbours; ierr, ifault as there).
+  subroutine tlsph_neighbour_count(n, x0, h, nnz, ierr, ifault)
+    use fsph_tlsph, only: reference_neighbours
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n), h(n)
+    integer, intent(out) :: nnz, ierr, ifault
+    integer :: ptr(n + 1)
+    integer, allocatable :: list(:)
+    call reference_neighbours(n, x0, h, ptr, list, ierr, ifault)
+    nnz = size(list)
+  end subroutine tlsph_neighbour_count
+
+  !> The reference neighbour lists (nnz from tlsph_neighbour_count;
+  !> status_bad_input if it does not match).
+  subroutine tlsph_neighbours(n, nnz, x0, h, ptr, nbr, ierr, ifault)
+    use fsph_status, only: status_ok, status_bad_input
+    use fsph_tlsph, only: reference_neighbours
+    integer, intent(in) :: n, nnz
+    real(wp), intent(in) :: x0(2, n), h(n)
+    integer, intent(out) :: ptr(n + 1), nbr(nnz), ierr, ifault
+    integer, allocatable :: list(:)
+    nbr = 0
+    call reference_neighbours(n, x0, h, ptr, list, ierr, ifault)
+    if (ierr /= status_ok) return
+    if (size(list) /= nnz) then
+      ierr = status_bad_input
+      return
+    end if
+    nbr = list
+  end subroutine tlsph_neighbours
+
+  !> Reference kernel gradient of every entry [1/m^3].
+  subroutine tlsph_kernel_gradients(n, nnz, x0, h, ptr, nbr, grad_w)
+    use fsph_tlsph, only: reference_kernel_gradients
+    integer, intent(in) :: n, nnz
+    real(wp), intent(in) :: x0(2, n), h(n)
+    integer, intent(in) :: ptr(n + 1), nbr(nnz)
+    real(wp), intent(out) :: grad_w(2, nnz)
+    call reference_kernel_gradients(n, x0, h, ptr, nbr, grad_w)
+  end subroutine tlsph_kernel_gradients
+
+  !> Correction matrices B [-] and the smallest eigenvalue of their
+  !> inverses (fsph_tlsph reference_correction; ifault the lowest particle
+  !> refused as singular).
+  subroutine tlsph_correction(n, nnz, x0, area, ptr, nbr, grad_w, bmat, eig_min, ierr, ifault)
+    use fsph_tlsph, only: reference_correction
+    integer, intent(in) :: n, nnz
+    real(wp), intent(in) :: x0(2, n), area(n)
+    integer, intent(in) :: ptr(n + 1), nbr(nnz)
+    real(wp), intent(in) :: grad_w(2, nnz)
+    real(wp), intent(out) :: bmat(2, 2, n), eig_min(n)
+    integer, intent(out) :: ierr, ifault
+    call reference_correction(n, x0, area, ptr, nbr, grad_w, bmat, eig_min, ierr, ifault)
+  end subroutine tlsph_correction
+
+  !> Corrected reference gradient (d/dR, d/dZ) of a scalar field f.
+  subroutine tlsph_scalar_gradient(n, nnz, area, ptr, nbr, grad_w, bmat, f, grad_f)
+    use fsph_tlsph, only: corrected_gradient
+    integer, intent(in) :: n, nnz
+    real(wp), intent(in) :: area(n)
+    integer, intent(in) :: ptr(n + 1), nbr(nnz)
+    real(wp), intent(in) :: grad_w(2, nnz), bmat(2, 2, n), f(n)
+    real(wp), intent(out) :: grad_f(2, n)
+    call corrected_gradient(n, area, ptr, nbr, grad_w, bmat, f, grad_f)
+  end subroutine tlsph_scalar_gradient
+
+  !> Deformation gradients at the current positions x [m]: in-plane
+  !> fmat(a, b) = d x_a/d X_b, hoop stretch f_tt, J (ierr, ifault as
+  !> fsph_tlsph deformation_gradients).
+  subroutine tlsph_deformation(n, nnz, x0, x, h, area, ptr, nbr, grad_w, bmat, fmat, f_tt, jac, ierr, ifault)
+    use fsph_tlsph, only: deformation_gradients
+    integer, intent(in) :: n, nnz
+    real(wp), intent(in) :: x0(2, n), x(2, n), h(n), area(n)
+    integer, intent(in) :: ptr(n + 1), nbr(nnz)
+    real(wp), intent(in) :: grad_w(2, nnz), bmat(2, 2, n)
+    real(wp), intent(out) :: fmat(2, 2, n), f_tt(n), jac(n)
+    integer, intent(out) :: ierr, ifault
+    call deformation_gradients(n, x0, x, h, area, ptr, nbr, grad_w, bmat, fmat, f_tt, jac, ierr, ifault)
+  end subroutine tlsph_deformation
+
+  !> First Piola-Kirchhoff stress [Pa] (in-plane p, hoop p_tt) from the
+  !> Cauchy stress sig (rr, zz, rz, tt) [Pa] and the deformation gradient.
+  subroutine tlsph_piola(n, fmat, f_tt, sig, p, p_tt)
+    use fsph_tlsph, only: first_piola
+    integer, intent(in) :: n
+    real(wp), intent(in) :: fmat(2, 2, n), f_tt(n), sig(4, n)
+    real(wp), intent(out) :: p(2, 2, n), p_tt(n)
+    call first_piola(n, fmat, f_tt, sig, p, p_tt)
+  end subroutine tlsph_piola
+
+  !> Internal forces per full ring [N] (fsph_tlsph tlsph_forces) and,
+  !> apart, the radial hoop part they include [N].
+  subroutine tlsph_ring_forces(n, nnz, x0, area, ptr, nbr, grad_w, bmat, p, p_tt, force, hoop)
+    use fsph_tlsph, only: tlsph_forces, hoop_force
+    integer, intent(in) :: n, nnz
+    real(wp), intent(in) :: x0(2, n), area(n)
+    integer, intent(in) :: ptr(n + 1), nbr(nnz)
+    real(wp), intent(in) :: grad_w(2, nnz), bmat(2, 2, n), p(2, 2, n), p_tt(n)
+    real(wp), intent(out) :: force(2, n), hoop(n)
+    real(wp), allocatable :: work(:, :, :)
+    allocate (work(2, 2, n))
+    call tlsph_forces(n, x0, area, ptr, nbr, grad_w, bmat, p, p_tt, work, force)
+    hoop = hoop_force(area, p_tt)
+  end subroutine tlsph_ring_forces
 
 end module fsph_api

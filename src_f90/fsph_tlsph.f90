@@ -1,0 +1,537 @@
+!> Total-Lagrangian SPH in r-z (TLSPH): the kernels of the method, pure
+!> and over explicit arrays (the solver's cycle does not call them yet).
+!> Everything is evaluated on the reference configuration X = (R, Z) of
+!> t = 0: the neighbour lists, the kernel gradients and the correction
+!> matrices are built once and never change (Wang et al. 2022; the
+!> corrected gradient of Randles & Libersky 1996 and Bonet & Lok 1999;
+!> docs/method.md, "Total-Lagrangian particles (kernels)").
+!>
+!> Conventions, as fsph_sph: coordinates (1, 2) = (r, z); particles carry
+!> full-ring masses m = 2 pi R rho0 A with A their planar (meridian) area
+!> [m^2]; the kernel is fsph_kernel's cubic B-spline with its planar
+!> normalisation and the pair smoothing length h_ij = (h_i + h_j)/2;
+!> forces are per full ring [N] (m_i dv_i/dt); stresses (rr, zz, rz, tt).
+!>
+!> Corrected gradient, in the meridian plane with planar areas:
+!>   grad0 f_i = B_i sum_j A_j (f_j - f_i) grad0 W_ij,
+!>   B_i = [sum_j A_j grad0 W_ij (x) (X_j - X_i)]^-1,
+!> grad0 W_ij the gradient of W(|X_i - X_j|) with respect to X_i. The sums
+!> are quadratures of integrals over the meridian plane (the kernel is
+!> normalised there), whose weights are the planar areas. Ring volumes
+!> 2 pi R_j A_j would make the corrected gradient just as exact for linear
+!> fields (the correction absorbs any weights) but weight the inner side
+!> of the support less than the outer, which spoils the symmetric
+!> cancellation that makes the corrected gradient second-order inside a
+!> lattice by an error of order h^2/R, first order next to the axis: for
+!> f = Z^3 + R^2 Z + R^2 at the two columns next to the axis (h = 1.3
+!> spacings, d = 0.1, 0.05, 0.025) the RMS error of the gradient was
+!> 0.022, 0.0055, 0.0014 with planar areas and 0.15, 0.076, 0.038 with
+!> ring volumes (measured; the planar figures are tested).
+!>
+!> Mirror images across the axis (ghosts): a particle j whose image
+!> (-R_j, Z_j) lies within the support of particle i is an entry -j of i's
+!> row (i's own image included). An image carries the odd extension of the
+!> meridian fields: position (-R_j, Z_j) and (-r_j, z_j), displacement
+!> (-u_r, u_z), a scalar f_j unchanged, the same planar area A_j (the
+!> values of a smooth axisymmetric field: u_r and the rz, zr components of
+!> a tensor are odd in r, the rest even). With them a particle next to the
+!> axis has a full support, and the corrected gradient is exact for the
+!> linear fields an axisymmetric body admits there, u_r = a R and
+!> u_z = b + c Z. Their forces: see below.
+!>
+!> Deformation gradient (3 x 3 in r-z-theta, no torsion):
+!>   F = [[dr/dR, dr/dZ, 0], [dz/dR, dz/dZ, 0], [0, 0, r/R]],
+!> the in-plane block I + grad0 u, the hoop stretch F_tt = r_i/R_i of the
+!> particle's own ring (exact for any displacement, not a kernel
+!> estimate). On the axis (R_i <= axis_tolerance h_i, a particle standing
+!> on r = 0) r/R has the limit dr/dR (r is odd in R), and the in-plane
+!> F_rr is used.
+!>
+!> Momentum, from the weak form in r-z: with dV0 = 2 pi R dA the internal
+!> virtual work is 2 pi int (P : grad0 du + P_tt du_r/R) R dA; with the
+!> particles as quadrature points (weights 2 pi R_i A_i) and the corrected
+!> gradient above for grad0 du, minus its derivative with respect to du_k
+!> is the force on particle k:
+!>   f_k = 2 pi A_k sum_j A_j (Q_k grad0 W_kj - Q_j grad0 W_jk)
+!>         - 2 pi A_k P_tt,k e_r,       Q = R P B [Pa m],
+!> the hoop term being -V0_k P_tt,k/R_k e_r with V0_k = 2 pi R_k A_k, and
+!> grad0 W_jk = -grad0 W_kj. For one reference density this is eq 14 of
+!> the paper (m_i dv_i/dt = sum_j m_i m_j (P_i B_i/rho0_i^2 + P_j
+!> B_j/rho0_j^2) grad0 W_ij in the plane) with the ring weights R_i, R_j
+!> on each stress. On a uniform lattice a uniform stress with sigma_rr =
+!> sigma_tt and sigma_rz = 0 (a state in equilibrium in a ring) gives zero
+!> force on every particle whose neighbours all have a full support: there
+!> B_j = B_k and B_k sum_j A_j (R_j - R_k) grad0 W_kj = e_r exactly.
+!>
+!> An image pair takes the same form: the image j' of j acts on k with
+!> 2 pi A_k A_j (Q_k grad0 W_kj' - Q_j grad0 W_jk'), each particle's stress
+!> along its own kernel gradient towards the other's image (grad0 W_jk' =
+!> -S grad0 W_kj', S = diag(-1, 1), so the term is 2 pi A_k A_j (Q_k + Q_j S)
+!> grad0 W_kj'). The exact derivative of the discrete strain energy would
+!> mirror j's part instead (S Q_j S: the image's reaction reflected back
+!> onto k); that form does not keep a uniform pressure in equilibrium next
+!> to the axis: the image weights R_j continue |R|, not R, across it, and
+!> the particles of the first column felt 0.55 of their hoop force (0.054
+!> the second; measured on a square lattice, h = 1.3 spacings). With the
+!> form above they feel none (tested), and the pair (k, j') is exactly
+!> minus the pair (j, k'): all pair terms, real and image, conserve both
+!> components of the momentum, and only the hoop term changes the radial
+!> one. Its price: next to the axis the radial image terms are not the
+!> derivative of the strain energy, so their work is not the stress power
+!> P : dF/dt of the particles, and the time loop must book it (as fsph_sph
+!> books the work of its mirror images as heat): in a uniform radial
+!> expansion of a disc under a uniform pressure the forces' power fell
+!> short of the stress power by 9 % of that of the two columns next to
+!> the axis (measured, d = 0.05 on [0, 1]^2); an axial stretch has none.
+!>
+!> Each loop writes only its own particle's entries and sums its row in
+!> list order, so results do not depend on the thread count.
+module fsph_tlsph
+  use fsph_kinds, only: wp, two_pi, axis_tolerance
+  use fsph_kernel, only: kernel_support, kernel_gradient_factor, in_support
+  use fsph_status, only: status_ok, status_bad_input, status_inverted_element
+  implicit none
+  private
+
+  public :: reference_neighbours, reference_kernel_gradients, reference_correction
+  public :: corrected_gradient, deformation_gradients, first_piola, first_piola_point
+  public :: tlsph_forces, hoop_force
+
+  !> Smallest eigenvalue of M = sum_j A_j grad0 W_ij (x) (X_j - X_i) [-]
+  !> below which a particle's correction is refused as singular. M is
+  !> symmetric and positive semi-definite (grad0 W is parallel to X_i - X_j
+  !> with a negative factor) and is the identity for a full support (the
+  !> kernel is normalised in the plane: int grad W (x) (X' - X) dA' = I).
+  !> On a square lattice with h = 1.3 spacings (fsph's alpha_h) it is 1.01
+  !> inside and 0.27 at a corner (0.29 with h = 1.2 spacings, the paper's
+  !> ratio), 0.15 at the worst particle of a lattice jittered by up to 0.3
+  !> spacings, and 0 for a particle alone or a single row of particles
+  !> (measured; the h = 1.3 figures are tested in
+  !> tests/test_tlsph_kernels.py). A tenth of a lattice corner's value
+  !> flags a particle whose neighbours barely span the plane: its condition
+  !> number would exceed about 40 [-].
+  real(wp), parameter, public :: correction_min_eigenvalue = 2.7e-2_wp
+  !> Largest number of cells of the reference grid per particle [-]: the
+  !> cells grow when the particles are spread out (memory stays O(N)).
+  real(wp), parameter :: cells_per_point = 4.0_wp
+
+contains
+
+  ! ---- reference neighbour lists -------------------------------------
+
+  !> Neighbour lists of the reference configuration x0 (t = 0) in CSR
+  !> form: the row of particle i, list(ptr(i) .. ptr(i+1)-1), holds first
+  !> the particles j /= i within the support 2 h_ij (fsph_kernel
+  !> in_support), then the mirror images -j of the particles whose image
+  !> (-R_j, Z_j) is within it (i's own image included), each in the order
+  !> of a scan over a cell grid (cells, then particles by index): the
+  !> order depends on the positions only. Coincident points (distance 0)
+  !> are left out (their kernel gradient is zero). O(N): one cell grid of
+  !> side the largest support. ierr = status_bad_input (ifault the first
+  !> particle at fault) for a particle with R < 0 or h <= 0, or n < 1.
+  subroutine reference_neighbours(n, x0, h, ptr, list, ierr, ifault)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n)   !< reference positions (R, Z) [m]
+    real(wp), intent(in) :: h(n)       !< smoothing lengths [m]
+    integer, intent(out) :: ptr(n + 1)
+    integer, allocatable, intent(out) :: list(:)
+    integer, intent(out) :: ierr, ifault
+    real(wp) :: cell, r0, z0
+    integer :: nr, nz, i, filled
+    integer, allocatable :: cell_start(:), item(:), counts(:)
+    integer :: dummy(1)
+    ptr = 1
+    ierr = status_bad_input
+    ifault = 0
+    if (n < 1) then
+      allocate (list(0))
+      return
+    end if
+    do i = 1, n
+      if (.not. (x0(1, i) >= 0.0_wp .and. h(i) > 0.0_wp)) then
+        ifault = i
+        allocate (list(0))
+        return
+      end if
+    end do
+    call make_grid(n, x0, h, cell, r0, z0, nr, nz, cell_start, item)
+    allocate (counts(n))
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x0, h, cell, r0, z0, nr, nz, cell_start, item, counts) private(i, dummy)
+    do i = 1, n
+      call scan_row(i, n, x0, h, cell, r0, z0, nr, nz, cell_start, item, 0, dummy, counts(i))
+    end do
+    !$omp end parallel do
+    do i = 1, n
+      ptr(i + 1) = ptr(i) + counts(i)
+    end do
+    allocate (list(ptr(n + 1) - 1))
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x0, h, cell, r0, z0, nr, nz, cell_start, item, counts, ptr, list) private(i, filled)
+    do i = 1, n
+      call scan_row(i, n, x0, h, cell, r0, z0, nr, nz, cell_start, item, counts(i), &
+                    list(ptr(i):ptr(i + 1) - 1), filled)
+    end do
+    !$omp end parallel do
+    ierr = status_ok
+  end subroutine reference_neighbours
+
+  !> The cell grid of the reference points: square cells of side at least
+  !> the largest support kernel_support max(h) (so a point's neighbours
+  !> lie in its own and the 8 adjacent cells), from the lowest (R, Z),
+  !> widened when there would be more than cells_per_point cells per
+  !> point; the points sorted by cell (counting sort, by index inside a
+  !> cell). cell_start(c) .. cell_start(c+1)-1 are cell c's positions in
+  !> item.
+  subroutine make_grid(n, x0, h, cell, r0, z0, nr, nz, cell_start, item)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n), h(n)
+    real(wp), intent(out) :: cell, r0, z0  !< [m]
+    integer, intent(out) :: nr, nz
+    integer, allocatable, intent(out) :: cell_start(:), item(:)
+    integer, allocatable :: cell_of(:), fill(:)
+    real(wp) :: r1, z1
+    integer :: i, c
+    r0 = minval(x0(1, :)); r1 = maxval(x0(1, :))
+    z0 = minval(x0(2, :)); z1 = maxval(x0(2, :))
+    cell = kernel_support*maxval(h)
+    cell = max(cell, sqrt((r1 - r0 + cell)*(z1 - z0 + cell)/(cells_per_point*n)), &
+               max(r1 - r0, z1 - z0)/(cells_per_point*n))
+    nr = int((r1 - r0)/cell) + 1
+    nz = int((z1 - z0)/cell) + 1
+    allocate (cell_start(nr*nz + 1), item(n), cell_of(n), fill(nr*nz))
+    cell_start = 0
+    do i = 1, n
+      c = grid_cell(x0(1, i), x0(2, i), cell, r0, z0, nr, nz)
+      cell_of(i) = c
+      cell_start(c + 1) = cell_start(c + 1) + 1
+    end do
+    cell_start(1) = 1
+    do c = 1, nr*nz
+      cell_start(c + 1) = cell_start(c + 1) + cell_start(c)
+    end do
+    fill = cell_start(1:nr*nz)
+    do i = 1, n
+      item(fill(cell_of(i))) = i
+      fill(cell_of(i)) = fill(cell_of(i)) + 1
+    end do
+  end subroutine make_grid
+
+  !> Cell (1 .. nr nz) of a point of the grid.
+  pure integer function grid_cell(r, z, cell, r0, z0, nr, nz)
+    real(wp), intent(in) :: r, z, cell, r0, z0
+    integer, intent(in) :: nr, nz
+    grid_cell = 1 + min(int((r - r0)/cell), nr - 1) + nr*min(int((z - z0)/cell), nz - 1)
+  end function grid_cell
+
+  !> The row of particle i: its count, and with cap > 0 its first cap
+  !> entries in row (reals first, then mirror images as -j).
+  pure subroutine scan_row(i, n, x0, h, cell, r0, z0, nr, nz, cell_start, item, cap, row, count)
+    integer, intent(in) :: i, n, nr, nz, cap
+    real(wp), intent(in) :: x0(2, n), h(n), cell, r0, z0
+    integer, intent(in) :: cell_start(nr*nz + 1), item(n)
+    integer, intent(inout) :: row(*)
+    integer, intent(out) :: count
+    integer :: ir, iz, jr, jz, lo, hi, c, m, j
+    real(wp) :: dist2
+    count = 0
+    ir = min(int((x0(1, i) - r0)/cell), nr - 1)
+    iz = min(int((x0(2, i) - z0)/cell), nz - 1)
+    ! real neighbours: the 3 x 3 cells around i
+    do jz = max(iz - 1, 0), min(iz + 1, nz - 1)
+      do jr = max(ir - 1, 0), min(ir + 1, nr - 1)
+        c = 1 + jr + nr*jz
+        do m = cell_start(c), cell_start(c + 1) - 1
+          j = item(m)
+          if (j == i) cycle
+          dist2 = (x0(1, i) - x0(1, j))**2 + (x0(2, i) - x0(2, j))**2
+          if (.not. (in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp)) cycle
+          count = count + 1
+          if (count <= cap) row(count) = j
+        end do
+      end do
+    end do
+    ! mirror images: the real particles near i's own image (-R_i, Z_i)
+    ! are those whose images are near i; the cells within one side of it
+    lo = floor((-x0(1, i) - cell - r0)/cell)
+    hi = floor((-x0(1, i) + cell - r0)/cell)
+    do jz = max(iz - 1, 0), min(iz + 1, nz - 1)
+      do jr = max(lo, 0), min(hi, nr - 1)
+        c = 1 + jr + nr*jz
+        do m = cell_start(c), cell_start(c + 1) - 1
+          j = item(m)
+          dist2 = (x0(1, i) + x0(1, j))**2 + (x0(2, i) - x0(2, j))**2
+          if (.not. (in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp)) cycle
+          count = count + 1
+          if (count <= cap) row(count) = -j
+        end do
+      end do
+    end do
+  end subroutine scan_row
+
+  !> Sign of an entry's radial coordinate: -1 for a mirror image (-j),
+  !> +1 for a particle [-].
+  pure real(wp) function image_sign(entry)
+    integer, intent(in) :: entry
+    image_sign = merge(-1.0_wp, 1.0_wp, entry < 0)
+  end function image_sign
+
+  !> Kernel gradient grad0 W_ij = grad_{X_i} W(|X_i - X_j'|, h_ij) of
+  !> every entry [1/m^3], X_j' the entry's position ((-R_j, Z_j) for an
+  !> image). Computed once: the reference configuration does not move. The
+  !> entry (j, i) gets exactly minus the bits of (i, j), and the image
+  !> entry (j, -i) exactly S times minus those of (i, -j).
+  subroutine reference_kernel_gradients(n, x0, h, ptr, list, grad_w)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n), h(n)  !< [m]
+    integer, intent(in) :: ptr(n + 1), list(*)
+    real(wp), intent(out) :: grad_w(2, *)
+    integer :: i, k, j
+    real(wp) :: dx(2), dist2
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x0, h, ptr, list, grad_w) private(i, k, j, dx, dist2)
+    do i = 1, n
+      do k = ptr(i), ptr(i + 1) - 1
+        j = abs(list(k))
+        dx(1) = x0(1, i) - image_sign(list(k))*x0(1, j)
+        dx(2) = x0(2, i) - x0(2, j)
+        dist2 = dx(1)**2 + dx(2)**2
+        grad_w(:, k) = kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j)))*dx
+      end do
+    end do
+    !$omp end parallel do
+  end subroutine reference_kernel_gradients
+
+  ! ---- the correction ------------------------------------------------
+
+  !> Correction matrices B_i = M_i^-1, M_i = sum_j A_j grad0 W_ij (x)
+  !> (X_j' - X_i) (module header), and the smallest eigenvalue of each
+  !> M_i [-]. A particle whose smallest eigenvalue is below
+  !> correction_min_eigenvalue (an isolated particle, a single row) is not
+  !> corrected: its B is set to zero (no gradient at all, so that a caller
+  !> that ignores the report sees no deformation rather than a made-up
+  !> one), and ierr = status_bad_input with ifault the lowest such index.
+  subroutine reference_correction(n, x0, area, ptr, list, grad_w, bmat, eig_min, ierr, ifault)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n)     !< [m]
+    real(wp), intent(in) :: area(n)      !< planar areas [m^2]
+    integer, intent(in) :: ptr(n + 1), list(*)
+    real(wp), intent(in) :: grad_w(2, *) !< [1/m^3]
+    real(wp), intent(out) :: bmat(2, 2, n) !< [-]
+    real(wp), intent(out) :: eig_min(n)  !< [-]
+    integer, intent(out) :: ierr, ifault
+    integer :: i, k, j
+    real(wp) :: m(2, 2), dx(2), det, half_trace, spread
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x0, area, ptr, list, grad_w, bmat, eig_min) private(i, k, j, m, dx, det, half_trace, spread)
+    do i = 1, n
+      m = 0.0_wp
+      do k = ptr(i), ptr(i + 1) - 1
+        j = abs(list(k))
+        dx(1) = image_sign(list(k))*x0(1, j) - x0(1, i)
+        dx(2) = x0(2, j) - x0(2, i)
+        m(1, 1) = m(1, 1) + area(j)*grad_w(1, k)*dx(1)
+        m(2, 1) = m(2, 1) + area(j)*grad_w(2, k)*dx(1)
+        m(1, 2) = m(1, 2) + area(j)*grad_w(1, k)*dx(2)
+        m(2, 2) = m(2, 2) + area(j)*grad_w(2, k)*dx(2)
+      end do
+      ! eigenvalues of the symmetric part (M is symmetric up to round-off)
+      half_trace = 0.5_wp*(m(1, 1) + m(2, 2))
+      spread = sqrt((0.5_wp*(m(1, 1) - m(2, 2)))**2 + (0.5_wp*(m(1, 2) + m(2, 1)))**2)
+      eig_min(i) = half_trace - spread
+      det = m(1, 1)*m(2, 2) - m(1, 2)*m(2, 1)
+      if (eig_min(i) < correction_min_eigenvalue) then
+        bmat(:, :, i) = 0.0_wp
+      else
+        bmat(1, 1, i) = m(2, 2)/det
+        bmat(2, 2, i) = m(1, 1)/det
+        bmat(1, 2, i) = -m(1, 2)/det
+        bmat(2, 1, i) = -m(2, 1)/det
+      end if
+    end do
+    !$omp end parallel do
+    ifault = 0
+    ierr = status_ok
+    do i = 1, n
+      if (eig_min(i) < correction_min_eigenvalue) then
+        ifault = i
+        ierr = status_bad_input
+        return
+      end if
+    end do
+  end subroutine reference_correction
+
+  ! ---- gradients -----------------------------------------------------
+
+  !> Corrected reference gradient of a scalar field f (mirror images take
+  !> f_j): grad0 f_i = B_i sum_j A_j (f_j - f_i) grad0 W_ij, (d/dR, d/dZ)
+  !> [units of f per m].
+  subroutine corrected_gradient(n, area, ptr, list, grad_w, bmat, f, grad_f)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: area(n)      !< [m^2]
+    integer, intent(in) :: ptr(n + 1), list(*)
+    real(wp), intent(in) :: grad_w(2, *) !< [1/m^3]
+    real(wp), intent(in) :: bmat(2, 2, n), f(n)
+    real(wp), intent(out) :: grad_f(2, n)
+    integer :: i, k, j
+    real(wp) :: s(2)
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, area, ptr, list, grad_w, bmat, f, grad_f) private(i, k, j, s)
+    do i = 1, n
+      s = 0.0_wp
+      do k = ptr(i), ptr(i + 1) - 1
+        j = abs(list(k))
+        s = s + area(j)*(f(j) - f(i))*grad_w(:, k)
+      end do
+      grad_f(:, i) = matmul(bmat(:, :, i), s)
+    end do
+    !$omp end parallel do
+  end subroutine corrected_gradient
+
+  !> Deformation gradients at the current positions x: the in-plane block
+  !> fmat = I + grad0 u (fmat(a, b) = d x_a / d X_b, (1, 2) = (r, z)),
+  !> grad0 u_i = sum_j A_j (u_j' - u_i) (x) B_i grad0 W_ij with an image's
+  !> displacement (-u_r, u_z); the hoop stretch f_tt = r_i/R_i (its limit
+  !> dr/dR on the axis); J = det(fmat) f_tt. ierr =
+  !> status_inverted_element with ifault = -i (a particle, fsph_layouts)
+  !> for the lowest i whose det(fmat) or f_tt is not positive.
+  subroutine deformation_gradients(n, x0, x, h, area, ptr, list, grad_w, bmat, fmat, f_tt, jac, ierr, ifault)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n), x(2, n)  !< reference and current positions [m]
+    real(wp), intent(in) :: h(n)         !< [m]
+    real(wp), intent(in) :: area(n)      !< [m^2]
+    integer, intent(in) :: ptr(n + 1), list(*)
+    real(wp), intent(in) :: grad_w(2, *) !< [1/m^3]
+    real(wp), intent(in) :: bmat(2, 2, n)
+    real(wp), intent(out) :: fmat(2, 2, n), f_tt(n), jac(n) !< [-]
+    integer, intent(out) :: ierr, ifault
+    integer :: i, k, j
+    real(wp) :: s(2, 2), du(2), ui(2), sg, det
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x0, x, h, area, ptr, list, grad_w, bmat, fmat, f_tt, jac) private(i, k, j, s, du, ui, sg, det)
+    do i = 1, n
+      ui = x(:, i) - x0(:, i)
+      s = 0.0_wp
+      do k = ptr(i), ptr(i + 1) - 1
+        j = abs(list(k))
+        sg = image_sign(list(k))
+        du(1) = sg*(x(1, j) - x0(1, j)) - ui(1)
+        du(2) = (x(2, j) - x0(2, j)) - ui(2)
+        s(1, 1) = s(1, 1) + area(j)*du(1)*grad_w(1, k)
+        s(2, 1) = s(2, 1) + area(j)*du(2)*grad_w(1, k)
+        s(1, 2) = s(1, 2) + area(j)*du(1)*grad_w(2, k)
+        s(2, 2) = s(2, 2) + area(j)*du(2)*grad_w(2, k)
+      end do
+      ! grad0 u = s B^T: (B grad0 W)_b = B(b, c) grad0 W_c
+      fmat(:, :, i) = matmul(s, transpose(bmat(:, :, i)))
+      fmat(1, 1, i) = fmat(1, 1, i) + 1.0_wp
+      fmat(2, 2, i) = fmat(2, 2, i) + 1.0_wp
+      if (x0(1, i) > axis_tolerance*h(i)) then
+        f_tt(i) = x(1, i)/x0(1, i)
+      else
+        f_tt(i) = fmat(1, 1, i)
+      end if
+      det = fmat(1, 1, i)*fmat(2, 2, i) - fmat(1, 2, i)*fmat(2, 1, i)
+      jac(i) = merge(det*f_tt(i), -abs(det*f_tt(i)), det > 0.0_wp .and. f_tt(i) > 0.0_wp)
+    end do
+    !$omp end parallel do
+    ifault = 0
+    ierr = status_ok
+    do i = 1, n
+      if (.not. (jac(i) > 0.0_wp)) then
+        ifault = -i
+        ierr = status_inverted_element
+        return
+      end if
+    end do
+  end subroutine deformation_gradients
+
+  ! ---- stress and forces ---------------------------------------------
+
+  !> First Piola-Kirchhoff stress P = J sigma F^-T of one point [Pa], from
+  !> the Cauchy stress sig = (rr, zz, rz, tt) [Pa] and the deformation
+  !> gradient (in-plane fmat, hoop f_tt). With J F^-T = f_tt cof(fmat) in
+  !> the plane and J/f_tt = det(fmat) in the hoop direction, nothing is
+  !> divided: p = sigma f_tt cof(fmat) (p(a, b): row a spatial, column b
+  !> reference), p_tt = det(fmat) sigma_tt.
+  pure subroutine first_piola_point(fmat, f_tt, sig, p, p_tt)
+    real(wp), intent(in) :: fmat(2, 2), f_tt, sig(4)
+    real(wp), intent(out) :: p(2, 2), p_tt
+    real(wp) :: cof(2, 2), s2(2, 2)
+    cof(1, 1) = fmat(2, 2); cof(1, 2) = -fmat(2, 1)
+    cof(2, 1) = -fmat(1, 2); cof(2, 2) = fmat(1, 1)
+    s2(1, 1) = sig(1); s2(2, 2) = sig(2); s2(1, 2) = sig(3); s2(2, 1) = sig(3)
+    p = f_tt*matmul(s2, cof)
+    p_tt = (fmat(1, 1)*fmat(2, 2) - fmat(1, 2)*fmat(2, 1))*sig(4)
+  end subroutine first_piola_point
+
+  !> first_piola_point for n particles.
+  subroutine first_piola(n, fmat, f_tt, sig, p, p_tt)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: fmat(2, 2, n), f_tt(n) !< [-]
+    real(wp), intent(in) :: sig(4, n)              !< Cauchy (rr, zz, rz, tt) [Pa]
+    real(wp), intent(out) :: p(2, 2, n), p_tt(n)   !< [Pa]
+    integer :: i
+    !$omp parallel do default(none) schedule(static) shared(n, fmat, f_tt, sig, p, p_tt) private(i)
+    do i = 1, n
+      call first_piola_point(fmat(:, :, i), f_tt(i), sig(:, i), p(:, :, i), p_tt(i))
+    end do
+    !$omp end parallel do
+  end subroutine first_piola
+
+  !> Hoop force of a particle per full ring [N], radial: -V0 P_tt/R =
+  !> -2 pi A P_tt with V0 = 2 pi R A (no division: finite on the axis).
+  pure elemental real(wp) function hoop_force(area, p_tt)
+    real(wp), intent(in) :: area  !< planar area [m^2]
+    real(wp), intent(in) :: p_tt  !< first Piola-Kirchhoff hoop stress [Pa]
+    hoop_force = -two_pi*area*p_tt
+  end function hoop_force
+
+  !> Internal forces per full ring [N] (module header):
+  !>   f_k = 2 pi sum_j (A_k A_j) (Q_k + Q_j S_j) grad0 W_kj + hoop_force e_r,
+  !> Q = R P B [Pa m], S_j = diag(-1, 1) for an image, I for a particle.
+  !> The pair factor is formed symmetrically (A_k A_j, Q_k + Q_j), so the
+  !> term of (j, k) is exactly minus that of (k, j), and the term of the
+  !> image pair (j, k') exactly minus that of (k, j'). work is space for Q.
+  subroutine tlsph_forces(n, x0, area, ptr, list, grad_w, bmat, p, p_tt, work, force)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n)     !< [m]
+    real(wp), intent(in) :: area(n)      !< [m^2]
+    integer, intent(in) :: ptr(n + 1), list(*)
+    real(wp), intent(in) :: grad_w(2, *) !< [1/m^3]
+    real(wp), intent(in) :: bmat(2, 2, n)           !< [-]
+    real(wp), intent(in) :: p(2, 2, n), p_tt(n)     !< first Piola-Kirchhoff [Pa]
+    real(wp), intent(out) :: work(2, 2, n)          !< Q [Pa m]
+    real(wp), intent(out) :: force(2, n)            !< [N]
+    integer :: i, k, j
+    real(wp) :: qs(2, 2), f(2), sg, aa
+    !$omp parallel default(none) shared(n, x0, area, ptr, list, grad_w, bmat, p, p_tt, work, force) &
+    !$omp private(i, k, j, qs, f, sg, aa)
+    !$omp do schedule(static)
+    do i = 1, n
+      work(:, :, i) = x0(1, i)*matmul(p(:, :, i), bmat(:, :, i))
+    end do
+    !$omp end do
+    !$omp do schedule(dynamic, 64)
+    do i = 1, n
+      f = 0.0_wp
+      do k = ptr(i), ptr(i + 1) - 1
+        j = abs(list(k))
+        sg = image_sign(list(k))
+        ! Q_i + Q_j S for an image (S = diag(-1, 1)), Q_i + Q_j otherwise
+        qs(1, 1) = work(1, 1, i) + sg*work(1, 1, j)
+        qs(2, 1) = work(2, 1, i) + sg*work(2, 1, j)
+        qs(1, 2) = work(1, 2, i) + work(1, 2, j)
+        qs(2, 2) = work(2, 2, i) + work(2, 2, j)
+        aa = area(i)*area(j)
+        f(1) = f(1) + aa*(qs(1, 1)*grad_w(1, k) + qs(1, 2)*grad_w(2, k))
+        f(2) = f(2) + aa*(qs(2, 1)*grad_w(1, k) + qs(2, 2)*grad_w(2, k))
+      end do
+      force(1, i) = two_pi*f(1) + hoop_force(area(i), p_tt(i))
+      force(2, i) = two_pi*f(2)
+    end do
+    !$omp end do
+    !$omp end parallel
+  end subroutine tlsph_forces
+
+end module fsph_tlsph
