@@ -1,7 +1,8 @@
 """Each body's books at every history record (fsph.h5 body_history/<name>):
-kinetic and internal energy, axial momentum and the axial force on the
-body; a perforation run as an engineer reads it (the projectile's
-deceleration force)."""
+kinetic and internal energy, axial momentum, the axial force on the body,
+its plastic, viscous and hourglass work and the energy it received
+through contact; perforation runs as an engineer reads them (the
+projectile's deceleration force, what the plate received)."""
 
 import h5py
 import numpy as np
@@ -12,15 +13,15 @@ from fsph.driver import run
 from conftest import CASES
 
 
-@pytest.fixture(scope="module")
-def plate_run(tmp_path_factory):
-    """The 508 m/s plate case to 30 us (adaptive: elements, converted
-    particles, slide lines and particle contact between the bodies)."""
-    folder = tmp_path_factory.mktemp("plate_bodies")
+def plate_books(tmp_path_factory, deck_name, end_time):
+    """Run a 508 m/s plate deck (its end time 200 us) to end_time [s] and
+    read its summary, history, each body's books and their units, as a
+    user would (h5py)."""
+    folder = tmp_path_factory.mktemp(deck_name)
     deck = folder / "plate.nml"
-    text = (CASES / "al_plate_508.nml").read_text()
+    text = (CASES / f"{deck_name}.nml").read_text()
     assert "end_time = 200.0e-6" in text
-    deck.write_text(text.replace("end_time = 200.0e-6", "end_time = 30.0e-6").replace(
+    deck.write_text(text.replace("end_time = 200.0e-6", f"end_time = {end_time!r}").replace(
         "references/", str(CASES / "references") + "/"))
     summary = run(deck, folder / "out", quiet=True)
     with h5py.File(folder / "out" / "fsph.h5") as h5:
@@ -28,6 +29,13 @@ def plate_run(tmp_path_factory):
         bodies = {b: {k: g[k][...] for k in g} for b, g in h5["body_history"].items()}
         units = {k: g.attrs["units"] for k, g in h5["body_history/projectile"].items()}
     return summary, hist, bodies, units
+
+
+@pytest.fixture(scope="module")
+def plate_run(tmp_path_factory):
+    """The 508 m/s plate case to 30 us (adaptive: elements, converted
+    particles, slide lines and particle contact between the bodies)."""
+    return plate_books(tmp_path_factory, "al_plate_508", 30.0e-6)
 
 
 def test_bodies_add_up_to_the_whole(plate_run):
@@ -124,16 +132,7 @@ def test_viscous_and_hourglass_books(plate_run):
 def sph_plate_run(tmp_path_factory):
     """The pure SPH 508 m/s plate to 20 us: the bodies touch only through
     the Riemann particle contact."""
-    folder = tmp_path_factory.mktemp("plate_sph_bodies")
-    deck = folder / "plate.nml"
-    text = (CASES / "al_plate_508_sph.nml").read_text()
-    assert "end_time = 200.0e-6" in text
-    deck.write_text(text.replace("end_time = 200.0e-6", "end_time = 20.0e-6").replace(
-        "references/", str(CASES / "references") + "/"))
-    run(deck, folder / "out", quiet=True)
-    with h5py.File(folder / "out" / "fsph.h5") as h5:
-        hist = {k: h5["history"][k][...] for k in h5["history"]}
-        bodies = {b: {k: g[k][...] for k in g} for b, g in h5["body_history"].items()}
+    _, hist, bodies, _ = plate_books(tmp_path_factory, "al_plate_508_sph", 20.0e-6)
     return hist, bodies
 
 
