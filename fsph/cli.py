@@ -64,9 +64,11 @@ def _parser():
     pl = sub.add_parser("plot", help="PNGs of a run: deformed body at chosen times "
                                      "(shapes.png), energy and time-step histories "
                                      "(history.png), and where they apply the perforation "
-                                     "histories (perforation.png) and the damage map "
-                                     "(damage.png); with --field, pictures of fields "
-                                     "(field_NAME.png) instead")
+                                     "histories (perforation.png), the damage map "
+                                     "(damage.png), the gauges (gauges.png) and each "
+                                     "body's energies (bodies.png); with --field, pictures "
+                                     "of fields (field_NAME.png) instead; with --history, "
+                                     "only the time histories")
     pl.add_argument("run_dir", help="output folder of `fsph run`")
     pl.add_argument("--times",
                     help="times in µs, comma separated: each panel draws the snapshot "
@@ -81,6 +83,12 @@ def _parser():
                          "[GPa], mises (von Mises stress [GPa]), temperature [K], damage, "
                          "density [kg/m^3], material; elements and particles on one colour "
                          "scale, mirrored about the axis")
+    pl.add_argument("--history", action="store_true",
+                    help="draw only the time histories: history.png (energies, energy "
+                         "error, rigid-plane and body forces, time step), bodies.png (each "
+                         "body's kinetic and internal energy, plastic, viscous, hourglass and "
+                         "contact work) and, where they apply, gauges.png and "
+                         "perforation.png")
     pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png; with one "
                                            "--field, its picture)")
     pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
@@ -169,6 +177,12 @@ def _plot(args):
                              f"{', '.join(PLOT_FORMATS)}")
         if not output.parent.is_dir():
             raise InputError(f"-o {output}: expected an existing folder, no {output.parent}")
+    if args.history:
+        clash = [name for name, given in (("--field", args.field is not None),
+                                          ("--times", times is not None), ("-o", bool(args.output))) if given]
+        if clash:
+            raise InputError(f"--history: draws the time histories only, each into its RUN_DIR file; "
+                             f"expected no {', '.join(clash)}")
     fields = _plot_fields(args.field, run_dir) if args.field is not None else None
     if fields and len(fields) > 1 and args.output:
         raise InputError(f"-o {args.output}: names one picture, --field asks for {len(fields)} "
@@ -181,10 +195,11 @@ def _plot(args):
             for name in fields:
                 print(field_map(run_dir, name, times, args.output, args.dpi))
             return EXIT_OK
-        print(deformed_shapes(run_dir, times, args.output, args.dpi))
+        if not args.history:
+            print(deformed_shapes(run_dir, times, args.output, args.dpi))
         print(histories(run_dir, dpi=args.dpi))
         for extra in (perforation_histories(run_dir, dpi=args.dpi),
-                      damage_map(run_dir, times, dpi=args.dpi),
+                      None if args.history else damage_map(run_dir, times, dpi=args.dpi),
                       gauge_histories(run_dir, dpi=args.dpi),
                       body_energies(run_dir, dpi=args.dpi)):
             if extra:

@@ -630,7 +630,7 @@ def _run_all(todo, scheduler, workers, threads, say):
     write their checkpoints), queued ones are cancelled; both are
     'interrupted', and the same command resumes the sweep."""
     from distributed import as_completed
-    with _client(scheduler, workers) as client:
+    with _client(scheduler, workers) as client, _interruptible():
         where = (f"scheduler {scheduler}" if scheduler else
                  f"local cluster of {workers} worker(s)")
         say(f"fsph sweep: {where}, {threads} OpenMP thread(s) per run")
@@ -646,6 +646,23 @@ def _run_all(todo, scheduler, workers, threads, say):
             say("fsph sweep: interrupted: stopping the runs under way (they keep their "
                 "checkpoints); the same command resumes the sweep")
             _stop(futures, say)
+
+
+@contextmanager
+def _interruptible():
+    """SIGINT raises KeyboardInterrupt here even if the sweep was started
+    with it ignored (a background job of a non-interactive shell inherits
+    SIG_IGN, and Python then installs no handler of its own), as `fsph run`
+    takes SIGINT whatever it inherited; the handler before is restored."""
+    try:
+        previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:          # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _stop(futures, say):

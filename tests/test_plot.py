@@ -536,6 +536,24 @@ def test_bodies_png_draws_each_bodys_books(block_run, monkeypatch, capsys):
     assert given + received == pytest.approx(-removed, abs=1e-9 * received)
 
 
+def test_history_option_draws_the_time_histories_only(block_run, monkeypatch, capsys):
+    """`fsph plot DIR --history`: history.png, bodies.png and
+    perforation.png of the two-body run, no shapes or damage map; with
+    --field, --times or -o it is a one-line error, nothing drawn."""
+    from fsph.cli import main
+    code, printed, figures = plot_cli(monkeypatch, capsys, block_run, "--history")
+    assert code == 0
+    assert set(figures) == {"history.png", "bodies.png", "perforation.png"}
+    assert printed == [str(block_run / name) for name in ("history.png", "perforation.png", "bodies.png")]
+    for extra in (["--times", "2"], ["--field", "eps_p"], ["-o", str(block_run / "x.png")]):
+        before = {p: p.stat().st_mtime_ns for p in block_run.glob("*.png")}
+        assert main(["plot", str(block_run), "--history", *extra]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("fsph: error: --history: ")
+        assert extra[0] in err[0]
+        assert {p: p.stat().st_mtime_ns for p in block_run.glob("*.png")} == before
+
+
 def test_gauges_png_draws_each_gauge(tmp_path, monkeypatch, capsys):
     """A run with two gauges: gauges.png has a curve per gauge in every
     panel, named with its kind, starting at the rod's striking velocity
