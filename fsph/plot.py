@@ -628,19 +628,30 @@ GAUGE_PANELS = (("pressure", "pressure [GPa]", 1e-9), ("stress_zz", "axial stres
                 ("velocity_z", "axial velocity [m/s]", 1.0), ("plastic_strain", "plastic strain [-]", 1.0))
 
 
+def _named_histories(run_dir, group, keys):
+    """Time [µs] of fsph.h5's history rows, each member of `group`
+    (gauge_history, body_history) as (its datasets among keys, its
+    attributes), and the run's title; None for a run without the group or
+    with an empty one."""
+    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+        if group not in h5 or not len(h5[group]):
+            return None
+        t = h5["history/time"][...] * 1e6
+        members = {name: ({k: g[k][...] for k in keys if k in g}, dict(g.attrs)) for name, g in h5[group].items()}
+        return t, members, h5.attrs.get("title", "")
+
+
 def _gauge_figure(run_dir):
     """The figure of gauge_histories (None for a run without gauges)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
-        if "gauge_history" not in h5 or not len(h5["gauge_history"]):
-            return None
-        t = h5["history/time"][...] * 1e6
-        gauges = {name: ({f: g[f][...] for f, _, _ in GAUGE_PANELS if f in g}, g.attrs.get("kind", ""))
-                  for name, g in h5["gauge_history"].items()}
-        title = h5.attrs.get("title", "")
+    found = _named_histories(run_dir, "gauge_history", [f for f, _, _ in GAUGE_PANELS])
+    if found is None:
+        return None
+    t, members, title = found
+    gauges = {name: (fields, attrs.get("kind", "")) for name, (fields, attrs) in members.items()}
     fig, axes = plt.subplots(len(GAUGE_PANELS), 1, figsize=(7, 2.2 * len(GAUGE_PANELS) + 0.6), sharex=True,
                              layout="constrained")
     for (field, label, scale), ax in zip(GAUGE_PANELS, axes):
@@ -674,12 +685,11 @@ def _body_figure(run_dir):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
-        if "body_history" not in h5 or not len(h5["body_history"]):
-            return None
-        t = h5["history/time"][...] * 1e6
-        bodies = {name: {k: g[k][...] for k, _ in BODY_CURVES if k in g} for name, g in h5["body_history"].items()}
-        title = h5.attrs.get("title", "")
+    found = _named_histories(run_dir, "body_history", [k for k, _ in BODY_CURVES])
+    if found is None:
+        return None
+    t, members, title = found
+    bodies = {name: books for name, (books, _) in members.items()}
     fig, axes = plt.subplots(len(bodies), 1, figsize=(7, 3.2 * len(bodies) + 0.6), sharex=True,
                              layout="constrained", squeeze=False)
     for ax, (name, books) in zip(axes[:, 0], bodies.items()):

@@ -852,13 +852,20 @@ contains
   !> kinetic energy (half-step velocities) [J], internal energy [J] and
   !> axial momentum [N s] of its nodes (a node belongs to the body of the
   !> elements it joins), elements and particles, summed as energy_budget
-  !> sums the whole. Serial, in index order: once per history record.
+  !> sums the whole; and its work books [J], each the mass-weighted sum of
+  !> a material history row of its elements and particles (work_books).
+  !> Serial, in index order: once per history record.
   function body_budget(sim, n_bodies) result(books)
     type(simulation_t), intent(in) :: sim
     integer, intent(in) :: n_bodies
     real(wp) :: books(body_columns, n_bodies)
+    !> (book column, material history row [J/kg]) of each work book
+    integer, parameter :: work_books(2, 4) = reshape([bcol_plastic_work, hist_plastic_work, &
+                                                      bcol_viscous_work, hist_viscous_work, &
+                                                      bcol_hourglass_work, hist_hourglass_work, &
+                                                      bcol_contact_work, hist_contact_work], [2, 4])
     integer, allocatable :: node_body(:)
-    integer :: a, e, i, b
+    integer :: a, e, i, b, k
     books = 0.0_wp
     associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
       allocate (node_body(nd%n))
@@ -875,19 +882,18 @@ contains
       do e = 1, el%n
         b = el%body(e)
         books(bcol_internal, b) = books(bcol_internal, b) + el%mass(e)*el%e(e)
-        books(bcol_plastic_work, b) = books(bcol_plastic_work, b) + el%mass(e)*el%hist(hist_plastic_work, e)
-        books(bcol_viscous_work, b) = books(bcol_viscous_work, b) + el%mass(e)*el%hist(hist_viscous_work, e)
-        books(bcol_contact_work, b) = books(bcol_contact_work, b) + el%mass(e)*el%hist(hist_contact_work, e)
+        do k = 1, size(work_books, 2)
+          books(work_books(1, k), b) = books(work_books(1, k), b) + el%mass(e)*el%hist(work_books(2, k), e)
+        end do
       end do
       do i = 1, pt%n
         b = pt%body(i)
         books(bcol_kinetic, b) = books(bcol_kinetic, b) + 0.5_wp*pt%mass(i)*(pt%v(1, i)**2 + pt%v(2, i)**2)
         books(bcol_internal, b) = books(bcol_internal, b) + pt%mass(i)*pt%e(i)
         books(bcol_momentum_z, b) = books(bcol_momentum_z, b) + pt%mass(i)*pt%v(2, i)
-        books(bcol_plastic_work, b) = books(bcol_plastic_work, b) + pt%mass(i)*pt%hist(hist_plastic_work, i)
-        books(bcol_viscous_work, b) = books(bcol_viscous_work, b) + pt%mass(i)*pt%hist(hist_viscous_work, i)
-        books(bcol_hourglass_work, b) = books(bcol_hourglass_work, b) + pt%mass(i)*pt%hist(hist_hourglass_work, i)
-        books(bcol_contact_work, b) = books(bcol_contact_work, b) + pt%mass(i)*pt%hist(hist_contact_work, i)
+        do k = 1, size(work_books, 2)
+          books(work_books(1, k), b) = books(work_books(1, k), b) + pt%mass(i)*pt%hist(work_books(2, k), i)
+        end do
       end do
     end associate
   end function body_budget

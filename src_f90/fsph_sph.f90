@@ -536,9 +536,9 @@ contains
         dvji = v(:, j) - v(:, i)
         vq = v_visc(:, j) - v_visc(:, i)
         ! viscous and hourglass work per unit (w_i + w_j)
-        q_work = -pair_q(k)*(vq(1)*grad(1, k) + vq(2)*grad(2, k)) + pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
         visc_work = -pair_q(k)*(vq(1)*grad(1, k) + vq(2)*grad(2, k))
         hg_work = pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
+        q_work = visc_work + pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
         sum_visc = sum_visc + two_pi*mass(j)*wi*visc_work
         sum_hg = sum_hg + two_pi*mass(j)*wi*hg_work
         w_own = pair_work(pair_stress(acts_on(intact(i), intact(j))*wi, sig(:, i), 0.0_wp, zero4, 1.0_wp), &
