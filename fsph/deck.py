@@ -333,6 +333,18 @@ SCHEMA = {
                                   "particles. Particles sit at the cell centroids, each carrying "
                                   "the ring mass of its cell (gmsh: elements only).",
                                   choices=("elements", "particles")),
+            "formulation": Key("str", "updated", "-",
+                               "Particle bodies: updated (the SPH of the other particle bodies: "
+                               "neighbours searched every cycle, kernels on the current "
+                               "positions) or total (total-Lagrangian SPH, Wang, Xu & Yang "
+                               "2022: neighbours, kernels and the corrected gradient of the "
+                               "initial configuration, the deformation gradient F, the first "
+                               "Piola-Kirchhoff stress; no tensile instability, but the "
+                               "neighbours never change, so it is not for flows that mix "
+                               "material). total needs discretisation 'particles' and no "
+                               "joined_to; the body meets the others through the particle "
+                               "contact and the planes (docs/method.md, 'Total-Lagrangian "
+                               "particles').", choices=("updated", "total")),
             "joined_to": Key("str", None, "-",
                              "Name of another body this one is glued to as one continuum (modes "
                              "fixed and adaptive): element and particle parts are coupled through "
@@ -408,6 +420,19 @@ SCHEMA = {
                              "its D falls by 2.5 % (docs/validation.md). Values above 0.5 "
                              "are not accepted: untested.",
                              lower=0.0, upper=0.5),
+            "total_hourglass": Key("float", 1.0, "-",
+                                   "Coefficient gamma of the hourglass control of total-"
+                                   "Lagrangian bodies (Ganzenmueller 2015): a pair force along "
+                                   "the line of centres, proportional to gamma E W_ij times the "
+                                   "difference between the pair's separation and the one its "
+                                   "deformation gradients predict (zero for any affine "
+                                   "deformation). It is elastic: it also resists plastic flow. "
+                                   "On the Armco Taylor rod (20 particles across) gamma 0 / 1 / "
+                                   "2 / 5 / 10 gave an impact-face diameter of 14.15 / 13.49 / "
+                                   "13.23 / 12.91 / 12.41 mm (FEM 14.74, experiment 13.7) and "
+                                   "from 2 up particles colder than the reference state; 20 "
+                                   "was unstable (docs/method.md). 0 turns it off.",
+                                   lower=0.0, upper=10.0),
             "debris_density": Key("float", 0.1, "-",
                                   "A particle whose density falls below this fraction of its "
                                   "material's reference density is debris: fragments that have "
@@ -1283,6 +1308,23 @@ def _check_size(path, bodies):
                             " x ".join(f"{k} {v}" for k, v in counts.items()))
 
 
+def _check_formulation(path, bodies):
+    """formulation 'total' only for particle bodies that are joined to no
+    other body and that no body joins."""
+    joined = {b["joined_to"] for b in bodies if b["joined_to"] is not None}
+    for i, b in enumerate(bodies):
+        if b["formulation"] != "total":
+            continue
+        if b["discretisation"] != "particles":
+            raise DeckError(path, f"body #{i + 1}", "formulation",
+                            "'updated' unless discretisation is 'particles' (total-Lagrangian "
+                            "bodies are particles)", b["formulation"])
+        if b["joined_to"] is not None or b["name"] in joined:
+            raise DeckError(path, f"body #{i + 1}", "formulation",
+                            "'updated' for a body joined to another (a total-Lagrangian body "
+                            "is a continuum of its own)", b["formulation"])
+
+
 def _check_joins(path, bodies, mode):
     """joined_to only in modes fixed and adaptive, naming another body."""
     names = [b["name"] for b in bodies]
@@ -1375,7 +1417,7 @@ def _check_output(path, deck):
 
 def _cross_check(path, deck):
     """Checks across keys and groups, in this order: bodies
-    (discretisation, geometry, size, joins), erosion and conversion, rod
+    (discretisation, geometry, size, joins, formulation), erosion and conversion, rod
     radii, unique names, materials, boundaries, gauges, metrics, output. Fills in
     the bodies' default discretisation and the deck's material warnings."""
     mode = deck["control"]["mode"]
@@ -1384,6 +1426,7 @@ def _cross_check(path, deck):
         _check_geometry(path, f"body #{i + 1}", b)
     _check_size(path, deck["body"])
     _check_joins(path, deck["body"], mode)
+    _check_formulation(path, deck["body"])
     if deck["output"]["revolve_segments"] and not deck["output"]["vtu"]:
         raise DeckError(path, "output", "revolve_segments", "0 when vtu = .false. (the revolved "
                         "series is written beside the ParaView series)", deck["output"]["revolve_segments"])

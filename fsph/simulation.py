@@ -141,6 +141,8 @@ class Simulation:
             self._call(_api.add_rigid_plane(self._run, np.array(bc["point"]), np.array(bc["normal"])),
                        "rigid plane")
         ierr, ifault = _api.initialise(self._run)
+        if ierr == STATUS_BAD_INPUT and ifault < 0:
+            self._refuse_total_body(deck, int(python_index(-ifault)))
         if ierr != STATUS_OK:
             raise self._failure(ierr, ifault, during="set-up")
         self.gauge_names = [g["name"] for g in deck["gauge"]]
@@ -224,6 +226,8 @@ class Simulation:
                                and (mode == "adaptive" or (mode == "fixed" and has_part))))
         self._call(_api.set_continua(self._run, fortran_index(continuum),
                                      np.array(coupled, dtype=np.int32)), "continua")
+        total = np.array([int(b["formulation"] == "total") for b in bodies], dtype=np.int32)
+        self._call(_api.set_formulation(self._run, total, deck["sph"]["total_hourglass"]), "formulation")
         conv = deck["convert"]
         criteria = [name for name, _ in layouts.CONVERSION_CRITERIA]
         _api.set_conversion(self._run, int(mode == "adaptive"), layouts.index_of(criteria, conv["criterion"]),
@@ -250,6 +254,25 @@ class Simulation:
         if ierr != STATUS_OK:
             raise FsphError(f"set-up of the {what} rejected by the solver: "
                             f"{layouts.status_text(int(ierr))}")
+
+    def _refuse_total_body(self, deck, k):
+        """A total-Lagrangian body refused at set-up: particle k (0-based)
+        has neighbours that do not span the plane (fsph_tlsph
+        reference_correction), so its corrected gradient does not exist."""
+        raw = self._raw_snapshot()
+        fields = raw["particle_fields"]
+        if not 0 <= k < len(fields):
+            return
+        ib = int(python_index(raw["particle_ids"][k][_ID["body"]]))
+        body = deck["body"][ib]
+        if body["formulation"] != "total":
+            return
+        r, z = fields[k, _PF["x0_r"]:_PF["x0_r"] + 2] * 1e3
+        raise DeckError(deck.get("path", "deck"), f"body #{ib + 1}", "formulation",
+                        "'updated', or a lattice whose every particle has neighbours in two "
+                        "directions within 2h (total-Lagrangian particles need them for their "
+                        f"corrected gradient; the one at r = {r:.4g} mm, z = {z:.4g} mm has not: "
+                        "more cells, or a larger &sph alpha_h)", body["formulation"])
 
     def _failure(self, ierr, ifault, during="run"):
         """The SimulationError of status ierr, naming where the element,

@@ -18,6 +18,7 @@ module fsph_api
   public :: set_conversion, set_contact, set_erosion, get_erosion_stats, get_debris_count
   public :: get_contact_stats, get_conversion_stats, begin_checkpoint, checkpoint_sizes, get_real_state
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
+  public :: set_formulation
   public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
   public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
   public :: drain_history, get_body_history, set_gauges, get_gauge_history, get_gauge_state
@@ -219,6 +220,26 @@ contains
     sim%body_coupled = coupled /= 0
     ierr = status_ok
   end subroutine set_continua
+
+  !> The particle formulation of every body: total(b) /= 0 for a
+  !> total-Lagrangian body (fsph_total; its particles must have no
+  !> element coupling), and the hourglass coefficient gamma [-] of those
+  !> bodies (fsph_tlsph hourglass_forces). Before initialise.
+  subroutine set_formulation(run, nbody, total, hourglass, ierr)
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: nbody
+    integer, intent(in) :: total(nbody)
+    real(wp), intent(in) :: hourglass
+    integer, intent(out) :: ierr
+    sim => run_state(run)
+    ierr = status_bad_input
+    if (nbody < 1 .or. .not. (hourglass >= 0.0_wp)) return
+    sim%total%body_total = total /= 0
+    sim%total%hourglass = hourglass
+    ierr = status_ok
+  end subroutine set_formulation
 
   !> Room for particles when a run starts with none (adaptive mode): one per
   !> element, plus the imaginary entries.

@@ -26,7 +26,9 @@
 !> (cells, then points), which depends on the positions only. Contact candidates, particles of
 !> another body within the support (docs/method.md, "Contact"), have a separate full list
 !> (cnt_ptr, cnt_list), mirror images across the axis as -j. SPH sums never
-!> cross continuum boundaries.
+!> cross continuum boundaries. A point given a negative continuum (the
+!> solver gives total-Lagrangian particles minus theirs) has empty SPH
+!> rows and is in nobody's: it appears in contact lists only.
 module fsph_neighbours
   use fsph_kinds, only: wp
   use fsph_kernel, only: kernel_support
@@ -362,6 +364,13 @@ contains
                                           cwidth, n_cnt)
         end do
       end do
+      ! a point of negative continuum (a total-Lagrangian particle,
+      ! fsph_total) has no SPH entries: it is a contact candidate only
+      if (bi < 0) then
+        n_half = 0
+        n_low = 0
+        n_one = 0
+      end if
       work%n_half(ii) = n_half
       work%n_low(ii) = n_low
       work%n_one(ii) = n_one

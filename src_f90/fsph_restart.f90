@@ -237,13 +237,18 @@ contains
     use fsph_remesh, only: mesh_changed
     use fsph_coupling, only: update_tie_masses
     use fsph_convert, only: conversion_limits
+    use fsph_solver, only: setup_total
     type(simulation_t), intent(inout) :: sim
+    integer :: ierr, ifault
     if (sim%nodes%n > 0) sim%nodes%on_axis = sim%nodes%on_axis_int(1:sim%nodes%n) /= 0
     call mesh_changed(sim%nodes, sim%elements, sim%contact, sim%particles, sim%continuum_of_body)
     if (sim%nodes%n > 0) call update_tie_masses(sim%particles, sim%nodes)
     ! the conversion criterion of each element, from the initial mesh
     if (sim%elements%n > 0 .and. sim%conversion%n_groups > 0) &
       call conversion_limits(sim%elements, sim%nodes, sim%conversion)
+    ! the total-Lagrangian reference data, from the initial configuration
+    ! (it was refused at set-up if singular, so it is not now)
+    if (sim%particles%n > 0) call setup_total(sim, ierr, ifault)
     sim%ready = .true.
   end subroutine finish_restore
 

@@ -30,6 +30,7 @@ module fsph_solver
                             particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
                             riemann_contact_density_rate, contact_normals, contact_pairs_in
   use fsph_eigenerosion, only: eigenerosion_failure
+  use fsph_total, only: total_setup, total_forces, total_rates, total_energy_rate, total_time_step, total_active
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
                            association_reach
@@ -47,7 +48,7 @@ module fsph_solver
   private
 
   public :: solver_initialise, solver_advance, energy_budget, solver_stable_step, solver_forces
-  public :: prepare_particle_sums, update_particle_radius, locate_gauges
+  public :: prepare_particle_sums, update_particle_radius, locate_gauges, setup_total
 
   !> Particles may come no closer to the axis than this fraction of their
   !> radius [-].
@@ -78,6 +79,8 @@ contains
     end if
     if (sim%particles%n > 0) then
       call initialise_particles(sim, ierr, ifault)
+      if (ierr /= status_ok) return
+      call setup_total(sim, ierr, ifault)
       if (ierr /= status_ok) return
     end if
     if (sim%elements%n > 0 .and. sim%particles%capacity > 0) then
@@ -233,6 +236,32 @@ contains
     end associate
   end subroutine update_particle_radius
 
+  !> The total-Lagrangian particles and their reference data (fsph_total),
+  !> from the particles' initial positions, smoothing lengths and masses,
+  !> their materials' reference densities and Young's moduli E = 9 K G /
+  !> (3 K + G), K = rho0 c0^2 - 4 G / 3 from the reference sound speed c0.
+  !> At set-up and after a restore (the data follow from the state).
+  subroutine setup_total(sim, ierr, ifault)
+    type(simulation_t), intent(inout) :: sim
+    integer, intent(out) :: ierr, ifault
+    real(wp) :: rho0(sim%particles%n), modulus(sim%particles%n), mat_modulus(sim%n_materials)
+    real(wp) :: g, bulk
+    integer :: im, n
+    n = sim%particles%n
+    do im = 1, sim%n_materials
+      g = sim%props(prop_shear, im)
+      bulk = sim%props(prop_rho0, im)*reference_sound_speed(sim, im)**2 - 4.0_wp*g/3.0_wp
+      mat_modulus(im) = 0.0_wp
+      if (g > 0.0_wp .and. bulk > 0.0_wp) mat_modulus(im) = 9.0_wp*bulk*g/(3.0_wp*bulk + g)
+    end do
+    associate (pt => sim%particles)
+      rho0 = sim%props(prop_rho0, pt%mat(1:n))
+      modulus = mat_modulus(pt%mat(1:n))
+      call total_setup(sim%total, n, pt%x0(:, 1:n), pt%h(1:n), pt%mass(1:n), pt%body(1:n), rho0, modulus, &
+                       ierr, ifault)
+    end associate
+  end subroutine setup_total
+
   !> Sound speed of material im at its reference state [m/s].
   function reference_sound_speed(sim, im) result(c)
     type(simulation_t), intent(in) :: sim
@@ -248,8 +277,8 @@ contains
   !> the element limit and the particle limit h/(c + |v|).
   subroutine solver_stable_step(sim)
     type(simulation_t), intent(inout) :: sim
-    real(wp) :: dt_e, dt_p
-    integer :: i_e, i_p
+    real(wp) :: dt_e, dt_p, dt_t
+    integer :: i_e, i_p, i_t
     dt_e = huge(1.0_wp)
     dt_p = huge(1.0_wp)
     i_e = 0
@@ -258,6 +287,13 @@ contains
       if (el%n > 0) call element_time_step(el%n, el%lmin, el%area, el%c, el%d, sim%control%c_q, &
                                            sim%control%c_l, dt_e, i_e)
       if (pt%n > 0) call sph_time_step(pt%n, pt%x, pt%h, pt%c, pt%v, dt_p, i_p)
+      if (total_active(sim%total)) then
+        call total_time_step(sim%total, pt%n, pt%c, pt%v, pt%d, sim%control%c_q, sim%control%c_l, dt_t, i_t)
+        if (dt_t < dt_p) then
+          dt_p = dt_t
+          i_p = i_t
+        end if
+      end if
     end associate
     if (dt_e <= dt_p) then
       sim%dt_element = i_e
@@ -330,7 +366,8 @@ contains
     ! 1. forces at t^n: element nodal forces; imaginary particles,
     !    particle neighbours, SPH accelerations, particle contact; coupling
     !    tractions on interface edges; tied particles' forces to their edges
-    call compute_forces(sim, dt_step)
+    call compute_forces(sim, dt_step, ierr, ifault)
+    if (ierr /= status_ok) return
     ! 2. central difference: velocities to t^(n+1/2)
     call timer_start(sim%timers, phase_integrate)
     call update_velocities(sim, 0.5_wp*(sim%dt_last + dt_step))
@@ -385,10 +422,13 @@ contains
     end if
   end subroutine cycle
 
-  subroutine compute_forces(sim, dt_step)
+  subroutine compute_forces(sim, dt_step, ierr, ifault)
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
+    integer, intent(out) :: ierr, ifault
     integer :: n, ntot
+    ierr = status_ok
+    ifault = 0
     associate (el => sim%elements, nd => sim%nodes, pt => sim%particles)
       if (el%n > 0) then
         call timer_start(sim%timers, phase_element_forces)
@@ -409,6 +449,15 @@ contains
                                pt%grad_v, pt%switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
                                pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
+        ! total-Lagrangian particles: their own forces (no SPH sums)
+        if (total_active(sim%total)) then
+          call total_forces(sim%total, n, pt%x, pt%sig, pt%d, pt%rho, pt%c, pt%mass, sim%control%c_q, &
+                            sim%control%c_l, pt%acc, ierr, ifault)
+          if (ierr /= status_ok) then
+            call timer_stop(sim%timers, phase_sph_sums)
+            return
+          end if
+        end if
         ! the planes' images push with these forces over this cycle's kick
         if (pt%n_mirror > 0) sim%plane_impulse_z = sim%plane_impulse_z + 0.5_wp*(sim%dt_last + dt_step)* &
           mirror_reaction_z(n, n + pt%n_imag, pt%nbr_ptr, pt%nbr_list, pt%mass, pt%pair_force)
@@ -447,6 +496,7 @@ contains
     integer, intent(out) :: ntot
     integer :: i, n
     real(wp) :: skin
+    integer, allocatable :: search_body(:)
     associate (pt => sim%particles)
       n = pt%n
       if (pt%lists_valid) then
@@ -459,9 +509,19 @@ contains
         if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
         call select_mirrors(sim, skin)
         call fill_mirrors_start(sim)
-        call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, pt%continuum, skin, pt%search, &
-                             pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
-                             pt%cnt_ptr, pt%cnt_list)
+        if (total_active(sim%total)) then
+          ! total-Lagrangian particles take part in the search as contact
+          ! candidates only: a negative continuum keeps them out of the sums
+          search_body = pt%continuum(1:n + pt%n_imag + pt%n_mirror)
+          search_body(sim%total%index) = -search_body(sim%total%index)
+          call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, search_body, skin, pt%search, &
+                               pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
+                               pt%cnt_ptr, pt%cnt_list)
+        else
+          call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, pt%continuum, skin, pt%search, &
+                               pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
+                               pt%cnt_ptr, pt%cnt_list)
+        end if
         call record_lists(sim%particles, sim%nodes, sim%elements, sim%conversion%alpha_h, skin)
       end if
       ntot = n + pt%n_imag + pt%n_mirror
@@ -552,10 +612,11 @@ contains
   end subroutine fill_mirrors_start
 
   !> Forces of the current state (step 1 of the cycle), for verification.
-  subroutine solver_forces(sim, dt_step)
+  subroutine solver_forces(sim, dt_step, ierr, ifault)
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
-    call compute_forces(sim, dt_step)
+    integer, intent(out) :: ierr, ifault
+    call compute_forces(sim, dt_step, ierr, ifault)
   end subroutine solver_forces
 
   subroutine update_velocities(sim, dt_v)
@@ -579,7 +640,7 @@ contains
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer :: ip, n
-    real(wp) :: work, impulse(2), axis_impulse(2)
+    real(wp) :: work, impulse(2), axis_impulse(2), offset(sim%particles%n)
     work = 0.0_wp
     impulse = 0.0_wp
     axis_impulse = 0.0_wp     ! radial: no resultant on an axisymmetric body
@@ -599,8 +660,12 @@ contains
         if (mirror_plane_normal_to_axis(sim%planes(ip)%normal)) then
           ! the mirror images hold the particles off the plane; the
           ! kinematic condition is a backstop at half their radius
+          offset = axis_wall_fraction*pt%radius(1:n)
+          ! total-Lagrangian particles have no mirror images: the plane
+          ! holds them at their radius
+          if (total_active(sim%total)) offset(sim%total%index) = pt%radius(sim%total%index)
           call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
-                                 pt%v_bar, pt%v, work, impulse, axis_wall_fraction*pt%radius(1:n))
+                                 pt%v_bar, pt%v, work, impulse, offset)
         else
           call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
                                  pt%v_bar, pt%v, work, impulse, pt%radius(1:n))
@@ -705,6 +770,14 @@ contains
         call riemann_contact_density_rate(n, pt%x_mid, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, pt%cnt_normal, &
                                           pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%drho)
       end if
+      if (total_active(sim%total)) then
+        call total_rates(sim%total, n, pt%x_mid, pt%x, pt%v, pt%rho, dt_step, pt%drho, pt%d, pt%spin, pt%grad_v, &
+                         ierr, ifault)
+        if (ierr /= status_ok) then
+          call timer_stop(sim%timers, phase_sph_sums)
+          return
+        end if
+      end if
       call timer_stop(sim%timers, phase_sph_sums)
       call timer_start(sim%timers, phase_particle_update)
       pt%e_old(1:n) = pt%e(1:n)
@@ -741,6 +814,9 @@ contains
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de, &
                              pt%de_parts)
         pt%de_parts(3, 1:n) = 0.0_wp
+        if (total_active(sim%total)) &
+          call total_energy_rate(sim%total, n, pt%sig_mid, pt%d, pt%rho, pt%c, pt%v_bar, pt%mass, sim%control%c_q, &
+                                 sim%control%c_l, pt%de, pt%de_parts)
         if (sim%control%particle_contact == particle_contact_riemann) &
           call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_vstar, &
                                     pt%de, pt%de_parts)

@@ -12,6 +12,7 @@ module fsph_state
   use fsph_timers, only: phase_timers_t
   use fsph_threads, only: thread_governor_t
   use fsph_gauges, only: gauge_set_t
+  use fsph_total, only: total_set_t
   implicit none
   private
 
@@ -269,6 +270,7 @@ module fsph_state
     !> the gauges (&gauge; fsph_gauges) and their records at the same records; not part of a
     !> checkpoint: a restart locates them again from the deck
     type(gauge_set_t) :: gauges
+    type(total_set_t) :: total            !< total-Lagrangian particle bodies (fsph_total)
     type(phase_timers_t) :: timers        !< wall time of each phase of the cycle
     type(thread_governor_t) :: governor   !< OpenMP threads of each cycle (fsph_threads)
   end type simulation_t

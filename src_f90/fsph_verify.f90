@@ -187,11 +187,12 @@ contains
     integer, intent(in) :: nn, np
     real(wp), intent(in) :: dt
     real(wp), intent(out) :: f(2, nn), acc(2, np)
+    integer :: ierr, ifault
     sim => run_state(run)
     f = 0.0_wp
     acc = 0.0_wp
     if (nn /= sim%nodes%n .or. np /= sim%particles%n) return
-    call solver_forces(sim, dt)
+    call solver_forces(sim, dt, ierr, ifault)
     if (nn > 0) f = sim%nodes%f(:, 1:nn)
     if (np > 0) acc = sim%particles%acc(:, 1:np)
   end subroutine get_forces

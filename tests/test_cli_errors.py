@@ -45,6 +45,15 @@ BAD_DECKS = {
                      ["&body #1", "'discretisation'", "'elements' in mode 'fem'"]),
     "join_outside_coupling": (rod_deck(body="joined_to = 'rod'"),
                               ["&body #1", "'joined_to'", "modes 'fixed' and 'adaptive'"]),
+    "total_on_elements": (rod_deck(body="formulation = 'total'"),
+                          ["&body #1", "'formulation'", "'updated' unless discretisation is 'particles'"]),
+    "total_single_particle": (rod_deck(control="mode = 'sph'", body="formulation = 'total'")
+                              .replace("n_radial = 3", "n_radial = 1").replace("n_axial = 12", "n_axial = 1"),
+                              ["&body #1", "'formulation'", "neighbours in two directions",
+                               "r = 0.5 mm, z = 2 mm"]),
+    "total_hourglass_too_high": (rod_deck(control="mode = 'sph'", body="formulation = 'total'")
+                                 + "&sph total_hourglass = 50 /\n",
+                                 ["&sph", "'total_hourglass'", "[0, 10]"]),
     "missing_model_constant": (rod_deck(material="name='steel'\n strength='epp'\n eos='linear'\n"
                                         " density=7850.0\n youngs_modulus=2e11\n poisson_ratio=0.3"),
                                ["&material #1", "'yield_stress'", "missing key"]),
