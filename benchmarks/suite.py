@@ -1,6 +1,6 @@
 """fsph benchmark suite: one command for the figures of docs/performance.md.
 
-    python benchmarks/suite.py [--sections m,a,b,c,d,e,h,t] [--quick] [--json FILE]
+    python benchmarks/suite.py [--sections m,a,b,l,c,d,e,h,t] [--quick] [--json FILE]
 
 Sections (each at 1 and 2 OpenMP threads, each measurement in a child
 process of its own; peak memory is that child's resident set):
@@ -27,6 +27,10 @@ process of its own; peak memory is that child's resident set):
      policy (FSPH_THREAD_POLICY); idle, 2 threads adaptive against fixed.
      Medians of --repeat runs (the loaded fixed run once: it can take
      minutes)
+  l  total-Lagrangian particles on the block of b (the same lattice,
+     deck cases/taylor_armco_tlsph.nml): us per particle-cycle against
+     the updated particles' of b, at equal particle count (its neighbours
+     are fixed: no search)
   m  the machine: clock and memory bandwidth (STREAM add over 3 x 160 MB)
      for the roofline estimate
 Speed-ups of 2 threads over 1 go with every section (f); peak memory with
@@ -81,7 +85,7 @@ def section_block(kind, n_radial, n_axial, cycles, repeat):
     rows = [best_of(repeat, "block", {"kind": kind, "n_radial": n_radial, "n_axial": n_axial,
                                       "cycles": cycles}, t, "advance_s") for t in THREADS]
     unit, scale = ("ns/element-cycle", 1.0) if kind == "fem" else ("us/particle-cycle", 1e-3)
-    print(f"\n({'a' if kind == 'fem' else 'b'}) {kind.upper()} block: {rows[0]['items']} "
+    print(f"\n({dict(fem='a', sph='b', tlsph='l')[kind]}) {kind.upper()} block: {rows[0]['items']} "
           f"{'elements' if kind == 'fem' else 'particles'}, {rows[0]['cycles']} cycles")
     for r in rows:
         phases = r["phases_s"]
@@ -306,6 +310,7 @@ TARGETS = (
      "max"),
     ("2 threads / 1, T3 block", lambda r: r["fem_block"]["speedup_2"], 1.7, "", "min"),
     ("2 threads / 1, SPH block", lambda r: r["sph_block"]["speedup_2"], 1.7, "", "min"),
+    ("TLSPH / SPH particle cycle, 1 thread", lambda r: r["tlsph_block"]["ratio_to_sph"], 0.8, "", "max"),
 )
 
 
@@ -336,7 +341,7 @@ def _cpu_mhz():
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sections", default="m,a,b,c,d,e,h,t", help="comma-separated, of m a b c d e h t")
+    ap.add_argument("--sections", default="m,a,b,l,c,d,e,h,t", help="comma-separated, of m a b l c d e h t")
     ap.add_argument("--quick", action="store_true", help="smaller and fewer runs")
     ap.add_argument("--repeat", type=int, default=3, help="runs of each block and Taylor figure (best)")
     ap.add_argument("--refinement-threads", type=int, default=1,
@@ -355,6 +360,13 @@ def main(argv=None):
             results["fem_block"] = section_block("fem", *fem_size, 50 if args.quick else 100, args.repeat)
         elif s == "b":
             results["sph_block"] = section_block("sph", *sph_size, 20 if args.quick else 40, args.repeat)
+        elif s == "l":
+            results["tlsph_block"] = section_block("tlsph", *sph_size, 20 if args.quick else 40, args.repeat)
+            if "sph_block" in results:
+                ratio = (results["tlsph_block"]["rows"][0]["ns_per_item_cycle"]
+                         / results["sph_block"]["rows"][0]["ns_per_item_cycle"])
+                results["tlsph_block"]["ratio_to_sph"] = ratio
+                print(f"  total-Lagrangian / updated particle-cycle, 1 thread: {ratio:.2f}")
         elif s == "c":
             results["taylor_adaptive"] = section_taylor(outroot / "taylor", args.repeat)
         elif s == "d":
@@ -367,7 +379,7 @@ def main(argv=None):
         elif s == "t":
             results["threads_under_load"] = section_threads(outroot / "threads", args.repeat)
         else:
-            ap.error(f"unknown section {s!r}: expected m, a, b, c, d, e, h or t")
+            ap.error(f"unknown section {s!r}: expected m, a, b, l, c, d, e, h or t")
     results["targets"] = targets_table(results)
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=2) + "\n")

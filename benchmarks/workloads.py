@@ -5,7 +5,8 @@ child's). A child prints one JSON object on its last line:
     python workloads.py block '{"kind": "fem", "n_radial": 50, ...}'
     python workloads.py run '{"deck": "cases/taylor_armco.nml", "outdir": ...}'
 
-block: a large rod of T3 elements (fem) or particles (sph) at the spacing
+block: a large rod of T3 elements (fem), updated particles (sph) or
+total-Lagrangian particles (tlsph) at the spacing
 of the Taylor decks striking the anvil at 221 m/s (Armco iron, EPP +
 Mie-Grueneisen), advanced `cycles` cycles after `warmup` cycles; the figure
 is the wall time of the advance loop per element- or particle-cycle, with
@@ -26,7 +27,8 @@ T_START = time.perf_counter()
 
 REPO = Path(__file__).resolve().parents[1]
 BLOCK_DECKS = {"fem": REPO / "cases" / "taylor_armco_fem.nml",
-               "sph": REPO / "cases" / "taylor_armco_sph.nml"}
+               "sph": REPO / "cases" / "taylor_armco_sph.nml",
+               "tlsph": REPO / "cases" / "taylor_armco_tlsph.nml"}
 
 
 def peak_rss_mb():

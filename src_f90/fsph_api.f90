@@ -998,9 +998,15 @@ contains
     integer, intent(in) :: ptr(n + 1), nbr(nnz)
     real(wp), intent(in) :: grad_w(2, nnz), bmat(2, 2, n), p(2, 2, n), p_tt(n)
     real(wp), intent(out) :: force(2, n), hoop(n)
-    real(wp), allocatable :: work(:, :, :)
-    allocate (work(2, 2, n))
-    call tlsph_forces(n, x0, area, ptr, nbr, grad_w, bmat, p, p_tt, work, force)
+    real(wp), allocatable :: work(:, :, :), hg_pair(:, :), identity(:, :, :)
+    integer :: i
+    ! without the hourglass control: with gamma = 0 its pair terms are zeros
+    allocate (work(2, 2, n), hg_pair(2, nnz), identity(2, 2, n))
+    do i = 1, n
+      identity(:, :, i) = reshape([1.0_wp, 0.0_wp, 0.0_wp, 1.0_wp], [2, 2])
+    end do
+    call tlsph_forces(n, x0, x0, area, [(0.0_wp, i = 1, n)], 0.0_wp, ptr, nbr, grad_w, [(0.0_wp, i = 1, nnz)], &
+                      bmat, identity, p, p_tt, work, hg_pair, force)
     hoop = hoop_force(area, p_tt)
   end subroutine tlsph_ring_forces
 

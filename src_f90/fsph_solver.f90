@@ -771,8 +771,7 @@ contains
                                           pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%drho)
       end if
       if (total_active(sim%total)) then
-        call total_rates(sim%total, n, pt%x_mid, pt%x, pt%v, pt%rho, dt_step, pt%drho, pt%d, pt%spin, pt%grad_v, &
-                         ierr, ifault)
+        call total_rates(sim%total, n, pt%x, pt%rho, dt_step, pt%drho, pt%d, pt%spin, pt%grad_v, ierr, ifault)
         if (ierr /= status_ok) then
           call timer_stop(sim%timers, phase_sph_sums)
           return

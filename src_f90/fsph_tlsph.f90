@@ -95,8 +95,8 @@ module fsph_tlsph
 
   public :: reference_neighbours, reference_kernel_gradients, reference_correction
   public :: corrected_gradient, deformation_gradients, first_piola, first_piola_point
-  public :: tlsph_forces, hoop_force, velocity_gradients, rate_of_deformation, reference_kernel_values
-  public :: hourglass_forces, smallest_stretch
+  public :: tlsph_forces, hoop_force, rate_of_deformation, reference_kernel_values
+  public :: smallest_stretch
 
   !> Smallest eigenvalue of M = sum_j A_j grad0 W_ij (x) (X_j - X_i) [-]
   !> below which a particle's correction is refused as singular. M is
@@ -489,24 +489,33 @@ contains
   end function hoop_force
 
   !> Internal forces per full ring [N] (module header):
-  !>   f_k = 2 pi sum_j (A_k A_j) (Q_k + Q_j S_j) grad0 W_kj + hoop_force e_r,
-  !> Q = R P B [Pa m], S_j = diag(-1, 1) for an image, I for a particle.
-  !> The pair factor is formed symmetrically (A_k A_j, Q_k + Q_j), so the
-  !> term of (j, k) is exactly minus that of (k, j), and the term of the
-  !> image pair (j, k') exactly minus that of (k, j'). work is space for Q.
-  subroutine tlsph_forces(n, x0, area, ptr, list, grad_w, bmat, p, p_tt, work, force)
+  !>   f_k = 2 pi sum_j (A_k A_j) (Q_k + Q_j S_j) grad0 W_kj + hoop_force e_r
+  !>         + sum_j hourglass_pair(k, j),
+  !> Q = R P B [Pa m], S_j = diag(-1, 1) for an image, I for a particle,
+  !> in one pass over the rows (gamma = 0: no hourglass control). The pair
+  !> factor is formed symmetrically (A_k A_j, Q_k + Q_j), so the term of
+  !> (j, k) is exactly minus that of (k, j), and the term of the image pair
+  !> (j, k') exactly minus that of (k, j'). work is space for Q; hg_pair
+  !> gets each entry's hourglass force on the row's particle [N].
+  subroutine tlsph_forces(n, x0, x, area, modulus, gamma, ptr, list, grad_w, w0, bmat, fmat, p, p_tt, work, &
+                          hg_pair, force)
     integer, intent(in) :: n
-    real(wp), intent(in) :: x0(2, n)     !< [m]
+    real(wp), intent(in) :: x0(2, n), x(2, n)  !< reference and current positions [m]
     real(wp), intent(in) :: area(n)      !< [m^2]
+    real(wp), intent(in) :: modulus(n)   !< Young's modulus [Pa]
+    real(wp), intent(in) :: gamma        !< hourglass coefficient [-]
     integer, intent(in) :: ptr(n + 1), list(*)
     real(wp), intent(in) :: grad_w(2, *) !< [1/m^3]
-    real(wp), intent(in) :: bmat(2, 2, n)           !< [-]
+    real(wp), intent(in) :: w0(*)        !< reference kernel values [1/m^2]
+    real(wp), intent(in) :: bmat(2, 2, n), fmat(2, 2, n) !< [-]
     real(wp), intent(in) :: p(2, 2, n), p_tt(n)     !< first Piola-Kirchhoff [Pa]
     real(wp), intent(out) :: work(2, 2, n)          !< Q [Pa m]
+    real(wp), intent(out) :: hg_pair(2, *)          !< [N]
     real(wp), intent(out) :: force(2, n)            !< [N]
     integer :: i, k, j
     real(wp) :: qs(2, 2), f(2), sg, aa
-    !$omp parallel default(none) shared(n, x0, area, ptr, list, grad_w, bmat, p, p_tt, work, force) &
+    !$omp parallel default(none) &
+    !$omp shared(n, x0, x, area, modulus, gamma, ptr, list, grad_w, w0, bmat, fmat, p, p_tt, work, hg_pair, force) &
     !$omp private(i, k, j, qs, f, sg, aa)
     !$omp do schedule(static)
     do i = 1, n
@@ -525,11 +534,14 @@ contains
         qs(1, 2) = work(1, 2, i) + work(1, 2, j)
         qs(2, 2) = work(2, 2, i) + work(2, 2, j)
         aa = area(i)*area(j)
-        f(1) = f(1) + aa*(qs(1, 1)*grad_w(1, k) + qs(1, 2)*grad_w(2, k))
-        f(2) = f(2) + aa*(qs(2, 1)*grad_w(1, k) + qs(2, 2)*grad_w(2, k))
+        f(1) = f(1) + two_pi*aa*(qs(1, 1)*grad_w(1, k) + qs(1, 2)*grad_w(2, k))
+        f(2) = f(2) + two_pi*aa*(qs(2, 1)*grad_w(1, k) + qs(2, 2)*grad_w(2, k))
+        hg_pair(:, k) = hourglass_pair(x0(:, i), x0(:, j), x(:, i), x(:, j), fmat(:, :, i), fmat(:, :, j), sg, &
+                                       aa, 0.5_wp*(modulus(i) + modulus(j)), gamma, w0(k))
+        f = f + hg_pair(:, k)
       end do
-      force(1, i) = two_pi*f(1) + hoop_force(area(i), p_tt(i))
-      force(2, i) = two_pi*f(2)
+      force(1, i) = f(1) + hoop_force(area(i), p_tt(i))
+      force(2, i) = f(2)
     end do
     !$omp end do
     !$omp end parallel
@@ -555,44 +567,6 @@ contains
     end do
     !$omp end parallel do
   end subroutine reference_kernel_values
-
-  !> Rate of the deformation gradient from the velocities v [m/s]: the
-  !> in-plane block fdot = grad0 v, corrected as grad0 u in
-  !> deformation_gradients (an image's velocity is (-v_r, v_z)), and the
-  !> hoop rate fdot_tt = v_r/R (its limit d v_r/dR on the axis) [1/s].
-  subroutine velocity_gradients(n, x0, v, h, area, ptr, list, grad_w, bmat, fdot, fdot_tt)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: x0(2, n), v(2, n) !< [m], [m/s]
-    real(wp), intent(in) :: h(n), area(n)    !< [m], [m^2]
-    integer, intent(in) :: ptr(n + 1), list(*)
-    real(wp), intent(in) :: grad_w(2, *)     !< [1/m^3]
-    real(wp), intent(in) :: bmat(2, 2, n)
-    real(wp), intent(out) :: fdot(2, 2, n), fdot_tt(n) !< [1/s]
-    integer :: i, k, j
-    real(wp) :: s(2, 2), dv(2), sg
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x0, v, h, area, ptr, list, grad_w, bmat, fdot, fdot_tt) private(i, k, j, s, dv, sg)
-    do i = 1, n
-      s = 0.0_wp
-      do k = ptr(i), ptr(i + 1) - 1
-        j = abs(list(k))
-        sg = image_sign(list(k))
-        dv(1) = sg*v(1, j) - v(1, i)
-        dv(2) = v(2, j) - v(2, i)
-        s(1, 1) = s(1, 1) + area(j)*dv(1)*grad_w(1, k)
-        s(2, 1) = s(2, 1) + area(j)*dv(2)*grad_w(1, k)
-        s(1, 2) = s(1, 2) + area(j)*dv(1)*grad_w(2, k)
-        s(2, 2) = s(2, 2) + area(j)*dv(2)*grad_w(2, k)
-      end do
-      fdot(:, :, i) = matmul(s, transpose(bmat(:, :, i)))
-      if (x0(1, i) > axis_tolerance*h(i)) then
-        fdot_tt(i) = v(1, i)/x0(1, i)
-      else
-        fdot_tt(i) = fdot(1, 1, i)
-      end if
-    end do
-    !$omp end parallel do
-  end subroutine velocity_gradients
 
   !> Spatial velocity gradient L = dF/dt F^-1 of one point (in the plane;
   !> L_tt = fdot_tt/f_tt = v_r/r in the hoop direction) as the updated
@@ -630,68 +604,47 @@ contains
   end function smallest_stretch
 
   !> Hourglass control of Ganzenmueller (2015, Comput. Methods Appl. Mech.
-  !> Engrg. 286:87): a pair of particles i, j whose current separation
-  !> x_ij = x_j - x_i differs from what their deformation gradients
-  !> predict, F_i X_ij and F_j X_ij (X_ij = X_j - X_i), is pushed along
-  !> x_ij by
+  !> Engrg. 286:87), the force on particle i of its entry j [N]: a pair
+  !> whose current separation x_ij = x_j - x_i differs from what the two
+  !> deformation gradients predict, F_i X_ij and F_j X_ij (X_ij = X_j - X_i),
+  !> is pushed along x_ij by
   !>   f_i = -pi gamma Rbar A_i A_j W_ij E_ij (delta_i + delta_j)/|X_ij|^2 e_ij,
   !>   delta_i = (F_i X_ij - x_ij).e_ij, delta_j = (F_j X_ij - x_ij).e_ij,
   !> e_ij = x_ij/|x_ij|, Rbar = (|R_i| + |R_j|)/2 the ring weight
   !> (Ganzenmueller's V_i V_j with ring volumes 2 pi R A in r-z), E_ij the
   !> mean of the two Young's moduli, W_ij the kernel at the reference
   !> distance. A mode that F sees (any affine field) gives delta = 0: no
-  !> force. f_j = -f_i exactly (the pair terms are formed symmetrically),
-  !> along the line of centres: momentum is conserved. Mirror images take
-  !> part as in the momentum sum: the image j' of j sits at (-R_j, Z_j),
-  !> (-r_j, z_j) with F_j' = S F_j S (S = diag(-1, 1)); its pair acts on i
-  !> only, and j's row holds the mirror of it (the axial parts cancel).
-  !> Left out, the images left the particles next to the axis with
-  !> one-sided pairs: in a Taylor rod their plastic strain grew to 20
-  !> times their neighbours' (measured, docs/method.md). The pair force on
-  !> i of each entry goes to pair_force [N], the sum of each row is added
-  !> to force [N].
-  subroutine hourglass_forces(n, x0, x, area, modulus, gamma, ptr, list, w0, fmat, pair_force, force)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: x0(2, n), x(2, n)  !< [m]
-    real(wp), intent(in) :: area(n)            !< [m^2]
-    real(wp), intent(in) :: modulus(n)         !< Young's modulus [Pa]
-    real(wp), intent(in) :: gamma              !< hourglass coefficient [-]
-    integer, intent(in) :: ptr(n + 1), list(*)
-    real(wp), intent(in) :: w0(*)              !< reference kernel values [1/m^2]
-    real(wp), intent(in) :: fmat(2, 2, n)
-    real(wp), intent(out) :: pair_force(2, *)  !< [N]
-    real(wp), intent(inout) :: force(2, n)     !< [N]
-    integer :: i, k, j
-    real(wp) :: dxr(2), dx(2), dist, e(2), delta, f(2), c, dist0_2, sg, fj(2, 2)
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x0, x, area, modulus, gamma, ptr, list, w0, fmat, pair_force, force) &
-    !$omp private(i, k, j, dxr, dx, dist, e, delta, f, c, dist0_2, sg, fj)
-    do i = 1, n
-      f = 0.0_wp
-      do k = ptr(i), ptr(i + 1) - 1
-        j = abs(list(k))
-        sg = image_sign(list(k))
-        dxr(1) = sg*x0(1, j) - x0(1, i)
-        dxr(2) = x0(2, j) - x0(2, i)
-        dx(1) = sg*x(1, j) - x(1, i)
-        dx(2) = x(2, j) - x(2, i)
-        fj(1, 1) = fmat(1, 1, j); fj(2, 2) = fmat(2, 2, j)
-        fj(1, 2) = sg*fmat(1, 2, j); fj(2, 1) = sg*fmat(2, 1, j)
-        dist = sqrt(dx(1)**2 + dx(2)**2)
-        dist0_2 = dxr(1)**2 + dxr(2)**2
-        e = dx/dist
-        delta = ((fmat(1, 1, i)*dxr(1) + fmat(1, 2, i)*dxr(2) - dx(1))*e(1) &
-                 + (fmat(2, 1, i)*dxr(1) + fmat(2, 2, i)*dxr(2) - dx(2))*e(2)) &
-                + ((fj(1, 1)*dxr(1) + fj(1, 2)*dxr(2) - dx(1))*e(1) &
-                   + (fj(2, 1)*dxr(1) + fj(2, 2)*dxr(2) - dx(2))*e(2))
-        c = -0.5_wp*pi*gamma*(x0(1, i) + x0(1, j))*(area(i)*area(j))*w0(k)*0.5_wp*(modulus(i) + modulus(j)) &
-            *delta/dist0_2
-        pair_force(:, k) = c*e
-        f = f + pair_force(:, k)
-      end do
-      force(:, i) = force(:, i) + f
-    end do
-    !$omp end parallel do
-  end subroutine hourglass_forces
+  !> force. The terms are formed so that the entry (j, i) gives exactly
+  !> minus the force of (i, j), along the line of centres: momentum is
+  !> conserved. Mirror images (sg = -1) take part as in the momentum sum:
+  !> the image j' of j sits at (-R_j, Z_j), (-r_j, z_j) with F_j' = S F_j S
+  !> (S = diag(-1, 1)); its pair acts on i only, and j's row holds the
+  !> mirror of it (the axial parts cancel). Left out, the images left the
+  !> particles next to the axis with one-sided pairs: in a Taylor rod their
+  !> plastic strain grew to 20 times their neighbours' (measured,
+  !> docs/method.md).
+  pure function hourglass_pair(x0i, x0j, xi, xj, fi, fj, sg, aa, modulus, gamma, w0) result(f)
+    real(wp), intent(in) :: x0i(2), x0j(2), xi(2), xj(2) !< reference and current positions [m]
+    real(wp), intent(in) :: fi(2, 2), fj(2, 2)  !< deformation gradients (fj: the particle's, not its image's)
+    real(wp), intent(in) :: sg                  !< -1 for an image, 1 for a particle [-]
+    real(wp), intent(in) :: aa                  !< A_i A_j [m^4]
+    real(wp), intent(in) :: modulus             !< E_ij [Pa]
+    real(wp), intent(in) :: gamma               !< [-]
+    real(wp), intent(in) :: w0                  !< W_ij at the reference distance [1/m^2]
+    real(wp) :: f(2)
+    real(wp) :: dxr(2), dx(2), e(2), delta, fj12, fj21
+    dxr(1) = sg*x0j(1) - x0i(1)
+    dxr(2) = x0j(2) - x0i(2)
+    dx(1) = sg*xj(1) - xi(1)
+    dx(2) = xj(2) - xi(2)
+    fj12 = sg*fj(1, 2)
+    fj21 = sg*fj(2, 1)
+    e = dx/sqrt(dx(1)**2 + dx(2)**2)
+    delta = ((fi(1, 1)*dxr(1) + fi(1, 2)*dxr(2) - dx(1))*e(1) &
+             + (fi(2, 1)*dxr(1) + fi(2, 2)*dxr(2) - dx(2))*e(2)) &
+            + ((fj(1, 1)*dxr(1) + fj12*dxr(2) - dx(1))*e(1) &
+               + (fj21*dxr(1) + fj(2, 2)*dxr(2) - dx(2))*e(2))
+    f = (-0.5_wp*pi*gamma*(x0i(1) + x0j(1))*aa*w0*modulus*delta/(dxr(1)**2 + dxr(2)**2))*e
+  end function hourglass_pair
 
 end module fsph_tlsph

@@ -9,10 +9,11 @@
 !>    with the hoop term, and the hourglass control; the accelerations of
 !>    these particles are replaced by them (the SPH sums leave them out,
 !>    fsph_neighbours);
-!>  - total_rates (step 6): F at mid-step, dF/dt from the half-step
-!>    velocities, L = dF/dt F^-1, so d, spin and grad_v as the updated
-!>    particles carry them, and the density rate that lands exactly on
-!>    rho0/J at the end of the step;
+!>  - total_rates (step 6): F at the end of the step (kept for the next
+!>    force stage), at mid-step and its rate from F at both ends, L =
+!>    dF/dt F^-1, so d, spin and grad_v as the updated particles carry
+!>    them, and the density rate that lands exactly on rho0/J at the end
+!>    of the step;
 !>  - total_energy_rate (step 6): sigma_mid : d / rho_mid (= P : dF/dt /
 !>    rho0), the viscous work and the hourglass forces' work as heat.
 !> The material update, contact, boundaries, integration and outputs
@@ -26,7 +27,7 @@ module fsph_total
   use fsph_status, only: status_ok, status_bad_input
   use fsph_tlsph, only: reference_neighbours, reference_kernel_gradients, reference_correction, &
                         reference_kernel_values, deformation_gradients, first_piola, tlsph_forces, &
-                        velocity_gradients, rate_of_deformation, hourglass_forces, smallest_stretch
+                        rate_of_deformation, smallest_stretch
   implicit none
   private
 
@@ -35,7 +36,7 @@ module fsph_total
   !> The total-Lagrangian particles of a run and their reference data.
   type, public :: total_set_t
     logical, allocatable :: body_total(:) !< formulation of each body: total-Lagrangian
-    real(wp) :: hourglass = 0.0_wp         !< hourglass coefficient gamma [-] (hourglass_forces)
+    real(wp) :: hourglass = 0.0_wp         !< hourglass coefficient gamma [-] (fsph_tlsph hourglass_pair)
     integer :: n = 0                       !< total-Lagrangian particles
     integer, allocatable :: index(:)       !< particle of each
     integer, allocatable :: ptr(:), list(:) !< reference neighbour lists (CSR, images as -k)
@@ -48,9 +49,12 @@ module fsph_total
     real(wp), allocatable :: w0(:)         !< reference kernel value per entry [1/m^2]
     real(wp), allocatable :: bmat(:, :, :) !< corrections B [-]
     ! cycle work arrays
-    real(wp), allocatable :: x(:, :), v(:, :) !< gathered positions [m], velocities [m/s]
-    real(wp), allocatable :: fmat(:, :, :), f_tt(:), jac(:) !< deformation gradient of the last call [-]
-    real(wp), allocatable :: fdot(:, :, :), fdot_tt(:) !< its rate [1/s]
+    real(wp), allocatable :: x(:, :)       !< gathered positions [m]
+    logical :: f_current = .false.         !< fmat, f_tt, jac hold F at the current positions
+    real(wp), allocatable :: fmat(:, :, :), f_tt(:), jac(:) !< deformation gradient at the current positions [-]
+    real(wp), allocatable :: fmat_old(:, :, :), f_tt_old(:) !< at the start of the step (the force stage's) [-]
+    real(wp), allocatable :: fmat_mid(:, :, :), f_tt_mid(:), jac_mid(:) !< at mid-step [-]
+    real(wp), allocatable :: fdot(:, :, :), fdot_tt(:) !< its rate over the step [1/s]
     real(wp), allocatable :: sig(:, :)     !< Cauchy stress with the viscosity [Pa]
     real(wp), allocatable :: p(:, :, :), p_tt(:) !< first Piola-Kirchhoff stress [Pa]
     real(wp), allocatable :: q_work(:, :, :) !< R P B [Pa m]
@@ -142,9 +146,10 @@ contains
         ifault = -idx(ifault)
         return
       end if
-      allocate (ts%x(2, nt), ts%v(2, nt), ts%fmat(2, 2, nt), ts%f_tt(nt), ts%jac(nt), ts%fdot(2, 2, nt), &
+      allocate (ts%x(2, nt), ts%fmat(2, 2, nt), ts%f_tt(nt), ts%jac(nt), ts%fdot(2, 2, nt), &
                 ts%fdot_tt(nt), ts%sig(4, nt), ts%p(2, 2, nt), ts%p_tt(nt), ts%q_work(2, 2, nt), &
-                ts%force(2, nt), ts%q(nt), ts%stretch(nt))
+                ts%force(2, nt), ts%q(nt), ts%stretch(nt), ts%fmat_old(2, 2, nt), ts%f_tt_old(nt), &
+                ts%fmat_mid(2, 2, nt), ts%f_tt_mid(nt), ts%jac_mid(nt))
       ts%q = 0.0_wp
       ts%stretch = 1.0_wp
     end associate
@@ -180,14 +185,22 @@ contains
     real(wp), intent(inout) :: acc(2, n)
     integer, intent(out) :: ierr, ifault
     integer :: k, i
+    ierr = status_ok
+    ifault = 0
     associate (nt => ts%n, idx => ts%index)
       ts%x = x(:, idx)
-      call deformation_gradients(nt, ts%x0, ts%x, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fmat, &
-                                 ts%f_tt, ts%jac, ierr, ifault)
-      if (ierr /= status_ok) then
-        ifault = -idx(-ifault)
-        return
+      ! F at these positions: the last step's end (total_rates), else now
+      if (.not. ts%f_current) then
+        call deformation_gradients(nt, ts%x0, ts%x, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fmat, &
+                                   ts%f_tt, ts%jac, ierr, ifault)
+        if (ierr /= status_ok) then
+          ifault = -idx(-ifault)
+          return
+        end if
+        ts%f_current = .true.
       end if
+      ts%fmat_old = ts%fmat
+      ts%f_tt_old = ts%f_tt
       do k = 1, nt
         i = idx(k)
         ts%stretch(k) = smallest_stretch(ts%fmat(1, 1, k), ts%fmat(2, 1, k), ts%fmat(1, 2, k), ts%fmat(2, 2, k))
@@ -197,34 +210,37 @@ contains
         ts%sig([1, 2, 4], k) = ts%sig([1, 2, 4], k) - ts%q(k)
       end do
       call first_piola(nt, ts%fmat, ts%f_tt, ts%sig, ts%p, ts%p_tt)
-      call tlsph_forces(nt, ts%x0, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%p, ts%p_tt, ts%q_work, ts%force)
-      call hourglass_forces(nt, ts%x0, ts%x, ts%area, ts%modulus, ts%hourglass, ts%ptr, ts%list, ts%w0, ts%fmat, &
-                            ts%hg_pair, ts%force)
+      call tlsph_forces(nt, ts%x0, ts%x, ts%area, ts%modulus, ts%hourglass, ts%ptr, ts%list, ts%grad_w, ts%w0, &
+                        ts%bmat, ts%fmat, ts%p, ts%p_tt, ts%q_work, ts%hg_pair, ts%force)
       do k = 1, nt
         acc(:, idx(k)) = ts%force(:, k)/mass(idx(k))
       end do
     end associate
   end subroutine total_forces
 
-  !> Step 6, rates: with the mid-step positions x_mid and the half-step
-  !> velocities v, the rate of deformation d, spin and grad_v of each
-  !> total-Lagrangian particle (L = dF/dt F_mid^-1), and the density rate
-  !> drho = (rho0/J(x_end) - rho)/dt that makes the particle update land
-  !> on the density of its deformation [kg/(m^3 s)]. ierr/ifault: an
-  !> inverted particle (ifault = -particle).
-  subroutine total_rates(ts, n, x_mid, x_end, v, rho, dt, drho, d, spin, grad_v, ierr, ifault)
+  !> Step 6, rates: F at the end of the step (x_end: it is also the next
+  !> force stage's), and since F is linear in the positions and x_mid =
+  !> (x_old + x_end)/2, x_end = x_old + dt v, F at mid-step and its rate
+  !> over the step follow from F at its start (total_forces) and end:
+  !> F_mid = (F_old + F_end)/2, dF/dt = grad0 v = (F_end - F_old)/dt (the
+  !> hoop part likewise). Then the rate of deformation d, spin and grad_v
+  !> of each total-Lagrangian particle (L = dF/dt F_mid^-1), and the
+  !> density rate drho = (rho0/J(F_end) - rho)/dt that makes the particle
+  !> update land on the density of its deformation [kg/(m^3 s)].
+  !> ierr/ifault: an inverted particle (ifault = -particle).
+  subroutine total_rates(ts, n, x_end, rho, dt, drho, d, spin, grad_v, ierr, ifault)
     type(total_set_t), intent(inout) :: ts
     integer, intent(in) :: n
-    real(wp), intent(in) :: x_mid(2, n), x_end(2, n), v(2, n), rho(n)
+    real(wp), intent(in) :: x_end(2, n), rho(n)
     real(wp), intent(in) :: dt             !< [s]
     real(wp), intent(inout) :: drho(n), d(4, n), spin(n), grad_v(4, n)
     integer, intent(out) :: ierr, ifault
     integer :: k, i
     associate (nt => ts%n, idx => ts%index)
-      ! J at the end of the step
       ts%x = x_end(:, idx)
       call deformation_gradients(nt, ts%x0, ts%x, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fmat, &
                                  ts%f_tt, ts%jac, ierr, ifault)
+      ts%f_current = ierr == status_ok
       if (ierr /= status_ok) then
         ifault = -idx(-ifault)
         return
@@ -232,22 +248,14 @@ contains
       do k = 1, nt
         i = idx(k)
         drho(i) = (ts%rho0(k)/ts%jac(k) - rho(i))/dt
-      end do
-      ! F at mid-step and its rate
-      ts%x = x_mid(:, idx)
-      ts%v = v(:, idx)
-      call deformation_gradients(nt, ts%x0, ts%x, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fmat, &
-                                 ts%f_tt, ts%jac, ierr, ifault)
-      if (ierr /= status_ok) then
-        ifault = -idx(-ifault)
-        return
-      end if
-      call velocity_gradients(nt, ts%x0, ts%v, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fdot, &
-                              ts%fdot_tt)
-      do k = 1, nt
-        i = idx(k)
-        call rate_of_deformation(ts%fmat(:, :, k), ts%f_tt(k), ts%fdot(:, :, k), ts%fdot_tt(k), d(:, i), spin(i), &
-                                 grad_v(:, i))
+        ts%fmat_mid(:, :, k) = 0.5_wp*(ts%fmat_old(:, :, k) + ts%fmat(:, :, k))
+        ts%f_tt_mid(k) = 0.5_wp*(ts%f_tt_old(k) + ts%f_tt(k))
+        ts%jac_mid(k) = (ts%fmat_mid(1, 1, k)*ts%fmat_mid(2, 2, k) - ts%fmat_mid(1, 2, k)*ts%fmat_mid(2, 1, k)) &
+                        *ts%f_tt_mid(k)
+        ts%fdot(:, :, k) = (ts%fmat(:, :, k) - ts%fmat_old(:, :, k))/dt
+        ts%fdot_tt(k) = (ts%f_tt(k) - ts%f_tt_old(k))/dt
+        call rate_of_deformation(ts%fmat_mid(:, :, k), ts%f_tt_mid(k), ts%fdot(:, :, k), ts%fdot_tt(k), d(:, i), &
+                                 spin(i), grad_v(:, i))
       end do
     end associate
   end subroutine total_rates
@@ -255,7 +263,7 @@ contains
   !> Step 6, energy: the specific internal energy rate [W/kg] of each
   !> total-Lagrangian particle, replacing the SPH sum's: the stress power
   !> sig_mid : d / rho_mid with rho_mid = rho0/J(F_mid) (total_rates must
-  !> have run in this cycle: it leaves F_mid in ts), the bulk viscosity's
+  !> have run in this cycle: it leaves F_mid and F_end in ts), the bulk viscosity's
   !> work at the mean of the pressure that pushed in this step's kick and
   !> this step's (the elements' trapezoidal rule), and half of each
   !> hourglass pair force's work at the kick's mean velocities v_bar
@@ -277,7 +285,7 @@ contains
     associate (nt => ts%n, idx => ts%index)
       do k = 1, nt
         i = idx(k)
-        rho_mid = ts%rho0(k)/ts%jac(k)
+        rho_mid = ts%rho0(k)/ts%jac_mid(k)
         trace = d(1, i) + d(2, i) + d(4, i)
         q_new = bulk_viscosity(rho_end(i), c_end(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), trace, c_q, c_l)
         q_mean = 0.5_wp*(ts%q(k) + q_new)
