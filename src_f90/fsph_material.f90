@@ -174,6 +174,17 @@ contains
 
   ! ---- temperature, melting, failure flags --------------------------------
 
+  !> The integer id of a model switch of the property row (temp_model,
+  !> melt_model, pl_rate_form, jcf_on: whole numbers >= 0 held as reals):
+  !> the nearest integer, int(x + 1/2). The same value as nint(x) for these
+  !> arguments, converted in line: nint is a call of the C library's
+  !> lround in a build without SSE4.1, and the switches are read several
+  !> times for every element in every cycle.
+  pure integer function model_id(x)
+    real(wp), intent(in) :: x      !< model id [-]
+    model_id = int(x + 0.5_wp)
+  end function model_id
+
   !> .true. when a history flag (failed, melted) is set.
   pure logical function flag_set(flag)
     real(wp), intent(in) :: flag   !< 0 or 1 [-]
@@ -222,7 +233,7 @@ contains
     real(wp), intent(in) :: rho            !< density [kg/m^3]
     real(wp) :: tm, x, a
     tm = props(prop_t_melt)
-    if (nint(props(prop_melt_model)) == melt_lindemann .and. rho > props(prop_rho0)) then
+    if (model_id(props(prop_melt_model)) == melt_lindemann .and. rho > props(prop_rho0)) then
       x = props(prop_rho0)/rho
       a = props(prop_melt_a)
       tm = tm*exp(2.0_wp*a*(1.0_wp - x))*x**(-2.0_wp*(props(prop_gamma0) - a - one_third))
@@ -294,7 +305,7 @@ contains
     real(wp), intent(in) :: temp           !< temperature before [K]
     real(wp) :: t, mu, k0, mu_floor
     t = temp
-    if (nint(props(prop_temp_model)) /= temperature_internal_energy .or. ieos /= eos_mie_gruneisen) return
+    if (model_id(props(prop_temp_model)) /= temperature_internal_energy .or. ieos /= eos_mie_gruneisen) return
     mu = rho/props(prop_rho0) - 1.0_wp
     if (mu < 0.0_wp) then
       k0 = props(prop_rho0)*props(prop_c0)**2
@@ -360,7 +371,7 @@ contains
   pure function power_law_rate(props, rate_p) result(r)
     real(wp), intent(in) :: props(n_props), rate_p
     real(wp) :: r
-    if (nint(props(prop_pl_rate_form)) == rate_printed) then
+    if (model_id(props(prop_pl_rate_form)) == rate_printed) then
       r = 1.0_wp + (rate_p/props(prop_pl_rate0))**props(prop_pl_m)
     else
       r = (1.0_wp + rate_p/props(prop_pl_rate0))**props(prop_pl_m)
@@ -373,7 +384,7 @@ contains
     real(wp) :: dr, inv_rate0, m
     inv_rate0 = 1.0_wp/props(prop_pl_rate0)
     m = props(prop_pl_m)
-    if (nint(props(prop_pl_rate_form)) == rate_printed) then
+    if (model_id(props(prop_pl_rate_form)) == rate_printed) then
       dr = m*inv_rate0*max(rate_p*inv_rate0, rate_slope_floor)**(m - 1.0_wp)
     else
       dr = m*inv_rate0*(1.0_wp + rate_p*inv_rate0)**(m - 1.0_wp)
@@ -695,7 +706,7 @@ contains
     call strength_factors(props, istrength, rate_eq, p, temp, rho, rate_factor, thermal_factor)
     call radial_return(props, istrength, g, dt, rate_factor, thermal_factor, eps_p, s, deps_p, sy)
     eps_p = eps_p + deps_p
-    if (nint(props(prop_temp_model)) == temperature_plastic_work .and. props(prop_cv) > 0.0_wp) then
+    if (model_id(props(prop_temp_model)) == temperature_plastic_work .and. props(prop_cv) > 0.0_wp) then
       temp = temp + props(prop_chi)*sy*deps_p/(rho*props(prop_cv))
     end if
   end subroutine strength_update
@@ -765,7 +776,7 @@ contains
       else
         call strength_update(props, istrength, dt, d, spin, rho_new, p, s, eps_p, temp, s_old, d_dev, deps_p, sy)
         if (deps_p > 0.0_wp) hist(hist_plastic_work) = hist(hist_plastic_work) + sy*deps_p/rho_new
-        if (nint(props(prop_jcf_on)) == 1) then
+        if (model_id(props(prop_jcf_on)) == 1) then
           call jc_damage(props, dt, p, deps_p, sy, temp, melting_temperature(props, rho_new), hist)
           if (point_failed(hist)) s = 0.0_wp
         end if
