@@ -7,7 +7,7 @@
 !> that reads or changes a run's state takes the run's handle (open_run)
 !> first and works on that run alone (fsph_runs).
 module fsph_api
-  use fsph_kinds, only: wp
+  use fsph_kinds, only: wp, two_pi
   use fsph_state, only: simulation_t
   use fsph_runs, only: run_state
   implicit none
@@ -998,15 +998,20 @@ contains
     integer, intent(in) :: ptr(n + 1), nbr(nnz)
     real(wp), intent(in) :: grad_w(2, nnz), bmat(2, 2, n), p(2, 2, n), p_tt(n)
     real(wp), intent(out) :: force(2, n), hoop(n)
-    real(wp), allocatable :: work(:, :, :), hg_pair(:, :), identity(:, :, :)
-    integer :: i
-    ! without the hourglass control: with gamma = 0 its pair terms are zeros
-    allocate (work(2, 2, n), hg_pair(2, nnz), identity(2, 2, n))
+    real(wp), allocatable :: work(:, :, :), hg_pair(:, :), pair_area(:), no_hourglass(:), unit_f(:, :, :)
+    integer :: i, k
+    ! the pair areas 2 pi A_k A_j; the hourglass coefficients zero, so its
+    ! terms vanish (the unit F they multiply is a placeholder)
+    allocate (work(2, 2, n), hg_pair(2, nnz), pair_area(nnz), no_hourglass(nnz), unit_f(2, 2, n))
     do i = 1, n
-      identity(:, :, i) = reshape([1.0_wp, 0.0_wp, 0.0_wp, 1.0_wp], [2, 2])
+      do k = ptr(i), ptr(i + 1) - 1
+        pair_area(k) = two_pi*(area(i)*area(abs(nbr(k))))
+      end do
+      unit_f(:, :, i) = reshape([1.0_wp, 0.0_wp, 0.0_wp, 1.0_wp], [2, 2])
     end do
-    call tlsph_forces(n, x0, x0, area, [(0.0_wp, i = 1, n)], 0.0_wp, ptr, nbr, grad_w, [(0.0_wp, i = 1, nnz)], &
-                      bmat, identity, p, p_tt, work, hg_pair, force)
+    no_hourglass = 0.0_wp
+    call tlsph_forces(n, x0, x0, area, ptr, nbr, grad_w, pair_area, no_hourglass, bmat, unit_f, p, p_tt, work, &
+                      hg_pair, force)
     hoop = hoop_force(area, p_tt)
   end subroutine tlsph_ring_forces
 

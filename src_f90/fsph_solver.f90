@@ -258,7 +258,7 @@ contains
       rho0 = sim%props(prop_rho0, pt%mat(1:n))
       modulus = mat_modulus(pt%mat(1:n))
       call total_setup(sim%total, n, pt%x0(:, 1:n), pt%h(1:n), pt%mass(1:n), pt%body(1:n), rho0, modulus, &
-                       ierr, ifault)
+                       sim%elements%n, ierr, ifault)
     end associate
   end subroutine setup_total
 
@@ -503,7 +503,11 @@ contains
         if (sim%elements%n > 0 .and. pt%n_imag > 0) call refill_imaginary(sim, stage_start)
         call fill_mirrors_start(sim)
       end if
-      if (.not. lists_still_valid(sim%particles, sim%nodes, sim%elements, sim%body_coupled, sim%conversion%alpha_h)) then
+      if (sim%total%alone) then
+        ! one total-Lagrangian body and nothing else: no SPH sums, no
+        ! contact between particles; the lists stay empty
+        call empty_lists(sim%particles)
+      else if (.not. lists_still_valid(sim%particles, sim%nodes, sim%elements, sim%body_coupled, sim%conversion%alpha_h)) then
         skin = list_skin(sim%particles, sim%control%neighbour_skin)
         pt%n_imag = 0
         if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
@@ -544,6 +548,24 @@ contains
       call reserve(pt%cnt_in, size(pt%cnt_list))
     end associate
   end subroutine prepare_particle_sums
+
+  !> Empty neighbour and contact lists for the n particles, without mirror
+  !> images or imaginary particles.
+  subroutine empty_lists(pt)
+    type(particle_set_t), intent(inout) :: pt
+    integer :: n
+    n = pt%n
+    pt%n_imag = 0
+    pt%n_mirror = 0
+    pt%nbr_ptr(1:n + 1) = 1
+    pt%half_end(1:n) = 1
+    pt%low_ptr(1:n + 1) = 1
+    pt%cnt_ptr(1:n + 1) = 1
+    call reserve(pt%nbr_list, 1)
+    call reserve(pt%low_pair, 1)
+    call reserve(pt%low_other, 1)
+    call reserve(pt%cnt_list, 1)
+  end subroutine empty_lists
 
   !> Which entries are intact (1) and which have failed (0): real particles
   !> by their history, imaginary ones (elements) intact, mirror images as

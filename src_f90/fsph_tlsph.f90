@@ -95,7 +95,7 @@ module fsph_tlsph
 
   public :: reference_neighbours, reference_kernel_gradients, reference_correction
   public :: corrected_gradient, deformation_gradients, first_piola, first_piola_point
-  public :: tlsph_forces, hoop_force, rate_of_deformation, reference_kernel_values
+  public :: tlsph_forces, hoop_force, rate_of_deformation, reference_pair_factors
   public :: smallest_stretch
 
   !> Smallest eigenvalue of M = sum_j A_j grad0 W_ij (x) (X_j - X_i) [-]
@@ -489,34 +489,34 @@ contains
   end function hoop_force
 
   !> Internal forces per full ring [N] (module header):
-  !>   f_k = 2 pi sum_j (A_k A_j) (Q_k + Q_j S_j) grad0 W_kj + hoop_force e_r
+  !>   f_k = sum_j pair_area_kj (Q_k + Q_j S_j) grad0 W_kj + hoop_force e_r
   !>         + sum_j hourglass_pair(k, j),
   !> Q = R P B [Pa m], S_j = diag(-1, 1) for an image, I for a particle,
-  !> in one pass over the rows (gamma = 0: no hourglass control). The pair
-  !> factor is formed symmetrically (A_k A_j, Q_k + Q_j), so the term of
-  !> (j, k) is exactly minus that of (k, j), and the term of the image pair
-  !> (j, k') exactly minus that of (k, j'). work is space for Q; hg_pair
-  !> gets each entry's hourglass force on the row's particle [N].
-  subroutine tlsph_forces(n, x0, x, area, modulus, gamma, ptr, list, grad_w, w0, bmat, fmat, p, p_tt, work, &
+  !> pair_area_kj = 2 pi A_k A_j (reference_pair_factors), in one pass over
+  !> the rows (hg_coef = 0: no hourglass control). The pair factors are
+  !> symmetric (A_k A_j, Q_k + Q_j), so the term of (j, k) is exactly minus
+  !> that of (k, j), and the term of the image pair (j, k') exactly minus
+  !> that of (k, j'). work is space for Q; hg_pair gets each entry's
+  !> hourglass force on the row's particle [N].
+  subroutine tlsph_forces(n, x0, x, area, ptr, list, grad_w, pair_area, hg_coef, bmat, fmat, p, p_tt, work, &
                           hg_pair, force)
     integer, intent(in) :: n
     real(wp), intent(in) :: x0(2, n), x(2, n)  !< reference and current positions [m]
     real(wp), intent(in) :: area(n)      !< [m^2]
-    real(wp), intent(in) :: modulus(n)   !< Young's modulus [Pa]
-    real(wp), intent(in) :: gamma        !< hourglass coefficient [-]
     integer, intent(in) :: ptr(n + 1), list(*)
     real(wp), intent(in) :: grad_w(2, *) !< [1/m^3]
-    real(wp), intent(in) :: w0(*)        !< reference kernel values [1/m^2]
+    real(wp), intent(in) :: pair_area(*) !< 2 pi A_k A_j per entry [m^4]
+    real(wp), intent(in) :: hg_coef(*)   !< hourglass coefficient per entry (reference_pair_factors) [N/m]
     real(wp), intent(in) :: bmat(2, 2, n), fmat(2, 2, n) !< [-]
     real(wp), intent(in) :: p(2, 2, n), p_tt(n)     !< first Piola-Kirchhoff [Pa]
     real(wp), intent(out) :: work(2, 2, n)          !< Q [Pa m]
     real(wp), intent(out) :: hg_pair(2, *)          !< [N]
     real(wp), intent(out) :: force(2, n)            !< [N]
     integer :: i, k, j
-    real(wp) :: qs(2, 2), f(2), sg, aa
+    real(wp) :: qs(2, 2), f(2), sg
     !$omp parallel default(none) &
-    !$omp shared(n, x0, x, area, modulus, gamma, ptr, list, grad_w, w0, bmat, fmat, p, p_tt, work, hg_pair, force) &
-    !$omp private(i, k, j, qs, f, sg, aa)
+    !$omp shared(n, x0, x, area, ptr, list, grad_w, pair_area, hg_coef, bmat, fmat, p, p_tt, work, hg_pair, force) &
+    !$omp private(i, k, j, qs, f, sg)
     !$omp do schedule(static)
     do i = 1, n
       work(:, :, i) = x0(1, i)*matmul(p(:, :, i), bmat(:, :, i))
@@ -533,11 +533,10 @@ contains
         qs(2, 1) = work(2, 1, i) + sg*work(2, 1, j)
         qs(1, 2) = work(1, 2, i) + work(1, 2, j)
         qs(2, 2) = work(2, 2, i) + work(2, 2, j)
-        aa = area(i)*area(j)
-        f(1) = f(1) + two_pi*aa*(qs(1, 1)*grad_w(1, k) + qs(1, 2)*grad_w(2, k))
-        f(2) = f(2) + two_pi*aa*(qs(2, 1)*grad_w(1, k) + qs(2, 2)*grad_w(2, k))
+        f(1) = f(1) + pair_area(k)*(qs(1, 1)*grad_w(1, k) + qs(1, 2)*grad_w(2, k))
+        f(2) = f(2) + pair_area(k)*(qs(2, 1)*grad_w(1, k) + qs(2, 2)*grad_w(2, k))
         hg_pair(:, k) = hourglass_pair(x0(:, i), x0(:, j), x(:, i), x(:, j), fmat(:, :, i), fmat(:, :, j), sg, &
-                                       aa, 0.5_wp*(modulus(i) + modulus(j)), gamma, w0(k))
+                                       hg_coef(k))
         f = f + hg_pair(:, k)
       end do
       force(1, i) = f(1) + hoop_force(area(i), p_tt(i))
@@ -547,26 +546,36 @@ contains
     !$omp end parallel
   end subroutine tlsph_forces
 
-  !> Kernel value W(|X_i - X_j'|, h_ij) of every entry [1/m^2] (the
-  !> hourglass control's pair weight), from the reference configuration.
-  subroutine reference_kernel_values(n, x0, h, ptr, list, w0)
+  !> The reference factors of each entry (i, j'): pair_area = 2 pi A_i A_j
+  !> [m^4] of the momentum sum, and the hourglass coefficient
+  !> hg_coef = pi gamma Rbar A_i A_j W_ij E_ij / |X_ij'|^2 [N/m] of
+  !> hourglass_pair (Rbar = (R_i + R_j)/2, E_ij = (E_i + E_j)/2, W_ij the
+  !> kernel at the reference distance), both symmetric in i and j.
+  subroutine reference_pair_factors(n, x0, h, area, modulus, gamma, ptr, list, pair_area, hg_coef)
     integer, intent(in) :: n
     real(wp), intent(in) :: x0(2, n), h(n)  !< [m]
+    real(wp), intent(in) :: area(n)         !< [m^2]
+    real(wp), intent(in) :: modulus(n)      !< Young's modulus [Pa]
+    real(wp), intent(in) :: gamma           !< hourglass coefficient [-]
     integer, intent(in) :: ptr(n + 1), list(*)
-    real(wp), intent(out) :: w0(*)
+    real(wp), intent(out) :: pair_area(*), hg_coef(*)
     integer :: i, k, j
-    real(wp) :: dx(2)
-    !$omp parallel do default(none) schedule(dynamic, 64) shared(n, x0, h, ptr, list, w0) private(i, k, j, dx)
+    real(wp) :: dx(2), dist2
+    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp shared(n, x0, h, area, modulus, gamma, ptr, list, pair_area, hg_coef) private(i, k, j, dx, dist2)
     do i = 1, n
       do k = ptr(i), ptr(i + 1) - 1
         j = abs(list(k))
         dx(1) = x0(1, i) - image_sign(list(k))*x0(1, j)
         dx(2) = x0(2, i) - x0(2, j)
-        w0(k) = kernel_w(sqrt(dx(1)**2 + dx(2)**2), 0.5_wp*(h(i) + h(j)))
+        dist2 = dx(1)**2 + dx(2)**2
+        pair_area(k) = two_pi*(area(i)*area(j))
+        hg_coef(k) = 0.5_wp*pi*gamma*(x0(1, i) + x0(1, j))*(area(i)*area(j)) &
+                     *kernel_w(sqrt(dist2), 0.5_wp*(h(i) + h(j)))*0.5_wp*(modulus(i) + modulus(j))/dist2
       end do
     end do
     !$omp end parallel do
-  end subroutine reference_kernel_values
+  end subroutine reference_pair_factors
 
   !> Spatial velocity gradient L = dF/dt F^-1 of one point (in the plane;
   !> L_tt = fdot_tt/f_tt = v_r/r in the hoop direction) as the updated
@@ -623,14 +632,11 @@ contains
   !> particles next to the axis with one-sided pairs: in a Taylor rod their
   !> plastic strain grew to 20 times their neighbours' (measured,
   !> docs/method.md).
-  pure function hourglass_pair(x0i, x0j, xi, xj, fi, fj, sg, aa, modulus, gamma, w0) result(f)
+  pure function hourglass_pair(x0i, x0j, xi, xj, fi, fj, sg, coef) result(f)
     real(wp), intent(in) :: x0i(2), x0j(2), xi(2), xj(2) !< reference and current positions [m]
     real(wp), intent(in) :: fi(2, 2), fj(2, 2)  !< deformation gradients (fj: the particle's, not its image's)
     real(wp), intent(in) :: sg                  !< -1 for an image, 1 for a particle [-]
-    real(wp), intent(in) :: aa                  !< A_i A_j [m^4]
-    real(wp), intent(in) :: modulus             !< E_ij [Pa]
-    real(wp), intent(in) :: gamma               !< [-]
-    real(wp), intent(in) :: w0                  !< W_ij at the reference distance [1/m^2]
+    real(wp), intent(in) :: coef                !< pi gamma Rbar A_i A_j W_ij E_ij/|X_ij|^2 [N/m]
     real(wp) :: f(2)
     real(wp) :: dxr(2), dx(2), e(2), delta, fj12, fj21
     dxr(1) = sg*x0j(1) - x0i(1)
@@ -644,7 +650,7 @@ contains
              + (fi(2, 1)*dxr(1) + fi(2, 2)*dxr(2) - dx(2))*e(2)) &
             + ((fj(1, 1)*dxr(1) + fj12*dxr(2) - dx(1))*e(1) &
                + (fj21*dxr(1) + fj(2, 2)*dxr(2) - dx(2))*e(2))
-    f = (-0.5_wp*pi*gamma*(x0i(1) + x0j(1))*aa*w0*modulus*delta/(dxr(1)**2 + dxr(2)**2))*e
+    f = (-coef*delta)*e
   end function hourglass_pair
 
 end module fsph_tlsph

@@ -26,7 +26,7 @@ module fsph_total
   use fsph_kinds, only: wp, two_pi
   use fsph_status, only: status_ok, status_bad_input
   use fsph_tlsph, only: reference_neighbours, reference_kernel_gradients, reference_correction, &
-                        reference_kernel_values, deformation_gradients, first_piola, tlsph_forces, &
+                        reference_pair_factors, deformation_gradients, first_piola, tlsph_forces, &
                         rate_of_deformation, smallest_stretch
   implicit none
   private
@@ -36,8 +36,11 @@ module fsph_total
   !> The total-Lagrangian particles of a run and their reference data.
   type, public :: total_set_t
     logical, allocatable :: body_total(:) !< formulation of each body: total-Lagrangian
-    real(wp) :: hourglass = 0.0_wp         !< hourglass coefficient gamma [-] (fsph_tlsph hourglass_pair)
+    real(wp) :: hourglass = 0.0_wp         !< hourglass coefficient gamma [-] (fsph_tlsph reference_pair_factors)
     integer :: n = 0                       !< total-Lagrangian particles
+    !> every particle of the run is total-Lagrangian, of one body, and no
+    !> elements can add others: no particle pair is ever searched for
+    logical :: alone = .false.
     integer, allocatable :: index(:)       !< particle of each
     integer, allocatable :: ptr(:), list(:) !< reference neighbour lists (CSR, images as -k)
     real(wp), allocatable :: x0(:, :)      !< reference positions (R, Z) [m]
@@ -46,7 +49,8 @@ module fsph_total
     real(wp), allocatable :: rho0(:)       !< reference densities [kg/m^3]
     real(wp), allocatable :: modulus(:)    !< Young's modulus at the reference state [Pa]
     real(wp), allocatable :: grad_w(:, :)  !< reference kernel gradient per entry [1/m^3]
-    real(wp), allocatable :: w0(:)         !< reference kernel value per entry [1/m^2]
+    real(wp), allocatable :: pair_area(:)  !< 2 pi A_i A_j per entry [m^4]
+    real(wp), allocatable :: hg_coef(:)    !< hourglass coefficient per entry [N/m] (fsph_tlsph reference_pair_factors)
     real(wp), allocatable :: bmat(:, :, :) !< corrections B [-]
     ! cycle work arrays
     real(wp), allocatable :: x(:, :)       !< gathered positions [m]
@@ -79,9 +83,10 @@ contains
   !> is searched on its own. ierr = status_bad_input, ifault = -particle,
   !> for a particle whose neighbours do not span the plane (fsph_tlsph
   !> reference_correction: a single row, an isolated particle).
-  subroutine total_setup(ts, n, x0, h, mass, body, rho0, modulus, ierr, ifault)
+  subroutine total_setup(ts, n, x0, h, mass, body, rho0, modulus, n_elements, ierr, ifault)
     type(total_set_t), intent(inout) :: ts
     integer, intent(in) :: n
+    integer, intent(in) :: n_elements      !< elements of the run (they may turn into particles)
     real(wp), intent(in) :: x0(2, n), h(n), mass(n), rho0(n), modulus(n)
     integer, intent(in) :: body(n)
     integer, intent(out) :: ierr, ifault
@@ -138,9 +143,10 @@ contains
       call move_alloc(ptr, ts%ptr)
       call move_alloc(list, ts%list)
       nnz = size(ts%list)
-      allocate (ts%grad_w(2, nnz), ts%w0(nnz), ts%bmat(2, 2, nt), eig(nt), ts%hg_pair(2, nnz))
+      allocate (ts%grad_w(2, nnz), ts%pair_area(nnz), ts%hg_coef(nnz), ts%bmat(2, 2, nt), eig(nt), ts%hg_pair(2, nnz))
       call reference_kernel_gradients(nt, ts%x0, ts%h, ts%ptr, ts%list, ts%grad_w)
-      call reference_kernel_values(nt, ts%x0, ts%h, ts%ptr, ts%list, ts%w0)
+      call reference_pair_factors(nt, ts%x0, ts%h, ts%area, ts%modulus, ts%hourglass, ts%ptr, ts%list, ts%pair_area, &
+                                  ts%hg_coef)
       call reference_correction(nt, ts%x0, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, eig, ierr, ifault)
       if (ierr /= status_ok) then
         ifault = -idx(ifault)
@@ -152,6 +158,7 @@ contains
                 ts%fmat_mid(2, 2, nt), ts%f_tt_mid(nt), ts%jac_mid(nt))
       ts%q = 0.0_wp
       ts%stretch = 1.0_wp
+      ts%alone = nt == n .and. n_elements == 0 .and. all(body(idx) == body(idx(1)))
     end associate
   end subroutine total_setup
 
@@ -210,8 +217,8 @@ contains
         ts%sig([1, 2, 4], k) = ts%sig([1, 2, 4], k) - ts%q(k)
       end do
       call first_piola(nt, ts%fmat, ts%f_tt, ts%sig, ts%p, ts%p_tt)
-      call tlsph_forces(nt, ts%x0, ts%x, ts%area, ts%modulus, ts%hourglass, ts%ptr, ts%list, ts%grad_w, ts%w0, &
-                        ts%bmat, ts%fmat, ts%p, ts%p_tt, ts%q_work, ts%hg_pair, ts%force)
+      call tlsph_forces(nt, ts%x0, ts%x, ts%area, ts%ptr, ts%list, ts%grad_w, ts%pair_area, ts%hg_coef, ts%bmat, &
+                        ts%fmat, ts%p, ts%p_tt, ts%q_work, ts%hg_pair, ts%force)
       do k = 1, nt
         acc(:, idx(k)) = ts%force(:, k)/mass(idx(k))
       end do
