@@ -28,9 +28,10 @@ process of its own; peak memory is that child's resident set):
      Medians of --repeat runs (the loaded fixed run once: it can take
      minutes)
   l  total-Lagrangian particles on the block of b (the same lattice,
-     deck cases/taylor_armco_tlsph.nml): us per particle-cycle against
-     the updated particles' of b, at equal particle count (its neighbours
-     are fixed: no search)
+     deck cases/taylor_armco_tlsph.nml), on the full support and on the
+     selected-particle stencil: us per particle-cycle against the updated
+     particles' of b, at equal particle count (their neighbours are
+     fixed: no search)
   m  the machine: clock and memory bandwidth (STREAM add over 3 x 160 MB)
      for the roofline estimate
 Speed-ups of 2 threads over 1 go with every section (f); peak memory with
@@ -85,7 +86,7 @@ def section_block(kind, n_radial, n_axial, cycles, repeat):
     rows = [best_of(repeat, "block", {"kind": kind, "n_radial": n_radial, "n_axial": n_axial,
                                       "cycles": cycles}, t, "advance_s") for t in THREADS]
     unit, scale = ("ns/element-cycle", 1.0) if kind == "fem" else ("us/particle-cycle", 1e-3)
-    print(f"\n({dict(fem='a', sph='b', tlsph='l')[kind]}) {kind.upper()} block: {rows[0]['items']} "
+    print(f"\n({dict(fem='a', sph='b', tlsph='l', tlsph_selected='l')[kind]}) {kind.upper()} block: {rows[0]['items']} "
           f"{'elements' if kind == 'fem' else 'particles'}, {rows[0]['cycles']} cycles")
     for r in rows:
         phases = r["phases_s"]
@@ -362,11 +363,14 @@ def main(argv=None):
             results["sph_block"] = section_block("sph", *sph_size, 20 if args.quick else 40, args.repeat)
         elif s == "l":
             results["tlsph_block"] = section_block("tlsph", *sph_size, 20 if args.quick else 40, args.repeat)
+            results["tlsph_selected_block"] = section_block("tlsph_selected", *sph_size, 20 if args.quick else 40,
+                                                            args.repeat)
             if "sph_block" in results:
-                ratio = (results["tlsph_block"]["rows"][0]["ns_per_item_cycle"]
-                         / results["sph_block"]["rows"][0]["ns_per_item_cycle"])
-                results["tlsph_block"]["ratio_to_sph"] = ratio
-                print(f"  total-Lagrangian / updated particle-cycle, 1 thread: {ratio:.2f}")
+                for key in ("tlsph_block", "tlsph_selected_block"):
+                    ratio = (results[key]["rows"][0]["ns_per_item_cycle"]
+                             / results["sph_block"]["rows"][0]["ns_per_item_cycle"])
+                    results[key]["ratio_to_sph"] = ratio
+                    print(f"  {key}: total-Lagrangian / updated particle-cycle, 1 thread: {ratio:.2f}")
         elif s == "c":
             results["taylor_adaptive"] = section_taylor(outroot / "taylor", args.repeat)
         elif s == "d":

@@ -6,7 +6,8 @@ child's). A child prints one JSON object on its last line:
     python workloads.py run '{"deck": "cases/taylor_armco.nml", "outdir": ...}'
 
 block: a large rod of T3 elements (fem), updated particles (sph) or
-total-Lagrangian particles (tlsph) at the spacing
+total-Lagrangian particles (tlsph; tlsph_selected: on the selected-particle
+stencil) at the spacing
 of the Taylor decks striking the anvil at 221 m/s (Armco iron, EPP +
 Mie-Grueneisen), advanced `cycles` cycles after `warmup` cycles; the figure
 is the wall time of the advance loop per element- or particle-cycle, with
@@ -48,7 +49,9 @@ def peak_rss_mb():
 def block(kind, n_radial, n_axial, cycles, warmup=5):
     import fsph
     from fsph import deck as deck_module
-    deck = deck_module.load(BLOCK_DECKS[kind])
+    deck = deck_module.load(BLOCK_DECKS["tlsph" if kind == "tlsph_selected" else kind])
+    if kind == "tlsph_selected":
+        deck["sph"]["total_stencil"] = "selected"
     body = deck["body"][0]
     spacing = body["radius"] / body["n_radial"]
     body.update(n_radial=n_radial, n_axial=n_axial, radius=n_radial * spacing,

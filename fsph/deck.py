@@ -433,6 +433,16 @@ SCHEMA = {
                                    "from 2 up particles colder than the reference state; 20 "
                                    "was unstable (docs/method.md). 0 turns it off.",
                                    lower=0.0, upper=10.0),
+            "total_stencil": Key("str", "full", "-",
+                                 "Stencil of the corrected gradient of total-Lagrangian bodies. "
+                                 "full: every neighbour within the kernel support (about 21 on "
+                                 "a lattice with h = 1.3 spacings). selected: the selected-"
+                                 "particle stencil of Wang, Xu & Yang 2022 (SFPM): the nearest "
+                                 "neighbour in each of four sectors around +r, -r, +z, -z (on a "
+                                 "lattice, central differences), at a surface the three nearest "
+                                 "that span the plane, made symmetric pair by pair; cheaper, and "
+                                 "it leans on the hourglass control (docs/method.md measures "
+                                 "the trade-off).", choices=("full", "selected")),
             "debris_density": Key("float", 0.1, "-",
                                   "A particle whose density falls below this fraction of its "
                                   "material's reference density is debris: fragments that have "

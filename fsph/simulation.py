@@ -227,7 +227,8 @@ class Simulation:
         self._call(_api.set_continua(self._run, fortran_index(continuum),
                                      np.array(coupled, dtype=np.int32)), "continua")
         total = np.array([int(b["formulation"] == "total") for b in bodies], dtype=np.int32)
-        self._call(_api.set_formulation(self._run, total, deck["sph"]["total_hourglass"]), "formulation")
+        self._call(_api.set_formulation(self._run, total, deck["sph"]["total_hourglass"],
+                                        int(deck["sph"]["total_stencil"] == "selected")), "formulation")
         conv = deck["convert"]
         criteria = [name for name, _ in layouts.CONVERSION_CRITERIA]
         _api.set_conversion(self._run, int(mode == "adaptive"), layouts.index_of(criteria, conv["criterion"]),

@@ -23,7 +23,7 @@ module fsph_api
   public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
   public :: drain_history, get_body_history, set_gauges, get_gauge_history, get_gauge_state
   public :: tlsph_neighbour_count, tlsph_neighbours, tlsph_kernel_gradients, tlsph_correction
-  public :: tlsph_scalar_gradient, tlsph_deformation, tlsph_piola, tlsph_ring_forces
+  public :: tlsph_scalar_gradient, tlsph_deformation, tlsph_piola, tlsph_ring_forces, tlsph_stencil
 
 contains
 
@@ -223,21 +223,24 @@ contains
 
   !> The particle formulation of every body: total(b) /= 0 for a
   !> total-Lagrangian body (fsph_total; its particles must have no
-  !> element coupling), and the hourglass coefficient gamma [-] of those
-  !> bodies (fsph_tlsph hourglass_forces). Before initialise.
-  subroutine set_formulation(run, nbody, total, hourglass, ierr)
+  !> element coupling), the hourglass coefficient gamma [-] of those
+  !> bodies (fsph_tlsph reference_pair_factors) and their stencil.
+  !> Before initialise.
+  subroutine set_formulation(run, nbody, total, hourglass, selected, ierr)
     use fsph_status, only: status_ok, status_bad_input
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: nbody
     integer, intent(in) :: total(nbody)
     real(wp), intent(in) :: hourglass
+    integer, intent(in) :: selected        !< 1: the selected-particle stencil, 0: the full support
     integer, intent(out) :: ierr
     sim => run_state(run)
     ierr = status_bad_input
     if (nbody < 1 .or. .not. (hourglass >= 0.0_wp)) return
     sim%total%body_total = total /= 0
     sim%total%hourglass = hourglass
+    sim%total%selected = selected /= 0
     ierr = status_ok
   end subroutine set_formulation
 
@@ -929,6 +932,19 @@ contains
     end if
     nbr = list
   end subroutine tlsph_neighbours
+
+  !> The selected-particle stencil within the reference lists (fsph_tlsph
+  !> select_stencil): keep(k) = 1 for an entry kept, 0 otherwise.
+  subroutine tlsph_stencil(n, nnz, x0, ptr, nbr, keep)
+    use fsph_tlsph, only: select_stencil
+    integer, intent(in) :: n, nnz
+    real(wp), intent(in) :: x0(2, n)
+    integer, intent(in) :: ptr(n + 1), nbr(nnz)
+    integer, intent(out) :: keep(nnz)
+    logical :: marks(nnz)
+    call select_stencil(n, x0, ptr, nbr, marks)
+    keep = merge(1, 0, marks)
+  end subroutine tlsph_stencil
 
   !> Reference kernel gradient of every entry [1/m^3].
   subroutine tlsph_kernel_gradients(n, nnz, x0, h, ptr, nbr, grad_w)

@@ -96,7 +96,7 @@ module fsph_tlsph
   public :: reference_neighbours, reference_kernel_gradients, reference_correction
   public :: corrected_gradient, deformation_gradients, first_piola, first_piola_point
   public :: tlsph_forces, hoop_force, rate_of_deformation, reference_pair_factors
-  public :: smallest_stretch
+  public :: smallest_stretch, select_stencil, compress_rows
 
   !> Smallest eigenvalue of M = sum_j A_j grad0 W_ij (x) (X_j - X_i) [-]
   !> below which a particle's correction is refused as singular. M is
@@ -652,5 +652,147 @@ contains
                + (fj21*dxr(1) + fj(2, 2)*dxr(2) - dx(2))*e(2))
     f = (-coef*delta)*e
   end function hourglass_pair
+
+  ! ---- the selected-particle stencil (SFPM) ------------------------------
+
+  !> The selected-particle stencil of Wang et al. (2022, SFPM) within the
+  !> reference lists: keep(k) marks the entries kept. A particle takes, in
+  !> each of the four sectors of 90 degrees around +R, -R, +Z and -Z (the
+  !> diagonals going to the R sectors), its nearest entry (images
+  !> included; ties to the first in row order); with all four sectors
+  !> filled (an interior particle: on a lattice the central differences)
+  !> those four, otherwise (a boundary particle) its three nearest entries,
+  !> and more in order of distance until they span the plane (one-sided
+  !> differences). The marks are then made symmetric: an entry (i, j) kept
+  !> keeps (j, i), an image entry (i, -j) keeps (j, -i) (the pair at the
+  !> same reference distance): the pair sum of tlsph_forces is then the
+  !> derivative of the discrete strain energy on the stencil and conserves
+  !> momentum pair by pair, as on the full support. Symmetrising adds a
+  !> boundary particle to the stencils of the neighbours it chose.
+  subroutine select_stencil(n, x0, ptr, list, keep)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x0(2, n)      !< [m]
+    integer, intent(in) :: ptr(n + 1), list(*)
+    logical, intent(out) :: keep(*)
+    integer :: i, k, j, m
+    keep(1:ptr(n + 1) - 1) = .false.
+    !$omp parallel do default(none) schedule(dynamic, 64) shared(n, x0, ptr, list, keep) private(i)
+    do i = 1, n
+      call stencil_row(i, n, x0, ptr, list, keep)
+    end do
+    !$omp end parallel do
+    ! symmetric: the reverse of every kept entry (serial: it writes other rows)
+    do i = 1, n
+      do k = ptr(i), ptr(i + 1) - 1
+        if (.not. keep(k)) cycle
+        j = abs(list(k))
+        do m = ptr(j), ptr(j + 1) - 1
+          if (list(m) == sign(i, list(k))) keep(m) = .true.
+        end do
+      end do
+    end do
+  end subroutine select_stencil
+
+  !> The stencil of particle i (select_stencil): its entries' marks.
+  pure subroutine stencil_row(i, n, x0, ptr, list, keep)
+    integer, intent(in) :: i, n, ptr(n + 1), list(*)
+    real(wp), intent(in) :: x0(2, n)
+    logical, intent(inout) :: keep(*)
+    integer :: k, j, sector, best(4), count, chosen, first
+    real(wp) :: d(2), dist2, best_d2(4), near_d2
+    logical :: taken(ptr(i + 1) - ptr(i))
+    best = 0
+    best_d2 = huge(1.0_wp)
+    first = ptr(i)
+    do k = ptr(i), ptr(i + 1) - 1
+      j = abs(list(k))
+      d(1) = image_sign(list(k))*x0(1, j) - x0(1, i)
+      d(2) = x0(2, j) - x0(2, i)
+      dist2 = d(1)**2 + d(2)**2
+      if (abs(d(2)) <= abs(d(1))) then
+        sector = merge(1, 2, d(1) > 0.0_wp)
+      else
+        sector = merge(3, 4, d(2) > 0.0_wp)
+      end if
+      if (dist2 < best_d2(sector)) then
+        best_d2(sector) = dist2
+        best(sector) = k
+      end if
+    end do
+    if (all(best > 0)) then
+      keep(best) = .true.
+      return
+    end if
+    ! a boundary particle: the nearest entries until three that span the plane
+    taken = .false.
+    count = 0
+    do
+      if (count >= 3 .and. taken_span()) exit
+      if (count == size(taken)) exit
+      chosen = 0
+      near_d2 = huge(1.0_wp)
+      do k = ptr(i), ptr(i + 1) - 1
+        if (taken(k - first + 1)) cycle
+        dist2 = entry_offset(k, 1)**2 + entry_offset(k, 2)**2
+        if (dist2 < near_d2) then
+          near_d2 = dist2
+          chosen = k
+        end if
+      end do
+      taken(chosen - first + 1) = .true.
+      count = count + 1
+    end do
+    do k = ptr(i), ptr(i + 1) - 1
+      if (taken(k - first + 1)) keep(k) = .true.
+    end do
+  contains
+    !> Component c of the offset X_e' - X_i of entry e [m].
+    pure real(wp) function entry_offset(e, c)
+      integer, intent(in) :: e, c
+      integer :: jj
+      jj = abs(list(e))
+      if (c == 1) then
+        entry_offset = image_sign(list(e))*x0(1, jj) - x0(1, i)
+      else
+        entry_offset = x0(2, jj) - x0(2, i)
+      end if
+    end function entry_offset
+    !> Two of the taken directions are not parallel.
+    pure logical function taken_span()
+      integer :: a, b
+      real(wp) :: c2
+      taken_span = .false.
+      do a = ptr(i), ptr(i + 1) - 1
+        if (.not. taken(a - first + 1)) cycle
+        do b = a + 1, ptr(i + 1) - 1
+          if (.not. taken(b - first + 1)) cycle
+          c2 = entry_offset(a, 1)*entry_offset(b, 2) - entry_offset(a, 2)*entry_offset(b, 1)
+          if (abs(c2) > 1.0e-6_wp*(entry_offset(a, 1)**2 + entry_offset(a, 2)**2 + entry_offset(b, 1)**2 &
+                                   + entry_offset(b, 2)**2)) taken_span = .true.
+        end do
+      end do
+    end function taken_span
+  end subroutine stencil_row
+
+  !> The rows of the entries marked keep, in CSR form, in the order of the
+  !> full rows (sub_ptr(n + 1) - 1 entries).
+  subroutine compress_rows(n, ptr, list, keep, sub_ptr, sub_list)
+    integer, intent(in) :: n, ptr(n + 1), list(*)
+    logical, intent(in) :: keep(*)
+    integer, intent(out) :: sub_ptr(n + 1)
+    integer, allocatable, intent(out) :: sub_list(:)
+    integer :: i, k, m
+    sub_ptr(1) = 1
+    do i = 1, n
+      sub_ptr(i + 1) = sub_ptr(i) + count(keep(ptr(i):ptr(i + 1) - 1))
+    end do
+    allocate (sub_list(sub_ptr(n + 1) - 1))
+    m = 0
+    do k = 1, ptr(n + 1) - 1
+      if (.not. keep(k)) cycle
+      m = m + 1
+      sub_list(m) = list(k)
+    end do
+  end subroutine compress_rows
 
 end module fsph_tlsph

@@ -27,7 +27,7 @@ module fsph_total
   use fsph_status, only: status_ok, status_bad_input
   use fsph_tlsph, only: reference_neighbours, reference_kernel_gradients, reference_correction, &
                         reference_pair_factors, deformation_gradients, first_piola, tlsph_forces, &
-                        rate_of_deformation, smallest_stretch
+                        rate_of_deformation, smallest_stretch, select_stencil, compress_rows
   implicit none
   private
 
@@ -37,6 +37,7 @@ module fsph_total
   type, public :: total_set_t
     logical, allocatable :: body_total(:) !< formulation of each body: total-Lagrangian
     real(wp) :: hourglass = 0.0_wp         !< hourglass coefficient gamma [-] (fsph_tlsph reference_pair_factors)
+    logical :: selected = .false.          !< the selected-particle stencil (fsph_tlsph select_stencil), not the full support
     integer :: n = 0                       !< total-Lagrangian particles
     !> every particle of the run is total-Lagrangian, of one body, and no
     !> elements can add others: no particle pair is ever searched for
@@ -93,16 +94,19 @@ contains
     integer, allocatable :: sel(:), bptr(:), blist(:), ptr(:), list(:)
     real(wp), allocatable :: eig(:)
     integer :: b, k, m, nb, nnz, first
-    logical, allocatable :: body_total(:)
+    logical, allocatable :: body_total(:), keep(:)
     real(wp) :: hourglass
+    logical :: selected
     ierr = status_ok
     ifault = 0
     ! a fresh set (a restore sets up again), keeping the formulation
     call move_alloc(ts%body_total, body_total)
     hourglass = ts%hourglass
+    selected = ts%selected
     ts = total_set_t()
     call move_alloc(body_total, ts%body_total)
     ts%hourglass = hourglass
+    ts%selected = selected
     if (.not. allocated(ts%body_total)) return
     if (.not. any(ts%body_total)) return
     ts%index = pack([(k, k = 1, n)], [(tl_body(ts, body(k)), k = 1, n)])
@@ -140,8 +144,15 @@ contains
         ptr(first + 1:first + nb) = nnz + bptr(2:nb + 1)
         deallocate (bptr)
       end do
-      call move_alloc(ptr, ts%ptr)
-      call move_alloc(list, ts%list)
+      if (ts%selected) then
+        allocate (keep(size(list)))
+        call select_stencil(nt, ts%x0, ptr, list, keep)
+        allocate (ts%ptr(nt + 1))
+        call compress_rows(nt, ptr, list, keep, ts%ptr, ts%list)
+      else
+        call move_alloc(ptr, ts%ptr)
+        call move_alloc(list, ts%list)
+      end if
       nnz = size(ts%list)
       allocate (ts%grad_w(2, nnz), ts%pair_area(nnz), ts%hg_coef(nnz), ts%bmat(2, 2, nt), eig(nt), ts%hg_pair(2, nnz))
       call reference_kernel_gradients(nt, ts%x0, ts%h, ts%ptr, ts%list, ts%grad_w)
