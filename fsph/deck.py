@@ -1368,6 +1368,24 @@ def _check_materials(path, deck):
                             "the name of a &material: " + ", ".join(names), b["material"])
 
 
+def _check_total_failure(path, deck):
+    """A total-Lagrangian body's material has no failure model: the damage
+    of total-Lagrangian particles (pairs cut, the correction rebuilt) is
+    not there, and a failed particle that kept its pairs and its hourglass
+    control would be held together by them (docs/method.md)."""
+    materials = {m["name"]: m for m in deck["material"]}
+    for i, b in enumerate(deck["body"]):
+        m = materials.get(b["material"])
+        if b["formulation"] != "total" or m is None:
+            continue
+        failing = [k for k in ("jc_d1", "fracture_energy") if m.get(k) is not None]
+        if failing:
+            raise DeckError(path, f"body #{i + 1}", "formulation",
+                            f"'updated' for a body whose material fails (material '{m['name']}' sets "
+                            f"{failing[0]}): total-Lagrangian bodies have no damage yet",
+                            b["formulation"])
+
+
 def _check_debris(path, met, bodies):
     """kind 'debris': the flyer (body, default the first) and the target
     (default the first other body) are two bodies, the flyer moving
@@ -1428,7 +1446,8 @@ def _check_output(path, deck):
 def _cross_check(path, deck):
     """Checks across keys and groups, in this order: bodies
     (discretisation, geometry, size, joins, formulation), erosion and conversion, rod
-    radii, unique names, materials, boundaries, gauges, metrics, output. Fills in
+    radii, unique names, materials, failure of total-Lagrangian bodies,
+    boundaries, gauges, metrics, output. Fills in
     the bodies' default discretisation and the deck's material warnings."""
     mode = deck["control"]["mode"]
     _check_discretisation(path, deck["body"], mode)
@@ -1455,6 +1474,7 @@ def _cross_check(path, deck):
     _unique_names(path, "material", deck["material"])
     _unique_names(path, "body", deck["body"])
     _check_materials(path, deck)
+    _check_total_failure(path, deck)
     for i, bc in enumerate(deck["boundary"]):
         if bc["normal"][0] == 0.0 and bc["normal"][1] == 0.0:
             raise DeckError(path, f"boundary #{i + 1}", "normal", "a non-zero vector",
