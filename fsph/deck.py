@@ -343,8 +343,10 @@ SCHEMA = {
                                "neighbours never change, so it is not for flows that mix "
                                "material). total needs discretisation 'particles' and no "
                                "joined_to; the body meets the others through the particle "
-                               "contact and the planes (docs/method.md, 'Total-Lagrangian "
-                               "particles').", choices=("updated", "total")),
+                               "contact and the planes. A failed particle (any failure model "
+                               "of the material) keeps its pairs but carries no tension and no "
+                               "deviatoric stress, so cracks open (docs/method.md, "
+                               "'Total-Lagrangian particles').", choices=("updated", "total")),
             "joined_to": Key("str", None, "-",
                              "Name of another body this one is glued to as one continuum (modes "
                              "fixed and adaptive): element and particle parts are coupled through "
@@ -1368,24 +1370,6 @@ def _check_materials(path, deck):
                             "the name of a &material: " + ", ".join(names), b["material"])
 
 
-def _check_total_failure(path, deck):
-    """A total-Lagrangian body's material has no failure model: the damage
-    of total-Lagrangian particles (pairs cut, the correction rebuilt) is
-    not there, and a failed particle that kept its pairs and its hourglass
-    control would be held together by them (docs/method.md)."""
-    materials = {m["name"]: m for m in deck["material"]}
-    for i, b in enumerate(deck["body"]):
-        m = materials.get(b["material"])
-        if b["formulation"] != "total" or m is None:
-            continue
-        failing = [k for k in ("jc_d1", "fracture_energy") if m.get(k) is not None]
-        if failing:
-            raise DeckError(path, f"body #{i + 1}", "formulation",
-                            f"'updated' for a body whose material fails (material '{m['name']}' sets "
-                            f"{failing[0]}): total-Lagrangian bodies have no damage yet",
-                            b["formulation"])
-
-
 def _check_debris(path, met, bodies):
     """kind 'debris': the flyer (body, default the first) and the target
     (default the first other body) are two bodies, the flyer moving
@@ -1446,8 +1430,7 @@ def _check_output(path, deck):
 def _cross_check(path, deck):
     """Checks across keys and groups, in this order: bodies
     (discretisation, geometry, size, joins, formulation), erosion and conversion, rod
-    radii, unique names, materials, failure of total-Lagrangian bodies,
-    boundaries, gauges, metrics, output. Fills in
+    radii, unique names, materials, boundaries, gauges, metrics, output. Fills in
     the bodies' default discretisation and the deck's material warnings."""
     mode = deck["control"]["mode"]
     _check_discretisation(path, deck["body"], mode)
@@ -1474,7 +1457,6 @@ def _cross_check(path, deck):
     _unique_names(path, "material", deck["material"])
     _unique_names(path, "body", deck["body"])
     _check_materials(path, deck)
-    _check_total_failure(path, deck)
     for i, bc in enumerate(deck["boundary"]):
         if bc["normal"][0] == 0.0 and bc["normal"][1] == 0.0:
             raise DeckError(path, f"boundary #{i + 1}", "normal", "a non-zero vector",

@@ -1026,8 +1026,8 @@ contains
       unit_f(:, :, i) = reshape([1.0_wp, 0.0_wp, 0.0_wp, 1.0_wp], [2, 2])
     end do
     no_hourglass = 0.0_wp
-    call tlsph_forces(n, x0, x0, area, ptr, nbr, grad_w, pair_area, no_hourglass, bmat, unit_f, p, p_tt, work, &
-                      hg_pair, force)
+    call tlsph_forces(n, x0, x0, area, ptr, nbr, grad_w, pair_area, no_hourglass, bmat, unit_f, &
+                      [(1.0_wp, i = 1, n)], p, p_tt, work, hg_pair, force)
     hoop = hoop_force(area, p_tt)
   end subroutine tlsph_ring_forces
 

@@ -451,7 +451,7 @@ contains
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
         ! total-Lagrangian particles: their own forces (no SPH sums)
         if (total_active(sim%total)) then
-          call total_forces(sim%total, n, pt%x, pt%sig, pt%d, pt%rho, pt%c, pt%mass, sim%control%c_q, &
+          call total_forces(sim%total, n, pt%x, pt%sig, pt%d, pt%rho, pt%c, pt%mass, pt%intact, sim%control%c_q, &
                             sim%control%c_l, pt%acc, ierr, ifault)
           if (ierr /= status_ok) then
             call timer_stop(sim%timers, phase_sph_sums)
@@ -836,8 +836,8 @@ contains
                              pt%de_parts)
         pt%de_parts(3, 1:n) = 0.0_wp
         if (total_active(sim%total)) &
-          call total_energy_rate(sim%total, n, pt%sig_mid, pt%d, pt%rho, pt%c, pt%v_bar, pt%mass, sim%control%c_q, &
-                                 sim%control%c_l, pt%de, pt%de_parts)
+          call total_energy_rate(sim%total, n, pt%sig_mid, pt%d, pt%rho, pt%rho_mid, pt%c, pt%v_bar, pt%mass, &
+                                 sim%control%c_q, sim%control%c_l, pt%de, pt%de_parts)
         if (sim%control%particle_contact == particle_contact_riemann) &
           call riemann_contact_heat(n, pt%v_bar, pt%mass, pt%cnt_ptr, pt%cnt_list, pt%cnt_force, pt%cnt_vstar, &
                                     pt%de, pt%de_parts)

@@ -270,6 +270,16 @@ contains
     end do
   end subroutine scan_row
 
+  !> X_i - X_j' of entry `entry` of row i [m]: the offset from the entry's
+  !> reference position ((-R_j, Z_j) for an image) to particle i's.
+  pure function reference_offset(x0i, x0j, entry) result(dx)
+    real(wp), intent(in) :: x0i(2), x0j(2)  !< [m]
+    integer, intent(in) :: entry
+    real(wp) :: dx(2)
+    dx(1) = x0i(1) - image_sign(entry)*x0j(1)
+    dx(2) = x0i(2) - x0j(2)
+  end function reference_offset
+
   !> Sign of an entry's radial coordinate: -1 for a mirror image (-j),
   !> +1 for a particle [-].
   pure real(wp) function image_sign(entry)
@@ -294,8 +304,7 @@ contains
     do i = 1, n
       do k = ptr(i), ptr(i + 1) - 1
         j = abs(list(k))
-        dx(1) = x0(1, i) - image_sign(list(k))*x0(1, j)
-        dx(2) = x0(2, i) - x0(2, j)
+        dx = reference_offset(x0(:, i), x0(:, j), list(k))
         dist2 = dx(1)**2 + dx(2)**2
         grad_w(:, k) = kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j)))*dx
       end do
@@ -329,8 +338,7 @@ contains
       m = 0.0_wp
       do k = ptr(i), ptr(i + 1) - 1
         j = abs(list(k))
-        dx(1) = image_sign(list(k))*x0(1, j) - x0(1, i)
-        dx(2) = x0(2, j) - x0(2, i)
+        dx = -reference_offset(x0(:, i), x0(:, j), list(k))
         m(1, 1) = m(1, 1) + area(j)*grad_w(1, k)*dx(1)
         m(2, 1) = m(2, 1) + area(j)*grad_w(2, k)*dx(1)
         m(1, 2) = m(1, 2) + area(j)*grad_w(1, k)*dx(2)
@@ -493,13 +501,14 @@ contains
   !>         + sum_j hourglass_pair(k, j),
   !> Q = R P B [Pa m], S_j = diag(-1, 1) for an image, I for a particle,
   !> pair_area_kj = 2 pi A_k A_j (reference_pair_factors), in one pass over
-  !> the rows (hg_coef = 0: no hourglass control). The pair factors are
+  !> the rows (hg_coef = 0: no hourglass control; a pair with a particle
+  !> whose hg_on is 0, none either). The pair factors are
   !> symmetric (A_k A_j, Q_k + Q_j), so the term of (j, k) is exactly minus
   !> that of (k, j), and the term of the image pair (j, k') exactly minus
   !> that of (k, j'). work is space for Q; hg_pair gets each entry's
   !> hourglass force on the row's particle [N].
-  subroutine tlsph_forces(n, x0, x, area, ptr, list, grad_w, pair_area, hg_coef, bmat, fmat, p, p_tt, work, &
-                          hg_pair, force)
+  subroutine tlsph_forces(n, x0, x, area, ptr, list, grad_w, pair_area, hg_coef, bmat, fmat, hg_on, p, p_tt, &
+                          work, hg_pair, force)
     integer, intent(in) :: n
     real(wp), intent(in) :: x0(2, n), x(2, n)  !< reference and current positions [m]
     real(wp), intent(in) :: area(n)      !< [m^2]
@@ -508,6 +517,7 @@ contains
     real(wp), intent(in) :: pair_area(*) !< 2 pi A_k A_j per entry [m^4]
     real(wp), intent(in) :: hg_coef(*)   !< hourglass coefficient per entry (reference_pair_factors) [N/m]
     real(wp), intent(in) :: bmat(2, 2, n), fmat(2, 2, n) !< [-]
+    real(wp), intent(in) :: hg_on(n)     !< 1: the particle's pairs take the hourglass control, 0: not [-]
     real(wp), intent(in) :: p(2, 2, n), p_tt(n)     !< first Piola-Kirchhoff [Pa]
     real(wp), intent(out) :: work(2, 2, n)          !< Q [Pa m]
     real(wp), intent(out) :: hg_pair(2, *)          !< [N]
@@ -515,7 +525,8 @@ contains
     integer :: i, k, j
     real(wp) :: qs(2, 2), f(2), sg
     !$omp parallel default(none) &
-    !$omp shared(n, x0, x, area, ptr, list, grad_w, pair_area, hg_coef, bmat, fmat, p, p_tt, work, hg_pair, force) &
+    !$omp shared(n, x0, x, area, ptr, list, grad_w, pair_area, hg_coef, bmat, fmat, hg_on, p, p_tt, work, hg_pair) &
+    !$omp shared(force) &
     !$omp private(i, k, j, qs, f, sg)
     !$omp do schedule(static)
     do i = 1, n
@@ -536,7 +547,7 @@ contains
         f(1) = f(1) + pair_area(k)*(qs(1, 1)*grad_w(1, k) + qs(1, 2)*grad_w(2, k))
         f(2) = f(2) + pair_area(k)*(qs(2, 1)*grad_w(1, k) + qs(2, 2)*grad_w(2, k))
         hg_pair(:, k) = hourglass_pair(x0(:, i), x0(:, j), x(:, i), x(:, j), fmat(:, :, i), fmat(:, :, j), sg, &
-                                       hg_coef(k))
+                                       hg_coef(k)*(hg_on(i)*hg_on(j)))
         f = f + hg_pair(:, k)
       end do
       force(1, i) = f(1) + hoop_force(area(i), p_tt(i))
@@ -566,8 +577,7 @@ contains
     do i = 1, n
       do k = ptr(i), ptr(i + 1) - 1
         j = abs(list(k))
-        dx(1) = x0(1, i) - image_sign(list(k))*x0(1, j)
-        dx(2) = x0(2, i) - x0(2, j)
+        dx = reference_offset(x0(:, i), x0(:, j), list(k))
         dist2 = dx(1)**2 + dx(2)**2
         pair_area(k) = two_pi*(area(i)*area(j))
         hg_coef(k) = 0.5_wp*pi*gamma*(x0(1, i) + x0(1, j))*(area(i)*area(j)) &
@@ -706,8 +716,7 @@ contains
     first = ptr(i)
     do k = ptr(i), ptr(i + 1) - 1
       j = abs(list(k))
-      d(1) = image_sign(list(k))*x0(1, j) - x0(1, i)
-      d(2) = x0(2, j) - x0(2, i)
+      d = -reference_offset(x0(:, i), x0(:, j), list(k))
       dist2 = d(1)**2 + d(2)**2
       if (abs(d(2)) <= abs(d(1))) then
         sector = merge(1, 2, d(1) > 0.0_wp)
@@ -749,13 +758,9 @@ contains
     !> Component c of the offset X_e' - X_i of entry e [m].
     pure real(wp) function entry_offset(e, c)
       integer, intent(in) :: e, c
-      integer :: jj
-      jj = abs(list(e))
-      if (c == 1) then
-        entry_offset = image_sign(list(e))*x0(1, jj) - x0(1, i)
-      else
-        entry_offset = x0(2, jj) - x0(2, i)
-      end if
+      real(wp) :: dx(2)
+      dx = -reference_offset(x0(:, i), x0(:, abs(list(e))), list(e))
+      entry_offset = dx(c)
     end function entry_offset
     !> Two of the taken directions are not parallel.
     pure logical function taken_span()

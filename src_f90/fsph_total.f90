@@ -24,7 +24,7 @@
 !> particle; a body's particles have neighbours in their own body only.
 module fsph_total
   use fsph_kinds, only: wp, two_pi
-  use fsph_status, only: status_ok, status_bad_input
+  use fsph_status, only: status_ok, status_bad_input, status_inverted_element
   use fsph_tlsph, only: reference_neighbours, reference_kernel_gradients, reference_correction, &
                         reference_pair_factors, deformation_gradients, first_piola, tlsph_forces, &
                         rate_of_deformation, smallest_stretch, select_stencil, compress_rows
@@ -67,6 +67,8 @@ module fsph_total
     real(wp), allocatable :: hg_pair(:, :) !< hourglass force on the row's particle per entry [N]
     real(wp), allocatable :: q(:)          !< bulk viscous pressure of the last force call [Pa]
     real(wp), allocatable :: stretch(:)    !< smallest in-plane stretch at the last force call [-]
+    real(wp), allocatable :: jac_old(:)    !< J at the start of the step [-]
+    logical, allocatable :: failed(:)      !< the particle had failed at the start of the step
   end type total_set_t
 
 contains
@@ -170,6 +172,8 @@ contains
       ts%q = 0.0_wp
       ts%stretch = 1.0_wp
       ts%alone = nt == n .and. n_elements == 0 .and. all(body(idx) == body(idx(1)))
+      allocate (ts%jac_old(nt), ts%failed(nt))
+      ts%failed = .false.
     end associate
   end subroutine total_setup
 
@@ -195,10 +199,11 @@ contains
   !> of the last step's rates d at the density rho and sound speed c, and
   !> the hourglass control. ierr/ifault: fsph_tlsph deformation_gradients
   !> (an inverted particle, ifault = -particle).
-  subroutine total_forces(ts, n, x, sig, d, rho, c, mass, c_q, c_l, acc, ierr, ifault)
+  subroutine total_forces(ts, n, x, sig, d, rho, c, mass, intact, c_q, c_l, acc, ierr, ifault)
     type(total_set_t), intent(inout) :: ts
     integer, intent(in) :: n
     real(wp), intent(in) :: x(2, n), sig(4, n), d(4, n), rho(n), c(n), mass(n)
+    real(wp), intent(in) :: intact(n)      !< 1 intact, 0 failed (fsph_solver fill_intact) [-]
     real(wp), intent(in) :: c_q, c_l       !< bulk viscosity coefficients [-]
     real(wp), intent(inout) :: acc(2, n)
     integer, intent(out) :: ierr, ifault
@@ -208,28 +213,34 @@ contains
     associate (nt => ts%n, idx => ts%index)
       ts%x = x(:, idx)
       ! F at these positions: the last step's end (total_rates), else now
+      ts%failed = intact(idx) < 0.5_wp
       if (.not. ts%f_current) then
         call deformation_gradients(nt, ts%x0, ts%x, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fmat, &
                                    ts%f_tt, ts%jac, ierr, ifault)
-        if (ierr /= status_ok) then
-          ifault = -idx(-ifault)
-          return
-        end if
+        call intact_inverted(ts, ierr, ifault)
+        if (ierr /= status_ok) return
         ts%f_current = .true.
       end if
       ts%fmat_old = ts%fmat
       ts%f_tt_old = ts%f_tt
+      ts%jac_old = ts%jac
       do k = 1, nt
         i = idx(k)
         ts%stretch(k) = smallest_stretch(ts%fmat(1, 1, k), ts%fmat(2, 1, k), ts%fmat(1, 2, k), ts%fmat(2, 2, k))
-        ts%q(k) = bulk_viscosity(rho(i), c(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), d(1, i) + d(2, i) + d(4, i), &
-                                 c_q, c_l)
-        ts%sig(:, k) = sig(:, i)
-        ts%sig([1, 2, 4], k) = ts%sig([1, 2, 4], k) - ts%q(k)
+        if (ts%jac(k) > 0.0_wp) then
+          ts%q(k) = bulk_viscosity(rho(i), c(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), &
+                                   d(1, i) + d(2, i) + d(4, i), c_q, c_l)
+          ts%sig(:, k) = sig(:, i)
+          ts%sig([1, 2, 4], k) = ts%sig([1, 2, 4], k) - ts%q(k)
+        else
+          ! a failed particle folded over by its neighbours: no stress acts
+          ts%q(k) = 0.0_wp
+          ts%sig(:, k) = 0.0_wp
+        end if
       end do
       call first_piola(nt, ts%fmat, ts%f_tt, ts%sig, ts%p, ts%p_tt)
       call tlsph_forces(nt, ts%x0, ts%x, ts%area, ts%ptr, ts%list, ts%grad_w, ts%pair_area, ts%hg_coef, ts%bmat, &
-                        ts%fmat, ts%p, ts%p_tt, ts%q_work, ts%hg_pair, ts%force)
+                        ts%fmat, merge(0.0_wp, 1.0_wp, ts%failed), ts%p, ts%p_tt, ts%q_work, ts%hg_pair, ts%force)
       do k = 1, nt
         acc(:, idx(k)) = ts%force(:, k)/mass(idx(k))
       end do
@@ -258,22 +269,34 @@ contains
       ts%x = x_end(:, idx)
       call deformation_gradients(nt, ts%x0, ts%x, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fmat, &
                                  ts%f_tt, ts%jac, ierr, ifault)
+      call intact_inverted(ts, ierr, ifault)
       ts%f_current = ierr == status_ok
-      if (ierr /= status_ok) then
-        ifault = -idx(-ifault)
-        return
-      end if
+      if (ierr /= status_ok) return
       do k = 1, nt
         i = idx(k)
-        drho(i) = (ts%rho0(k)/ts%jac(k) - rho(i))/dt
         ts%fmat_mid(:, :, k) = 0.5_wp*(ts%fmat_old(:, :, k) + ts%fmat(:, :, k))
         ts%f_tt_mid(k) = 0.5_wp*(ts%f_tt_old(k) + ts%f_tt(k))
         ts%jac_mid(k) = (ts%fmat_mid(1, 1, k)*ts%fmat_mid(2, 2, k) - ts%fmat_mid(1, 2, k)*ts%fmat_mid(2, 1, k)) &
                         *ts%f_tt_mid(k)
         ts%fdot(:, :, k) = (ts%fmat(:, :, k) - ts%fmat_old(:, :, k))/dt
         ts%fdot_tt(k) = (ts%f_tt(k) - ts%f_tt_old(k))/dt
-        call rate_of_deformation(ts%fmat_mid(:, :, k), ts%f_tt_mid(k), ts%fdot(:, :, k), ts%fdot_tt(k), d(:, i), &
-                                 spin(i), grad_v(:, i))
+        if (.not. ts%failed(k)) then
+          drho(i) = (ts%rho0(k)/ts%jac(k) - rho(i))/dt
+        else if (ts%jac_old(k) > 0.0_wp .and. ts%jac(k) > 0.0_wp) then
+          ! a failed particle's density follows the change of J over the
+          ! step (rho0/J of a folded-over particle has no meaning)
+          drho(i) = rho(i)*(ts%jac_old(k)/ts%jac(k) - 1.0_wp)/dt
+        else
+          drho(i) = 0.0_wp
+        end if
+        if (ts%jac_mid(k) > 0.0_wp .and. ts%jac_old(k) > 0.0_wp .and. ts%jac(k) > 0.0_wp) then
+          call rate_of_deformation(ts%fmat_mid(:, :, k), ts%f_tt_mid(k), ts%fdot(:, :, k), ts%fdot_tt(k), d(:, i), &
+                                   spin(i), grad_v(:, i))
+        else
+          d(:, i) = 0.0_wp
+          spin(i) = 0.0_wp
+          grad_v(:, i) = 0.0_wp
+        end if
       end do
     end associate
   end subroutine total_rates
@@ -288,12 +311,13 @@ contains
   !> (f_ij . (v_j - v_i)/2: the heat that balances the kinetic energy the
   !> pair gives or takes; an image pair's partner velocity is the image's,
   !> (-v_r, v_z)). de_parts(1:2) get the viscous and hourglass parts.
-  subroutine total_energy_rate(ts, n, sig_mid, d, rho_end, c_end, v_bar, mass, c_q, c_l, de, de_parts)
+  subroutine total_energy_rate(ts, n, sig_mid, d, rho_end, rho_mean, c_end, v_bar, mass, c_q, c_l, de, de_parts)
     type(total_set_t), intent(inout) :: ts
     integer, intent(in) :: n
     real(wp), intent(in) :: sig_mid(4, n)   !< mid-step Cauchy stress s - p I [Pa]
     real(wp), intent(in) :: d(4, n)         !< rate of deformation of the step [1/s]
     real(wp), intent(in) :: rho_end(n), c_end(n) !< density and sound speed at the end of the step
+    real(wp), intent(in) :: rho_mean(n)     !< mean density over the step (a failed particle's rho_mid) [kg/m^3]
     real(wp), intent(in) :: v_bar(2, n)     !< velocity at which the kick's work is charged [m/s]
     real(wp), intent(in) :: mass(n)         !< [kg]
     real(wp), intent(in) :: c_q, c_l        !< bulk viscosity coefficients [-]
@@ -303,9 +327,15 @@ contains
     associate (nt => ts%n, idx => ts%index)
       do k = 1, nt
         i = idx(k)
-        rho_mid = ts%rho0(k)/ts%jac_mid(k)
+        if (ts%failed(k)) then
+          rho_mid = rho_mean(i)
+        else
+          rho_mid = ts%rho0(k)/ts%jac_mid(k)
+        end if
         trace = d(1, i) + d(2, i) + d(4, i)
-        q_new = bulk_viscosity(rho_end(i), c_end(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), trace, c_q, c_l)
+        q_new = 0.0_wp
+        if (ts%jac(k) > 0.0_wp) &
+          q_new = bulk_viscosity(rho_end(i), c_end(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), trace, c_q, c_l)
         q_mean = 0.5_wp*(ts%q(k) + q_new)
         power = sig_mid(1, i)*d(1, i) + sig_mid(2, i)*d(2, i) + 2.0_wp*sig_mid(3, i)*d(3, i) &
                 + sig_mid(4, i)*d(4, i)
@@ -339,6 +369,8 @@ contains
     dt_min = huge(1.0_wp)
     icontrol = 0
     do k = 1, ts%n
+      ! a failed particle: the particles' step h/(c + |v|) of fsph_sph
+      if (ts%failed(k)) cycle
       i = ts%index(k)
       len = ts%h(k)*ts%stretch(k)
       trace = d(1, i) + d(2, i) + d(4, i)
@@ -351,5 +383,23 @@ contains
       end if
     end do
   end subroutine total_time_step
+
+  !> The lowest intact particle whose J is not positive (ierr =
+  !> status_inverted_element, ifault = -particle); a failed particle may
+  !> fold over (it carries no tension: its neighbours can close over it).
+  subroutine intact_inverted(ts, ierr, ifault)
+    type(total_set_t), intent(in) :: ts
+    integer, intent(inout) :: ierr
+    integer, intent(out) :: ifault
+    integer :: k
+    ierr = status_ok
+    ifault = 0
+    do k = 1, ts%n
+      if (ts%jac(k) > 0.0_wp .or. ts%failed(k)) cycle
+      ierr = status_inverted_element
+      ifault = -ts%index(k)
+      return
+    end do
+  end subroutine intact_inverted
 
 end module fsph_total

@@ -54,10 +54,6 @@ BAD_DECKS = {
     "total_hourglass_too_high": (rod_deck(control="mode = 'sph'", body="formulation = 'total'")
                                  + "&sph total_hourglass = 50 /\n",
                                  ["&sph", "'total_hourglass'", "[0, 10]"]),
-    "total_with_failure": (rod_deck(control="mode = 'sph'", body="formulation = 'total'",
-                                    material="name='steel'\n library='armco_iron'\n jc_d1=0.12\n jc_d2=0.0\n"
-                                             " jc_d3=0.0\n jc_d4=0.0\n jc_d5=0.0"),
-                           ["&body #1", "'formulation'", "material 'steel' sets jc_d1", "no damage yet"]),
     "missing_model_constant": (rod_deck(material="name='steel'\n strength='epp'\n eos='linear'\n"
                                         " density=7850.0\n youngs_modulus=2e11\n poisson_ratio=0.3"),
                                ["&material #1", "'yield_stress'", "missing key"]),
