@@ -51,6 +51,10 @@ BAD_DECKS = {
                               .replace("n_radial = 3", "n_radial = 1").replace("n_axial = 12", "n_axial = 1"),
                               ["&body #1", "'formulation'", "neighbours in two directions",
                                "r = 0.5 mm, z = 2 mm"]),
+    "total_joined": (rod_deck(control="mode = 'fixed'", body="discretisation = 'particles'\n formulation = 'total'")
+                     + "&body\n name = 'cap'\n material = 'steel'\n radius = 1.0e-3\n length = 1.0e-3\n"
+                       " z_base = 4.0e-3\n n_radial = 3\n n_axial = 3\n joined_to = 'rod'\n/\n",
+                     ["&body #1", "'formulation'", "'updated' for a body joined to another"]),
     "total_hourglass_too_high": (rod_deck(control="mode = 'sph'", body="formulation = 'total'")
                                  + "&sph total_hourglass = 50 /\n",
                                  ["&sph", "'total_hourglass'", "[0, 10]"]),
