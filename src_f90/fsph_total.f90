@@ -24,6 +24,7 @@
 !> particle; a body's particles have neighbours in their own body only.
 module fsph_total
   use fsph_kinds, only: wp, two_pi
+  use fsph_ordered, only: merge_minimum
   use fsph_status, only: status_ok, status_bad_input, status_inverted_element
   use fsph_tlsph, only: reference_neighbours, reference_kernel_gradients, reference_correction, &
                         reference_pair_factors, deformation_gradients, first_piola, tlsph_forces, &
@@ -224,8 +225,9 @@ contains
       ts%fmat_old = ts%fmat
       ts%f_tt_old = ts%f_tt
       ts%jac_old = ts%jac
-      do k = 1, nt
-        i = idx(k)
+      !$omp parallel do default(none) schedule(static) shared(ts, sig, d, rho, c, c_q, c_l) private(k, i)
+      do k = 1, ts%n
+        i = ts%index(k)
         ts%stretch(k) = smallest_stretch(ts%fmat(1, 1, k), ts%fmat(2, 1, k), ts%fmat(1, 2, k), ts%fmat(2, 2, k))
         if (ts%jac(k) > 0.0_wp) then
           ts%q(k) = bulk_viscosity(rho(i), c(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), &
@@ -238,12 +240,15 @@ contains
           ts%sig(:, k) = 0.0_wp
         end if
       end do
+      !$omp end parallel do
       call first_piola(nt, ts%fmat, ts%f_tt, ts%sig, ts%p, ts%p_tt)
       call tlsph_forces(nt, ts%x0, ts%x, ts%area, ts%ptr, ts%list, ts%grad_w, ts%pair_area, ts%hg_coef, ts%bmat, &
                         ts%fmat, merge(0.0_wp, 1.0_wp, ts%failed), ts%p, ts%p_tt, ts%q_work, ts%hg_pair, ts%force)
-      do k = 1, nt
-        acc(:, idx(k)) = ts%force(:, k)/mass(idx(k))
+      !$omp parallel do default(none) schedule(static) shared(ts, acc, mass) private(k)
+      do k = 1, ts%n
+        acc(:, ts%index(k)) = ts%force(:, k)/mass(ts%index(k))
       end do
+      !$omp end parallel do
     end associate
   end subroutine total_forces
 
@@ -272,8 +277,9 @@ contains
       call intact_inverted(ts, ierr, ifault)
       ts%f_current = ierr == status_ok
       if (ierr /= status_ok) return
-      do k = 1, nt
-        i = idx(k)
+      !$omp parallel do default(none) schedule(static) shared(ts, rho, dt, drho, d, spin, grad_v) private(k, i)
+      do k = 1, ts%n
+        i = ts%index(k)
         ts%fmat_mid(:, :, k) = 0.5_wp*(ts%fmat_old(:, :, k) + ts%fmat(:, :, k))
         ts%f_tt_mid(k) = 0.5_wp*(ts%f_tt_old(k) + ts%f_tt(k))
         ts%jac_mid(k) = (ts%fmat_mid(1, 1, k)*ts%fmat_mid(2, 2, k) - ts%fmat_mid(1, 2, k)*ts%fmat_mid(2, 1, k)) &
@@ -298,6 +304,7 @@ contains
           grad_v(:, i) = 0.0_wp
         end if
       end do
+      !$omp end parallel do
     end associate
   end subroutine total_rates
 
@@ -324,34 +331,36 @@ contains
     real(wp), intent(inout) :: de(n), de_parts(3, n)
     integer :: k, i, m, j
     real(wp) :: rho_mid, trace, q_new, q_mean, power, hg, sg
-    associate (nt => ts%n, idx => ts%index)
-      do k = 1, nt
-        i = idx(k)
-        if (ts%failed(k)) then
-          rho_mid = rho_mean(i)
-        else
-          rho_mid = ts%rho0(k)/ts%jac_mid(k)
-        end if
-        trace = d(1, i) + d(2, i) + d(4, i)
-        q_new = 0.0_wp
-        if (ts%jac(k) > 0.0_wp) &
-          q_new = bulk_viscosity(rho_end(i), c_end(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), trace, c_q, c_l)
-        q_mean = 0.5_wp*(ts%q(k) + q_new)
-        power = sig_mid(1, i)*d(1, i) + sig_mid(2, i)*d(2, i) + 2.0_wp*sig_mid(3, i)*d(3, i) &
-                + sig_mid(4, i)*d(4, i)
-        hg = 0.0_wp
-        do m = ts%ptr(k), ts%ptr(k + 1) - 1
-          ! an image's velocity is (-v_r, v_z)
-          j = idx(abs(ts%list(m)))
-          sg = merge(-1.0_wp, 1.0_wp, ts%list(m) < 0)
-          hg = hg + 0.5_wp*(ts%hg_pair(1, m)*(sg*v_bar(1, j) - v_bar(1, i)) &
-                            + ts%hg_pair(2, m)*(v_bar(2, j) - v_bar(2, i)))
-        end do
-        de_parts(1, i) = -q_mean*trace/rho_mid
-        de_parts(2, i) = hg/mass(i)
-        de(i) = power/rho_mid + de_parts(1, i) + de_parts(2, i)
+    !$omp parallel do default(none) schedule(static) &
+    !$omp shared(ts, sig_mid, d, rho_end, rho_mean, c_end, v_bar, mass, c_q, c_l, de, de_parts) &
+    !$omp private(k, i, m, j, rho_mid, trace, q_new, q_mean, power, hg, sg)
+    do k = 1, ts%n
+      i = ts%index(k)
+      if (ts%failed(k)) then
+        rho_mid = rho_mean(i)
+      else
+        rho_mid = ts%rho0(k)/ts%jac_mid(k)
+      end if
+      trace = d(1, i) + d(2, i) + d(4, i)
+      q_new = 0.0_wp
+      if (ts%jac(k) > 0.0_wp) &
+        q_new = bulk_viscosity(rho_end(i), c_end(i), sqrt(ts%area(k)*ts%jac(k)/ts%f_tt(k)), trace, c_q, c_l)
+      q_mean = 0.5_wp*(ts%q(k) + q_new)
+      power = sig_mid(1, i)*d(1, i) + sig_mid(2, i)*d(2, i) + 2.0_wp*sig_mid(3, i)*d(3, i) &
+              + sig_mid(4, i)*d(4, i)
+      hg = 0.0_wp
+      do m = ts%ptr(k), ts%ptr(k + 1) - 1
+        ! an image's velocity is (-v_r, v_z)
+        j = ts%index(abs(ts%list(m)))
+        sg = merge(-1.0_wp, 1.0_wp, ts%list(m) < 0)
+        hg = hg + 0.5_wp*(ts%hg_pair(1, m)*(sg*v_bar(1, j) - v_bar(1, i)) &
+                          + ts%hg_pair(2, m)*(v_bar(2, j) - v_bar(2, i)))
       end do
-    end associate
+      de_parts(1, i) = -q_mean*trace/rho_mid
+      de_parts(2, i) = hg/mass(i)
+      de(i) = power/rho_mid + de_parts(1, i) + de_parts(2, i)
+    end do
+    !$omp end parallel do
   end subroutine total_energy_rate
 
   !> Stable step of the total-Lagrangian particles [s]: the smoothing
@@ -364,10 +373,17 @@ contains
     real(wp), intent(in) :: c(n), v(2, n), d(4, n), c_q, c_l
     real(wp), intent(out) :: dt_min
     integer, intent(out) :: icontrol
-    integer :: k, i
-    real(wp) :: len, trace, cv, dtk
+    integer :: k, i, t_i
+    real(wp) :: len, trace, cv, dtk, t_min
     dt_min = huge(1.0_wp)
     icontrol = 0
+    ! per-thread minima merged to the lowest particle among equal values,
+    ! as a serial scan finds it
+    !$omp parallel default(none) shared(ts, c, v, d, c_q, c_l, dt_min, icontrol) &
+    !$omp private(k, i, len, trace, cv, dtk, t_min, t_i)
+    t_min = huge(1.0_wp)
+    t_i = 0
+    !$omp do schedule(static)
     do k = 1, ts%n
       ! a failed particle: the particles' step h/(c + |v|) of fsph_sph
       if (ts%failed(k)) cycle
@@ -377,11 +393,16 @@ contains
       cv = c(i)
       if (trace < 0.0_wp) cv = cv + c_l*c(i) + c_q**2*len*abs(trace)
       dtk = len/(cv + sqrt(v(1, i)**2 + v(2, i)**2))
-      if (dtk < dt_min) then
-        dt_min = dtk
-        icontrol = i
+      if (dtk < t_min) then
+        t_min = dtk
+        t_i = i
       end if
     end do
+    !$omp end do
+    !$omp critical (total_step_minimum)
+    call merge_minimum(t_min, t_i, dt_min, icontrol)
+    !$omp end critical (total_step_minimum)
+    !$omp end parallel
   end subroutine total_time_step
 
   !> The lowest intact particle whose J is not positive (ierr =
