@@ -94,13 +94,17 @@ def report_lines(sim, threads):
             text += (f" {row['elements']} elements, {row['nodes']} nodes, shortest edge "
                      f"{row['shortest_edge_m'] * 1e3:.4g} mm")
         if row["particles"]:
-            text += (f" {row['particles']} particles, smallest radius "
+            total = next((b.get("formulation") == "total" for b in sim.deck["body"] if b["name"] == row["body"]), False)
+            text += (f" {row['particles']} {'total-Lagrangian ' if total else ''}particles, smallest radius "
                      f"{row['smallest_particle_radius_m'] * 1e3:.4g} mm")
         lines.append(text)
     dt = sim.dt
     cycles = cycles_at_first_step(sim)
     lines.append(f"  first time step {dt * 1e9:.4g} ns; end time {ctrl['end_time'] * 1e6:.6g} us: "
                  f"at least {cycles} cycles at that step (an impact usually shrinks it)")
+    if any(b.get("formulation") == "total" for b in sim.deck["body"]):
+        lines.append("  total-Lagrangian particles: their step falls with their smallest stretch (the Armco "
+                     "Taylor rod took 5 times its first step's cycle count)")
     n, per_cycle = time_cycles(sim)
     wall = per_cycle * cycles
     lines.append(f"  wall time: about {_duration(wall)} or more on {threads} thread(s) "

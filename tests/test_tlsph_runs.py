@@ -381,3 +381,14 @@ def test_total_projectile_on_adaptive_plate(tmp_path, write_deck):
         if name == "adaptive":
             assert summary["n_converted"] > 0
     assert abs(speeds["adaptive"] - speeds["total"]) / speeds["total"] < 0.03, speeds
+
+
+def test_check_names_total_bodies(tmp_path):
+    """`fsph check` says which particles are total-Lagrangian and that
+    their step shrinks with their stretch (the first step's cycle count is
+    a floor, five times short on the Armco rod)."""
+    from test_cli_errors import fsph_cli
+    res = fsph_cli(["check", str(CASES / "taylor_armco_tlsph.nml")], tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "2680 total-Lagrangian particles" in res.stdout
+    assert "their step falls with their smallest stretch" in res.stdout
