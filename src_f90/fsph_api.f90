@@ -7,7 +7,7 @@
 !> that reads or changes a run's state takes the run's handle (open_run)
 !> first and works on that run alone (fsph_runs).
 module fsph_api
-  use fsph_kinds, only: wp, two_pi
+  use fsph_kinds, only: wp
   use fsph_state, only: simulation_t
   use fsph_runs, only: run_state
   implicit none
@@ -1005,28 +1005,26 @@ contains
     call first_piola(n, fmat, f_tt, sig, p, p_tt)
   end subroutine tlsph_piola
 
-  !> Internal forces per full ring [N] (fsph_tlsph tlsph_forces) and,
-  !> apart, the radial hoop part they include [N].
-  subroutine tlsph_ring_forces(n, nnz, x0, area, ptr, nbr, grad_w, bmat, p, p_tt, force, hoop)
-    use fsph_tlsph, only: tlsph_forces, hoop_force
+  !> Internal forces per full ring [N] (fsph_tlsph tlsph_forces, without
+  !> the hourglass control) and, apart, the radial hoop part they include [N].
+  subroutine tlsph_ring_forces(n, nnz, x0, h, area, ptr, nbr, grad_w, bmat, p, p_tt, force, hoop)
+    use fsph_tlsph, only: tlsph_forces, hoop_force, reference_pair_factors
     integer, intent(in) :: n, nnz
-    real(wp), intent(in) :: x0(2, n), area(n)
+    real(wp), intent(in) :: x0(2, n), h(n), area(n)
     integer, intent(in) :: ptr(n + 1), nbr(nnz)
     real(wp), intent(in) :: grad_w(2, nnz), bmat(2, 2, n), p(2, 2, n), p_tt(n)
     real(wp), intent(out) :: force(2, n), hoop(n)
-    real(wp), allocatable :: work(:, :, :), hg_pair(:, :), pair_area(:), no_hourglass(:), unit_f(:, :, :)
-    integer :: i, k
-    ! the pair areas 2 pi A_k A_j; the hourglass coefficients zero, so its
-    ! terms vanish (the unit F they multiply is a placeholder)
-    allocate (work(2, 2, n), hg_pair(2, nnz), pair_area(nnz), no_hourglass(nnz), unit_f(2, 2, n))
+    real(wp), allocatable :: work(:, :, :), hg_pair(:, :), pair_area(:), hg_coef(:), unit_f(:, :, :)
+    integer :: i
+    ! the pair areas of the reference configuration; with gamma = 0 the
+    ! hourglass coefficients are zero, so the terms they scale vanish
+    ! (the unit F those multiply is a placeholder)
+    allocate (work(2, 2, n), hg_pair(2, nnz), pair_area(nnz), hg_coef(nnz), unit_f(2, 2, n))
+    call reference_pair_factors(n, x0, h, area, [(0.0_wp, i = 1, n)], 0.0_wp, ptr, nbr, pair_area, hg_coef)
     do i = 1, n
-      do k = ptr(i), ptr(i + 1) - 1
-        pair_area(k) = two_pi*(area(i)*area(abs(nbr(k))))
-      end do
       unit_f(:, :, i) = reshape([1.0_wp, 0.0_wp, 0.0_wp, 1.0_wp], [2, 2])
     end do
-    no_hourglass = 0.0_wp
-    call tlsph_forces(n, x0, x0, area, ptr, nbr, grad_w, pair_area, no_hourglass, bmat, unit_f, &
+    call tlsph_forces(n, x0, x0, area, ptr, nbr, grad_w, pair_area, hg_coef, bmat, unit_f, &
                       [(1.0_wp, i = 1, n)], p, p_tt, work, hg_pair, force)
     hoop = hoop_force(area, p_tt)
   end subroutine tlsph_ring_forces

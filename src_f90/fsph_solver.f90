@@ -513,19 +513,13 @@ contains
         if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
         call select_mirrors(sim, skin)
         call fill_mirrors_start(sim)
-        if (total_active(sim%total)) then
-          ! total-Lagrangian particles take part in the search as contact
-          ! candidates only: a negative continuum keeps them out of the sums
-          search_body = pt%continuum(1:n + pt%n_imag + pt%n_mirror)
-          search_body(sim%total%index) = -search_body(sim%total%index)
-          call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, search_body, skin, pt%search, &
-                               pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
-                               pt%cnt_ptr, pt%cnt_list)
-        else
-          call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, pt%continuum, skin, pt%search, &
-                               pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
-                               pt%cnt_ptr, pt%cnt_list)
-        end if
+        ! total-Lagrangian particles take part in the search as contact
+        ! candidates only: a negative continuum keeps them out of the sums
+        search_body = pt%continuum(1:n + pt%n_imag + pt%n_mirror)
+        if (total_active(sim%total)) search_body(sim%total%index) = -search_body(sim%total%index)
+        call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, search_body, skin, pt%search, &
+                             pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             pt%cnt_ptr, pt%cnt_list)
         call record_lists(sim%particles, sim%nodes, sim%elements, sim%conversion%alpha_h, skin)
       end if
       ntot = n + pt%n_imag + pt%n_mirror

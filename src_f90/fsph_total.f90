@@ -1,8 +1,9 @@
 !> Total-Lagrangian particle bodies in the cycle (docs/method.md,
 !> "Total-Lagrangian particles"): which particles are total-Lagrangian,
 !> their reference data (fsph_tlsph: neighbour lists with mirror images
-!> across the axis, kernel gradients and values, corrections, planar
-!> areas), and the three steps the cycle calls on them, each over
+!> across the axis, kernel gradients, pair areas and hourglass
+!> coefficients, corrections, planar areas), and the steps the cycle
+!> calls on them, each over
 !> explicit particle arrays:
 !>  - total_forces (step 1): F at t^n, the first Piola-Kirchhoff stress of
 !>    the Cauchy stress minus the bulk viscosity, the pairwise momentum
@@ -59,8 +60,7 @@ module fsph_total
     logical :: f_current = .false.         !< fmat, f_tt, jac hold F at the current positions
     real(wp), allocatable :: fmat(:, :, :), f_tt(:), jac(:) !< deformation gradient at the current positions [-]
     real(wp), allocatable :: fmat_old(:, :, :), f_tt_old(:) !< at the start of the step (the force stage's) [-]
-    real(wp), allocatable :: fmat_mid(:, :, :), f_tt_mid(:), jac_mid(:) !< at mid-step [-]
-    real(wp), allocatable :: fdot(:, :, :), fdot_tt(:) !< its rate over the step [1/s]
+    real(wp), allocatable :: jac_mid(:)    !< J at mid-step (total_rates, for total_energy_rate) [-]
     real(wp), allocatable :: sig(:, :)     !< Cauchy stress with the viscosity [Pa]
     real(wp), allocatable :: p(:, :, :), p_tt(:) !< first Piola-Kirchhoff stress [Pa]
     real(wp), allocatable :: q_work(:, :, :) !< R P B [Pa m]
@@ -166,10 +166,9 @@ contains
         ifault = -idx(ifault)
         return
       end if
-      allocate (ts%x(2, nt), ts%fmat(2, 2, nt), ts%f_tt(nt), ts%jac(nt), ts%fdot(2, 2, nt), &
-                ts%fdot_tt(nt), ts%sig(4, nt), ts%p(2, 2, nt), ts%p_tt(nt), ts%q_work(2, 2, nt), &
-                ts%force(2, nt), ts%q(nt), ts%stretch(nt), ts%fmat_old(2, 2, nt), ts%f_tt_old(nt), &
-                ts%fmat_mid(2, 2, nt), ts%f_tt_mid(nt), ts%jac_mid(nt))
+      allocate (ts%x(2, nt), ts%fmat(2, 2, nt), ts%f_tt(nt), ts%jac(nt), ts%sig(4, nt), ts%p(2, 2, nt), &
+                ts%p_tt(nt), ts%q_work(2, 2, nt), ts%force(2, nt), ts%q(nt), ts%stretch(nt), &
+                ts%fmat_old(2, 2, nt), ts%f_tt_old(nt), ts%jac_mid(nt))
       ts%q = 0.0_wp
       ts%stretch = 1.0_wp
       ts%alone = nt == n .and. n_elements == 0 .and. all(body(idx) == body(idx(1)))
@@ -270,6 +269,7 @@ contains
     real(wp), intent(inout) :: drho(n), d(4, n), spin(n), grad_v(4, n)
     integer, intent(out) :: ierr, ifault
     integer :: k, i
+    real(wp) :: fmat_mid(2, 2), f_tt_mid, fdot(2, 2), fdot_tt
     associate (nt => ts%n, idx => ts%index)
       ts%x = x_end(:, idx)
       call deformation_gradients(nt, ts%x0, ts%x, ts%h, ts%area, ts%ptr, ts%list, ts%grad_w, ts%bmat, ts%fmat, &
@@ -277,15 +277,15 @@ contains
       call intact_inverted(ts, ierr, ifault)
       ts%f_current = ierr == status_ok
       if (ierr /= status_ok) return
-      !$omp parallel do default(none) schedule(static) shared(ts, rho, dt, drho, d, spin, grad_v) private(k, i)
+      !$omp parallel do default(none) schedule(static) shared(ts, rho, dt, drho, d, spin, grad_v) &
+      !$omp private(k, i, fmat_mid, f_tt_mid, fdot, fdot_tt)
       do k = 1, ts%n
         i = ts%index(k)
-        ts%fmat_mid(:, :, k) = 0.5_wp*(ts%fmat_old(:, :, k) + ts%fmat(:, :, k))
-        ts%f_tt_mid(k) = 0.5_wp*(ts%f_tt_old(k) + ts%f_tt(k))
-        ts%jac_mid(k) = (ts%fmat_mid(1, 1, k)*ts%fmat_mid(2, 2, k) - ts%fmat_mid(1, 2, k)*ts%fmat_mid(2, 1, k)) &
-                        *ts%f_tt_mid(k)
-        ts%fdot(:, :, k) = (ts%fmat(:, :, k) - ts%fmat_old(:, :, k))/dt
-        ts%fdot_tt(k) = (ts%f_tt(k) - ts%f_tt_old(k))/dt
+        fmat_mid = 0.5_wp*(ts%fmat_old(:, :, k) + ts%fmat(:, :, k))
+        f_tt_mid = 0.5_wp*(ts%f_tt_old(k) + ts%f_tt(k))
+        ts%jac_mid(k) = (fmat_mid(1, 1)*fmat_mid(2, 2) - fmat_mid(1, 2)*fmat_mid(2, 1))*f_tt_mid
+        fdot = (ts%fmat(:, :, k) - ts%fmat_old(:, :, k))/dt
+        fdot_tt = (ts%f_tt(k) - ts%f_tt_old(k))/dt
         if (.not. ts%failed(k)) then
           drho(i) = (ts%rho0(k)/ts%jac(k) - rho(i))/dt
         else if (ts%jac_old(k) > 0.0_wp .and. ts%jac(k) > 0.0_wp) then
@@ -296,8 +296,7 @@ contains
           drho(i) = 0.0_wp
         end if
         if (ts%jac_mid(k) > 0.0_wp .and. ts%jac_old(k) > 0.0_wp .and. ts%jac(k) > 0.0_wp) then
-          call rate_of_deformation(ts%fmat_mid(:, :, k), ts%f_tt_mid(k), ts%fdot(:, :, k), ts%fdot_tt(k), d(:, i), &
-                                   spin(i), grad_v(:, i))
+          call rate_of_deformation(fmat_mid, f_tt_mid, fdot, fdot_tt, d(:, i), spin(i), grad_v(:, i))
         else
           d(:, i) = 0.0_wp
           spin(i) = 0.0_wp
@@ -311,7 +310,7 @@ contains
   !> Step 6, energy: the specific internal energy rate [W/kg] of each
   !> total-Lagrangian particle, replacing the SPH sum's: the stress power
   !> sig_mid : d / rho_mid with rho_mid = rho0/J(F_mid) (total_rates must
-  !> have run in this cycle: it leaves F_mid and F_end in ts), the bulk viscosity's
+  !> have run in this cycle: it leaves J(F_mid) and F_end in ts), the bulk viscosity's
   !> work at the mean of the pressure that pushed in this step's kick and
   !> this step's (the elements' trapezoidal rule), and half of each
   !> hourglass pair force's work at the kick's mean velocities v_bar
@@ -319,7 +318,7 @@ contains
   !> pair gives or takes; an image pair's partner velocity is the image's,
   !> (-v_r, v_z)). de_parts(1:2) get the viscous and hourglass parts.
   subroutine total_energy_rate(ts, n, sig_mid, d, rho_end, rho_mean, c_end, v_bar, mass, c_q, c_l, de, de_parts)
-    type(total_set_t), intent(inout) :: ts
+    type(total_set_t), intent(in) :: ts
     integer, intent(in) :: n
     real(wp), intent(in) :: sig_mid(4, n)   !< mid-step Cauchy stress s - p I [Pa]
     real(wp), intent(in) :: d(4, n)         !< rate of deformation of the step [1/s]
@@ -410,7 +409,7 @@ contains
   !> fold over (it carries no tension: its neighbours can close over it).
   subroutine intact_inverted(ts, ierr, ifault)
     type(total_set_t), intent(in) :: ts
-    integer, intent(inout) :: ierr
+    integer, intent(out) :: ierr
     integer, intent(out) :: ifault
     integer :: k
     ierr = status_ok

@@ -66,7 +66,7 @@ def scalar_gradient(ref, f):
 
 def ring_forces(ref, fmat, f_tt, sig):
     p, p_tt = api.tlsph_piola(fmat, f_tt, np.asfortranarray(sig))
-    return api.tlsph_ring_forces(ref["x0"], ref["area"], ref["ptr"], ref["nbr"], ref["grad_w"],
+    return api.tlsph_ring_forces(ref["x0"], ref["h"], ref["area"], ref["ptr"], ref["nbr"], ref["grad_w"],
                                  ref["bmat"], p, p_tt)
 
 
