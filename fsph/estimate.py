@@ -88,13 +88,13 @@ def report_lines(sim, threads):
     ctrl = sim.control
     lines = [f"  mode {ctrl['mode']}, {sim.n_elements} elements, {sim.n_nodes} nodes, "
              f"{sim.n_particles} particles"]
-    for row in body_sizes(sim):
+    for row, body in zip(body_sizes(sim), sim.deck["body"]):
         text = f"  body '{row['body']}':"
         if row["elements"]:
             text += (f" {row['elements']} elements, {row['nodes']} nodes, shortest edge "
                      f"{row['shortest_edge_m'] * 1e3:.4g} mm")
         if row["particles"]:
-            total = next((b.get("formulation") == "total" for b in sim.deck["body"] if b["name"] == row["body"]), False)
+            total = body.get("formulation") == "total"
             text += (f" {row['particles']} {'total-Lagrangian ' if total else ''}particles, smallest radius "
                      f"{row['smallest_particle_radius_m'] * 1e3:.4g} mm")
         lines.append(text)
