@@ -36,10 +36,11 @@ module fsph_contact
   use fsph_arrays, only: reserve
   use fsph_layouts, only: hist_contact_work
   use fsph_topology, only: elements_with_edge
+  use fsph_element, only: element_step
   implicit none
   private
 
-  public :: contact_rebuild_surface, contact_correct, contact_penetration, pair_correction
+  public :: contact_rebuild_surface, contact_correct, contact_penetration, pair_correction, contact_step_limit
 
   !> A point counts as penetrating a segment only down to this fraction of
   !> the segment's length below it (deeper, it belongs to the other side of
@@ -57,6 +58,7 @@ module fsph_contact
     integer :: master(2) = 0            !< master nodes (second 0 for a node contact)
     real(wp) :: weight(2) = 0.0_wp      !< R1, R2
     real(wp) :: length = 0.0_wp         !< master segment length [m]
+    integer :: segment = 0              !< the master segment
   end type contact_pair_t
 
 contains
@@ -92,8 +94,8 @@ contains
     ct%n_seg = 0
     ct%n_snode = 0
     if (el%n == 0) return
-    if (allocated(ct%seg)) deallocate (ct%seg, ct%seg_cont)
-    allocate (ct%seg(2, 3*el%n), ct%seg_cont(3*el%n), on_surface(nd%n), cont_of_node(nd%n))
+    if (allocated(ct%seg)) deallocate (ct%seg, ct%seg_cont, ct%seg_elem)
+    allocate (ct%seg(2, 3*el%n), ct%seg_cont(3*el%n), ct%seg_elem(3*el%n), on_surface(nd%n), cont_of_node(nd%n))
     on_surface = .false.
     cont_of_node = 0
     n_seg = 0
@@ -106,6 +108,7 @@ contains
         n_seg = n_seg + 1
         ct%seg(:, n_seg) = [a, b]
         ct%seg_cont(n_seg) = continuum_of_body(el%body(ie))
+        ct%seg_elem(n_seg) = ie
         on_surface(a) = .true.
         on_surface(b) = .true.
         cont_of_node(a) = ct%seg_cont(n_seg)
@@ -295,7 +298,7 @@ contains
         delta = delta - max(overlap, 0.0_wp)
         if (delta <= 0.0_wp) cycle
         if (best%found .and. delta <= best%delta) cycle   ! case (b): the deepest
-        best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l)
+        best = contact_pair_t(.true., delta, nrm, [a, b], [1.0_wp - s/l, s/l], l, k)
       else if (thick > 0.0_wp .and. g > 0.0_wp) then
         ! case (c): beyond the segment's end, on its outer side: the node
         if (s < 0.0_wp) then
@@ -312,7 +315,7 @@ contains
         if (delta <= 0.0_wp) cycle
         if (best%found .and. delta <= best%delta) cycle
         best = contact_pair_t(.true., delta, (p - e)/d, [merge(a, b, s < 0.0_wp), 0], &
-                              [1.0_wp, 0.0_wp], l)
+                              [1.0_wp, 0.0_wp], l, k)
       end if
     end do
   end subroutine find_contact
@@ -371,6 +374,75 @@ contains
     end do
     ct%dissipated = ct%dissipated - impulse_work(ct, nd, pt, el, dt_v)
   end subroutine contact_correct
+
+  !> Stable step [s] (before the safety factor) of the elements that a
+  !> contact is about to strike, and the element that sets it (0: none).
+  !> Every surface node and particle whose predicted position x + dt v
+  !> would close a gap onto another body's segment within the step dt
+  !> compresses that segment's element, in the cycle it strikes, at about
+  !> its closing speed over the element's smallest height, v_n/L_min; the
+  !> element's stable step for that rate (fsph_element element_step, the
+  !> viscosity Q of the compression included) bounds the step. Without it
+  !> the step of the striking cycle is the one of the state before the
+  !> impact: a copper flyer onto elements at 5.55 km/s took a 5.8 ns step
+  !> that compressed the struck elements by a third, whose energy the
+  !> central difference then paid back only in part over the 1-3 ns
+  !> steps that followed (+1.48 % of the energy in that cycle).
+  subroutine contact_step_limit(ct, nd, pt, el, dt, c_q, c_l, dt_min, icontrol)
+    type(contact_t), intent(inout) :: ct   !< its buckets are rebuilt for the step dt
+    type(node_set_t), intent(in) :: nd
+    type(particle_set_t), intent(in) :: pt
+    type(element_set_t), intent(in) :: el
+    real(wp), intent(in) :: dt            !< the step about to be taken [s]
+    real(wp), intent(in) :: c_q, c_l      !< the elements' viscosity coefficients [-]
+    real(wp), intent(out) :: dt_min
+    integer, intent(out) :: icontrol
+    type(contact_pair_t) :: pair
+    integer :: j, i
+    dt_min = huge(1.0_wp)
+    icontrol = 0
+    if (.not. ct%enabled .or. ct%n_seg == 0 .or. .not. (dt > 0.0_wp)) return
+    ! one continuum, and no particle of another: nothing can strike it
+    if (.not. ct%several_continua) then
+      if (pt%n == 0) return
+      if (all(pt%continuum(1:pt%n) == ct%seg_cont(1))) return
+    end if
+    call build_buckets(ct, nd, pt, dt)
+    if (ct%several_continua) then
+      do j = 1, ct%n_snode
+        call find_contact(ct, nd, node_predicted(nd, ct%snode(j), dt), nd%x(:, ct%snode(j)), 0.0_wp, &
+                          ct%snode_cont(j), .false., ct%snode(j), dt, pair)
+        if (pair%found) call strike(nd%v(:, ct%snode(j)))
+      end do
+    end if
+    do i = 1, pt%n
+      call find_contact(ct, nd, particle_predicted(pt, nd, i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
+                        .false., 0, dt, pair)
+      if (.not. pair%found) cycle
+      if (pt%tie_a(i) > 0) then
+        call strike((1.0_wp - pt%tie_xi(i))*nd%v(:, pt%tie_a(i)) + pt%tie_xi(i)*nd%v(:, pt%tie_b(i)))
+      else
+        call strike(pt%v(:, i))
+      end if
+    end do
+  contains
+    !> The struck element's step at the closing speed of a slave moving at v_s.
+    subroutine strike(v_s)
+      real(wp), intent(in) :: v_s(2)
+      real(wp) :: v_m(2), v_n, dte
+      integer :: ie
+      v_m = pair%weight(1)*nd%v(:, pair%master(1))
+      if (pair%master(2) > 0) v_m = v_m + pair%weight(2)*nd%v(:, pair%master(2))
+      v_n = dot_product(v_m - v_s, pair%normal)     ! closing speed [m/s]
+      if (.not. (v_n > 0.0_wp)) return
+      ie = ct%seg_elem(pair%segment)
+      dte = element_step(el%lmin(ie), el%area(ie), el%c(ie), -v_n/el%lmin(ie), c_q, c_l)
+      if (dte < dt_min .or. (dte == dt_min .and. ie < icontrol)) then
+        dt_min = dte
+        icontrol = ie
+      end if
+    end subroutine strike
+  end subroutine contact_step_limit
 
   !> Velocities of nodes and free particles before the corrections.
   subroutine keep_start_velocities(ct, nd, pt)

@@ -17,7 +17,7 @@ module fsph_element
   private
 
   public :: tri_gradients, tri_size, element_geometry, element_strain_rates, element_corner_forces
-  public :: gather_corner_forces, element_update, element_time_step
+  public :: gather_corner_forces, element_update, element_time_step, element_step
 
 contains
 
@@ -286,20 +286,17 @@ contains
     real(wp), intent(in) :: lmin(ne), area(ne), c(ne), d(4, ne), c_q, c_l
     real(wp), intent(out) :: dt_min
     integer, intent(out) :: icontrol
-    real(wp) :: trace, qv, dte, t_min
+    real(wp) :: dte, t_min
     integer :: ie, t_i
     dt_min = huge(1.0_wp)
     icontrol = 0
     !$omp parallel default(none) shared(ne, lmin, area, c, d, c_q, c_l, dt_min, icontrol) &
-    !$omp private(ie, trace, qv, dte, t_min, t_i)
+    !$omp private(ie, dte, t_min, t_i)
     t_min = huge(1.0_wp)
     t_i = 0
     !$omp do schedule(static)
     do ie = 1, ne
-      trace = d(1, ie) + d(2, ie) + d(4, ie)
-      qv = 0.0_wp
-      if (trace < 0.0_wp) qv = c_l*c(ie) + c_q**2*sqrt(area(ie))*abs(trace)
-      dte = lmin(ie)/(qv + sqrt(qv*qv + c(ie)**2))
+      dte = element_step(lmin(ie), area(ie), c(ie), d(1, ie) + d(2, ie) + d(4, ie), c_q, c_l)
       if (dte < t_min) then
         t_min = dte
         t_i = ie
@@ -311,5 +308,16 @@ contains
     !$omp end critical (element_step_minimum)
     !$omp end parallel
   end subroutine element_time_step
+
+  !> Stable step of one element [s] before the safety factor:
+  !> L_min/(Q + sqrt(Q^2 + c^2)), Q = C_L c + C_Q^2 sqrt(A) |tr d| when the
+  !> element is compressed (trace < 0) [1/s], else Q = 0.
+  pure real(wp) function element_step(lmin, area, c, trace, c_q, c_l) result(dte)
+    real(wp), intent(in) :: lmin, area, c, trace, c_q, c_l
+    real(wp) :: qv
+    qv = 0.0_wp
+    if (trace < 0.0_wp) qv = c_l*c + c_q**2*sqrt(area)*abs(trace)
+    dte = lmin/(qv + sqrt(qv*qv + c**2))
+  end function element_step
 
 end module fsph_element

@@ -37,7 +37,7 @@ module fsph_solver
   use fsph_verlet, only: lists_still_valid, record_lists, list_skin
   use fsph_convert, only: assign_groups, convert_elements
   use fsph_topology, only: rebuild_corner_map, nodal_masses
-  use fsph_contact, only: contact_rebuild_surface, contact_correct
+  use fsph_contact, only: contact_rebuild_surface, contact_correct, contact_step_limit
   use fsph_erosion, only: erode_elements
   use fsph_timers, only: timer_start, timer_stop, wall_clock
   use fsph_threads, only: governor_begin, governor_cycle, governor_end
@@ -274,11 +274,13 @@ contains
   end function reference_sound_speed
 
   !> Stable step for the next cycle: safety factor times the smallest of
-  !> the element limit and the particle limit h/(c + |v|).
+  !> the element limit (with the elements a contact is about to strike at
+  !> their closing speed: fsph_contact contact_step_limit) and the particle
+  !> limit h/(c + |v|).
   subroutine solver_stable_step(sim)
     type(simulation_t), intent(inout) :: sim
-    real(wp) :: dt_e, dt_p, dt_t
-    integer :: i_e, i_p, i_t
+    real(wp) :: dt_e, dt_p, dt_t, dt_c
+    integer :: i_e, i_p, i_t, i_c
     dt_e = huge(1.0_wp)
     dt_p = huge(1.0_wp)
     i_e = 0
@@ -292,6 +294,15 @@ contains
         if (dt_t < dt_p) then
           dt_p = dt_t
           i_p = i_t
+        end if
+      end if
+      ! the elements a contact will strike in this step, at its closing speed
+      if (el%n > 0) then
+        call contact_step_limit(sim%contact, sim%nodes, pt, el, sim%control%dt_safety*min(dt_e, dt_p), &
+                                sim%control%c_q, sim%control%c_l, dt_c, i_c)
+        if (dt_c < dt_e) then
+          dt_e = dt_c
+          i_e = i_c
         end if
       end if
     end associate

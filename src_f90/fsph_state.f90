@@ -184,6 +184,7 @@ module fsph_state
     logical :: several_continua = .false. !< the surface belongs to more than one continuum
     integer, allocatable :: seg(:, :)     !< (2, n_seg) surface edges, element region on the left
     integer, allocatable :: seg_cont(:)   !< continuum of each segment's body
+    integer, allocatable :: seg_elem(:)   !< the element each segment bounds
     integer :: n_snode = 0
     integer, allocatable :: snode(:)      !< surface nodes (slaves of the slide lines)
     integer, allocatable :: snode_cont(:) !< continuum of each surface node
