@@ -91,8 +91,9 @@ SCHEMA = {
             "end_time": _pos("Physical time at which the run stops.", "s"),
             "dt_safety": Key("float", 0.6, "-",
                              "Time-step safety factor s: dt = s * min(min_e L_min/(Q + sqrt(Q^2 + c^2)), "
-                             "min_p h/(c + |v|)). 0.6 leaves margin for the axisymmetric hoop "
-                             "stiffness of elements next to the axis.",
+                             "min_p h/(c + |v|)); an element that a contact is about to strike counts "
+                             "with the compression rate of its closing speed (v_n/L_min). 0.6 leaves "
+                             "margin for the axisymmetric hoop stiffness of elements next to the axis.",
                              lower=0.0, upper=1.0, lower_open=True),
             "c_q": Key("float", 1.5, "-",
                        "Quadratic artificial-viscosity coefficient C_Q in "

@@ -256,7 +256,7 @@ contains
   !> velocity (interface_velocity; riemann_contact_heat). normal:
   !> contact_normals at these positions.
   subroutine riemann_contact_accelerations(n, x, v, mass, rho, c, sig, h, normal, cnt_ptr, cnt_list, cnt_in, acc, &
-                                           force, v_star)
+                                           force, v_star, acc_axis)
     integer, intent(in) :: n
     real(wp), intent(in) :: x(2, n), v(2, n), mass(n), rho(n), c(n), h(n)
     real(wp), intent(in) :: sig(4, n)    !< total stress s - p I (rr, zz, rz, tt) [Pa]
@@ -266,13 +266,19 @@ contains
     real(wp), intent(inout) :: acc(2, n) !< [m/s^2]
     real(wp), intent(out) :: force(2, *) !< acceleration of i per unit mass of entry k [m/(kg s^2)]
     real(wp), intent(out) :: v_star(2, *) !< interface velocity of entry k [m/s]
+    !> axial acceleration of the equilibrium part of the mirror images'
+    !> forces (odd weights, as the images' stress terms of the SPH sums:
+    !> fsph_sph axis_resultant) [m/s^2]
+    real(wp), intent(inout) :: acc_axis(n)
     integer :: i, k, j
-    real(wp) :: sg, dx(2), dist2, nij(2), p_eq, p_star, us, f(2), a(2), ui, uj, rho2, gn
+    real(wp) :: sg, dx(2), dist2, nij(2), p_eq, p_star, us, f(2), a(2), ui, uj, rho2, gn, a_axis
     !$omp parallel do default(none) schedule(dynamic, 64) &
     !$omp shared(n, x, v, mass, rho, c, sig, h, normal, cnt_ptr, cnt_list, cnt_in, acc, force, v_star) &
-    !$omp private(i, k, j, sg, dx, dist2, nij, p_eq, p_star, us, f, a, ui, uj, rho2, gn)
+    !$omp shared(acc_axis) &
+    !$omp private(i, k, j, sg, dx, dist2, nij, p_eq, p_star, us, f, a, ui, uj, rho2, gn, a_axis)
     do i = 1, n
       a = 0.0_wp
+      a_axis = 0.0_wp
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
         j = abs(cnt_list(k))
         sg = entry_sign(cnt_list(k))
@@ -294,12 +300,14 @@ contains
           f = (-two_pi*p_star*(ui + uj)*gn)*nij
         else
           f = (-two_pi*(p_eq*(uj - ui) + (p_star - p_eq)*(ui + uj))*gn)*nij
+          a_axis = a_axis + mass(j)*((-two_pi*p_eq*(uj - ui)*gn)*nij(2))
         end if
         force(:, k) = f
         v_star(:, k) = us*nij
         a = a + mass(j)*f
       end do
       acc(:, i) = acc(:, i) + a
+      acc_axis(i) = acc_axis(i) + a_axis
     end do
     !$omp end parallel do
   end subroutine riemann_contact_accelerations

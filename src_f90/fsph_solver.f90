@@ -23,8 +23,9 @@ module fsph_solver
   use fsph_integrate, only: integrate_velocities, integrate_positions
   use fsph_neighbours, only: build_neighbours
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
+                      axis_resultant, &
                       pair_weights, compression_switch
-  use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
+  use fsph_mirror, only: mirror_select, mirror_fill_start, mirror_fill_mid, &
                          mirror_fill_stress, mirror_reaction_z
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
@@ -49,10 +50,6 @@ module fsph_solver
 
   public :: solver_initialise, solver_advance, energy_budget, solver_stable_step, solver_forces
   public :: prepare_particle_sums, update_particle_radius, locate_gauges, setup_total
-
-  !> Particles may come no closer to the axis than this fraction of their
-  !> radius [-].
-  real(wp), parameter :: axis_wall_fraction = 0.5_wp
 
 contains
 
@@ -459,7 +456,8 @@ contains
         call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                                pt%grad_v, pt%switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
                                pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
-                               pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
+                               pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, &
+                               pt%acc_axis)
         ! total-Lagrangian particles: their own forces (no SPH sums)
         if (total_active(sim%total)) then
           call total_forces(sim%total, n, pt%x, pt%sig, pt%d, pt%rho, pt%c, pt%mass, pt%intact, sim%control%c_q, &
@@ -479,13 +477,17 @@ contains
           call contact_pairs_in(n, pt%x, pt%h, pt%cnt_ptr, pt%cnt_list, pt%cnt_in)
           call contact_normals(n, pt%x, pt%mass, pt%rho, pt%h, pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%cnt_normal)
           call riemann_contact_accelerations(n, pt%x, pt%v, pt%mass, pt%rho, pt%c, pt%sig, pt%h, pt%cnt_normal, &
-                                             pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%acc, pt%cnt_force, pt%cnt_vstar)
+                                             pt%cnt_ptr, pt%cnt_list, pt%cnt_in, pt%acc, pt%cnt_force, pt%cnt_vstar, &
+                                             pt%acc_axis)
         else
           ! planar areas of pair_weights, from the positions and densities of this stage
           call particle_contact_accelerations(n, pt%x, pt%mass, pt%planar_area, pt%h, pt%cnt_ptr, pt%cnt_list, &
                                               dt_step, sim%control%contact_penalty, sim%control%contact_touch, &
                                               sim%control%contact_slope, pt%contact_excess, pt%acc)
         end if
+        ! the axis carries no axial load: each continuum's resultant of the
+        ! images' axial stress forces is removed
+        call axis_resultant(n, pt%continuum, pt%mass, pt%acc_axis, pt%acc)
         call timer_stop(sim%timers, phase_particle_contact)
         if (el%n > 0) then
           call timer_start(sim%timers, phase_coupling)
@@ -547,6 +549,7 @@ contains
       call reserve(pt%pair_work, 3, size(pt%nbr_list))
       call reserve(pt%pair_in, size(pt%nbr_list))
       call reserve(pt%cnt_force, 2, size(pt%cnt_list))
+      call reserve(pt%acc_axis, n)
       call reserve(pt%cnt_vstar, 2, size(pt%cnt_list))
       call reserve(pt%cnt_normal, 2, n)
       call reserve(pt%fracture_work, 3, n)
@@ -667,36 +670,33 @@ contains
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer :: ip, n
-    real(wp) :: work, impulse(2), axis_impulse(2), offset(sim%particles%n)
+    real(wp) :: work, impulse(2), axis_impulse(2)
     work = 0.0_wp
     impulse = 0.0_wp
     axis_impulse = 0.0_wp     ! radial: no resultant on an axisymmetric body
     n = sim%particles%n
     associate (nd => sim%nodes, pt => sim%particles)
       if (nd%n > 0) call apply_axis(nd%n, nd%on_axis, nd%v)
-      ! particles keep at least half their radius from the axis: the axis
-      ! acts on them as a frictionless wall (the odd-extension ghosts alone
-      ! let a particle driven hard inwards cross r = 0); v_bar still holds
-      ! the velocity before the kick
+      ! particles keep at least their radius from the axis and from every
+      ! rigid plane: a particle stands for a ring whose planar cell reaches
+      ! one radius either side of it, and that cell does not cross the
+      ! axis or a wall (the first column and row of a lattice sit there).
+      ! The axis acts as a frictionless wall (the odd-extension ghosts
+      ! alone let a particle driven hard inwards cross r = 0); across the
+      ! planes normal to the axis the mirror images hold the particles and
+      ! the wall is a backstop. With the backstops at half the radius,
+      ! copper rods had particles that moved in to a third of their radius
+      ! from the axis, rang radially against their own images and ended far
+      ! colder than the reference state (-456 and -569 kJ/kg; docs/method.md,
+      ! "The axis and the anvil"). v_bar still holds the velocity before
+      ! the kick.
       if (n > 0) call apply_rigid_plane(n, [0.0_wp, 0.0_wp], [1.0_wp, 0.0_wp], dt_step, pt%x, pt%mass, &
-                                        pt%v_bar, pt%v, work, axis_impulse, axis_wall_fraction*pt%radius(1:n))
+                                        pt%v_bar, pt%v, work, axis_impulse, pt%radius(1:n))
       do ip = 1, sim%n_planes
         if (nd%n > 0) call apply_rigid_plane(nd%n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, &
                                              nd%x, nd%mass_total, nd%v_start, nd%v, work, impulse)
-        if (n == 0) cycle
-        if (mirror_plane_normal_to_axis(sim%planes(ip)%normal)) then
-          ! the mirror images hold the particles off the plane; the
-          ! kinematic condition is a backstop at half their radius
-          offset = axis_wall_fraction*pt%radius(1:n)
-          ! total-Lagrangian particles have no mirror images: the plane
-          ! holds them at their radius
-          if (total_active(sim%total)) offset(sim%total%index) = pt%radius(sim%total%index)
-          call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
-                                 pt%v_bar, pt%v, work, impulse, offset)
-        else
-          call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, pt%mass, &
-                                 pt%v_bar, pt%v, work, impulse, pt%radius(1:n))
-        end if
+        if (n > 0) call apply_rigid_plane(n, sim%planes(ip)%point, sim%planes(ip)%normal, dt_step, pt%x, &
+                                          pt%mass, pt%v_bar, pt%v, work, impulse, pt%radius(1:n))
       end do
     end associate
     sim%plane_dissipated = sim%plane_dissipated - work

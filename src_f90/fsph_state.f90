@@ -124,6 +124,7 @@ module fsph_state
     real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
     real(wp), allocatable :: contact_excess(:) !< work: particle contact stiffness times excess filling
     real(wp), allocatable :: cnt_force(:, :) !< Riemann contact: acceleration per unit partner mass per contact entry [m/(kg s^2)]
+    real(wp), allocatable :: acc_axis(:)  !< work: axial acceleration of the axis images' stress terms [m/s^2]
     real(wp), allocatable :: cnt_vstar(:, :) !< Riemann contact: interface velocity u* n per contact entry [m/s]
     real(wp), allocatable :: cnt_normal(:, :) !< Riemann contact: each particle's contact normal [1/m]
     real(wp), allocatable :: fracture_work(:, :) !< eigenerosion work space (3, n)

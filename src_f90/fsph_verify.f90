@@ -26,7 +26,8 @@ contains
   !> neighbour lists; does not change the state.
   subroutine get_particle_rates(run, np, acc, drho, de, d, spin, ierr)
     use fsph_status, only: status_ok, status_bad_input
-    use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch
+    use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch, &
+                        axis_resultant
     use fsph_solver, only: prepare_particle_sums
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
@@ -50,7 +51,7 @@ contains
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                              grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
-                             pt%pair_hg, pt%pair_in, pt%acc_imag)
+                             pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
       call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
                      pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, &
                      drho, d, spin, grad_v)
@@ -58,7 +59,8 @@ contains
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                              grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
-                             pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag)
+                             pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
+      call axis_resultant(np, pt%continuum, pt%mass, pt%acc_axis, acc)
       ! the energy equation with the stress, viscosity and velocities of this state
       call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, &
                            pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
