@@ -9,7 +9,7 @@ module fsph_element
   use fsph_kinds, only: wp, two_pi, one_third
   use fsph_status, only: status_ok, status_inverted_element, status_nonfinite_element, &
                          status_eos_range
-  use fsph_layouts, only: n_props, n_hist
+  use fsph_layouts, only: n_props, n_hist, strength_epp, strength_johnson_cook, eos_mie_gruneisen
   use fsph_material, only: material_update
   use fsph_ordered, only: first_fault, merge_minimum
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -193,6 +193,7 @@ contains
     real(wp), intent(inout) :: hist(n_hist) !< material history (damage, ...)
     integer, intent(out) :: ierr
     real(wp) :: rho_new, trace, len, q_old
+    real(wp) :: q_mean                     !< viscous pressure over the step [Pa]
     rho_new = mass/volume
     trace = d(1) + d(2) + d(4)
     q_old = q
@@ -206,8 +207,23 @@ contains
     ! (trapezoidal): charged at this step's q alone, an element compressed
     ! in one step by a contact (a flyer striking at 5.5 km/s) booked work
     ! its forces never did (+2.7 % energy in one cycle)
-    call material_update(props, istrength, ieos, dt, d, spin, rho, rho_new, 0.5_wp*(q_old + q), s, p, eps_p, &
-                         e, temp, hist, c, ierr)
+    q_mean = 0.5_wp*(q_old + q)
+    ! the constitutive update; for the pairs of models most elements carry
+    ! (elastic-perfectly-plastic and Johnson-Cook metals with the
+    ! Mie-Grueneisen EOS) the switches go in as constants, and the compiler
+    ! makes material_update and the model routines under it a copy for that
+    ! pair with its switches resolved, inlined here (fsph_material's build,
+    ! meson.build): one source, the same results
+    if (ieos == eos_mie_gruneisen .and. istrength == strength_epp) then
+      call material_update(props, strength_epp, eos_mie_gruneisen, dt, d, spin, rho, rho_new, q_mean, s, p, &
+                           eps_p, e, temp, hist, c, ierr)
+    else if (ieos == eos_mie_gruneisen .and. istrength == strength_johnson_cook) then
+      call material_update(props, strength_johnson_cook, eos_mie_gruneisen, dt, d, spin, rho, rho_new, q_mean, s, p, &
+                           eps_p, e, temp, hist, c, ierr)
+    else
+      call material_update(props, istrength, ieos, dt, d, spin, rho, rho_new, q_mean, s, p, &
+                           eps_p, e, temp, hist, c, ierr)
+    end if
     rho = rho_new
   end subroutine element_point_update
 

@@ -9,7 +9,11 @@
 !> pressure (compression positive) and q the artificial viscous pressure.
 !> Strain rates d(4) = (d_rr, d_zz, d_rz, d_tt) are tensor components
 !> (d_rz = gamma_rz / 2). Model switches stored in the property row
-!> (temp_model, melt_model, pl_rate_form, jcf_on) are ids held as reals.
+!> (temp_model, melt_model, pl_rate_form, jcf_on) are ids held as reals;
+!> the strength model and EOS ids (istrength, ieos) are arguments passed by
+!> value, so that a caller that passes them as constants (the element
+!> update) gets from the compiler a copy of these routines with those
+!> switches resolved (interprocedural constant propagation; meson.build).
 module fsph_material
   use fsph_kinds, only: wp, one_third
   use fsph_status, only: status_ok, status_eos_range
@@ -128,7 +132,7 @@ contains
   !> Linear: p = K mu.
   pure subroutine eos_pressure(props, ieos, rho, a, b, dadrho, ierr)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: ieos
+    integer, value :: ieos
     real(wp), intent(in) :: rho           !< density [kg/m^3]
     real(wp), intent(out) :: a            !< energy-independent part [Pa]
     real(wp), intent(out) :: b            !< dp/de at constant rho [kg/m^3]
@@ -298,7 +302,7 @@ contains
   !> particle code calls this after its final energy update.
   pure function state_temperature(props, ieos, rho, e, hist, temp) result(t)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: ieos
+    integer, value :: ieos
     real(wp), intent(in) :: rho            !< density [kg/m^3]
     real(wp), intent(in) :: e              !< specific internal energy [J/kg]
     real(wp), intent(in) :: hist(n_hist)   !< history variables of the point
@@ -341,7 +345,7 @@ contains
   !> trial and the sound speed use it.
   pure function shear_modulus(props, istrength, rho, p, temp) result(g)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength
+    integer, value :: istrength
     real(wp), intent(in) :: rho            !< density [kg/m^3]
     real(wp), intent(in) :: p              !< pressure [Pa]
     real(wp), intent(in) :: temp           !< temperature [K]
@@ -397,7 +401,7 @@ contains
   !> the pressure and temperature factor).
   pure real(wp) function flow_stress(props, istrength, eps_p, rate_p, rate_factor, thermal_factor) result(sy)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength
+    integer, value :: istrength
     real(wp), intent(in) :: eps_p, rate_p, rate_factor, thermal_factor
     select case (istrength)
     case (strength_epp)
@@ -427,7 +431,7 @@ contains
   !> plastic return needs it (a Johnson-Cook slope costs a power of its own).
   pure real(wp) function flow_slope(props, istrength, eps_p, rate_p, inv_dt, rate_factor, thermal_factor) result(dsy)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength
+    integer, value :: istrength
     real(wp), intent(in) :: eps_p, rate_p, inv_dt, rate_factor, thermal_factor
     !> Plastic strain below which the Johnson-Cook slope is evaluated at this
     !> value (the slope of eps^n is unbounded at zero for n < 1) [-].
@@ -462,7 +466,7 @@ contains
   !> material point as the return mapping sees it (0 at and above melt).
   pure function flow_stress_at(props, istrength, eps_p, rate_p, rate_eq, p, temp, rho) result(sy)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength
+    integer, value :: istrength
     real(wp), intent(in) :: eps_p, rate_p, rate_eq, p, temp, rho
     real(wp) :: sy, rate_factor, thermal_factor
     call strength_factors(props, istrength, rate_eq, p, temp, rho, rate_factor, thermal_factor)
@@ -476,7 +480,7 @@ contains
   !> zero at and above the melting temperature at density rho.
   pure subroutine strength_factors(props, istrength, rate_eq, p, temp, rho, rate_factor, thermal_factor)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength
+    integer, value :: istrength
     real(wp), intent(in) :: rate_eq        !< equivalent total strain rate [1/s]
     real(wp), intent(in) :: p, temp, rho   !< [Pa], [K], [kg/m^3]
     real(wp), intent(out) :: rate_factor, thermal_factor
@@ -508,7 +512,7 @@ contains
   !> stress at the end of the step.
   pure subroutine radial_return(props, istrength, g, dt, rate_factor, thermal_factor, eps_p, s, deps_p, sy)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength
+    integer, value :: istrength
     real(wp), intent(in) :: g              !< shear modulus [Pa]
     real(wp), intent(in) :: dt             !< time step [s]
     real(wp), intent(in) :: rate_factor, thermal_factor, eps_p
@@ -672,7 +676,7 @@ contains
   !> the flow stress at the end of the step.
   pure subroutine strength_update(props, istrength, dt, d, spin, rho, p, s, eps_p, temp, s_old, d_dev, deps_p, sy)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength
+    integer, value :: istrength
     real(wp), intent(in) :: dt              !< time step [s]
     real(wp), intent(in) :: d(4)            !< strain rate (rr, zz, rz, tt) [1/s]
     real(wp), intent(in) :: spin            !< in-plane spin 1/2 (dvr/dz - dvz/dr) [1/s]
@@ -746,7 +750,7 @@ contains
   pure subroutine material_update(props, istrength, ieos, dt, d, spin, rho_old, rho_new, q, &
                                   s, p, eps_p, e, temp, hist, c, ierr)
     real(wp), intent(in) :: props(n_props)
-    integer, intent(in) :: istrength, ieos
+    integer, value :: istrength, ieos
     real(wp), intent(in) :: dt              !< time step [s]
     real(wp), intent(in) :: d(4)            !< strain rate (rr, zz, rz, tt) [1/s]
     real(wp), intent(in) :: spin            !< in-plane spin 1/2 (dvr/dz - dvz/dr) [1/s]
