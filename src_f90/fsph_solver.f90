@@ -487,7 +487,7 @@ contains
         end if
         ! the axis carries no axial load: each continuum's resultant of the
         ! images' axial stress forces is removed
-        call axis_resultant(n, pt%continuum, pt%mass, pt%acc_axis, pt%acc)
+        call axis_resultant(n, size(sim%continuum_of_body), pt%continuum, pt%mass, pt%acc_axis, pt%acc)
         call timer_stop(sim%timers, phase_particle_contact)
         if (el%n > 0) then
           call timer_start(sim%timers, phase_coupling)

@@ -595,29 +595,24 @@ contains
   !> with the particles held one radius off the axis) and, at the
   !> projectile's speed, made the energy error (its work U F at the
   !> projectile's speed U, which no heat books). Here each continuum's
-  !> resultant F of the images' axial stress forces (acc_axis in, from
+  !> resultant F of the images' axial stress forces (acc_axis, from
   !> sph_accelerations and the equilibrium part of the Riemann contact's
   !> image entries) is removed by a uniform axial acceleration -F/M of
   !> the continuum's particles (M their mass): a rigid motion, so no
   !> stress changes. The images' forces and the correction then do work
   !> only on the motion relative to the continuum's mean axial velocity V,
   !> sum m a_axis (v_z - V), which does not depend on the frame; the
-  !> ghosts' heat stays as it was (ghost_work). acc_axis out is the
-  !> images' part plus the correction. Serial, in index order: the sums
-  !> do not depend on the thread count.
-  subroutine axis_resultant(n, continuum, mass, acc_axis, acc)
+  !> ghosts' heat stays as it was (ghost_work). Serial, in index order:
+  !> the sums do not depend on the thread count.
+  subroutine axis_resultant(n, n_cont, continuum, mass, acc_axis, acc)
     integer, intent(in) :: n
+    integer, intent(in) :: n_cont           !< continua (continuum ids 1 .. n_cont)
     integer, intent(in) :: continuum(n)
     real(wp), intent(in) :: mass(n)         !< ring masses [kg]
-    real(wp), intent(inout) :: acc_axis(n)  !< [m/s^2]
+    real(wp), intent(in) :: acc_axis(n)     !< [m/s^2]
     real(wp), intent(inout) :: acc(2, n)    !< [m/s^2]
-    real(wp), allocatable :: force(:), total(:)
-    real(wp) :: da
-    integer :: i, nc
-    if (n == 0) return
-    nc = maxval(continuum(1:n))
-    if (minval(continuum(1:n)) < 1) return
-    allocate (force(nc), total(nc))
+    real(wp) :: force(n_cont), total(n_cont)
+    integer :: i
     force = 0.0_wp
     total = 0.0_wp
     do i = 1, n
@@ -625,9 +620,7 @@ contains
       total(continuum(i)) = total(continuum(i)) + mass(i)
     end do
     do i = 1, n
-      da = -force(continuum(i))/total(continuum(i))
-      acc(2, i) = acc(2, i) + da
-      acc_axis(i) = acc_axis(i) + da
+      acc(2, i) = acc(2, i) - force(continuum(i))/total(continuum(i))
     end do
   end subroutine axis_resultant
 

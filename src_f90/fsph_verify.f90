@@ -60,7 +60,7 @@ contains
                              grad_v, switch, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
                              pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
-      call axis_resultant(np, pt%continuum, pt%mass, pt%acc_axis, acc)
+      call axis_resultant(np, size(sim%continuum_of_body), pt%continuum, pt%mass, pt%acc_axis, acc)
       ! the energy equation with the stress, viscosity and velocities of this state
       call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, &
                            pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
