@@ -127,7 +127,7 @@ def test_1058_sph_conserves_momentum(sph_1058):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured 482.0 m/s, +7.3 % against 449 (Xiao et al. 2012 with fixed "
+@pytest.mark.xfail(strict=True, reason="measured 481.7 m/s, +7.3 % against 449 (Xiao et al. 2012 with fixed "
                    "coupling: 466; 472.8 m/s before the SPH viscosity's compression switch, which "
                    "removed the viscous drag of the fully damaged crater); the converged "
                    "frictionless model lies near +7 % (docs/validation.md)")
@@ -136,8 +136,8 @@ def test_606_fixed_residual_velocity(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured 477.5 m/s, +6.3 % against 449 on the mesh refined "
-                   "by 1.6 (26 432 elements, 9 697 converted; 474.6 m/s, +5.7 %, on the case's "
+@pytest.mark.xfail(strict=True, reason="measured 478.7 m/s, +6.6 % against 449 on the mesh refined "
+                   "by 1.6 (26 432 elements, 10 372 converted; 471.7 m/s, +5.1 %, on the case's "
                    "mesh): the converged frictionless model lies near +7 % (docs/validation.md)")
 def test_606_adaptive_refined_mesh_residual_velocity(tmp_path_factory):
     """The convergence check of the 606 m/s case: the deck with every cell
