@@ -219,6 +219,11 @@ SCHEMA = {
                          "is done at p_min. Unset: no cut-off. Not with eos 'hjc' (its tensile "
                          "limit is -hjc_t (1 - D)). A failed point carries no tension at all "
                          "(p >= 0).", upper=0.0),
+            "spall_failure": Key("bool", False, "-",
+                                 "Spall as a failure: a point whose EOS pressure falls below "
+                                 "p_min fails (snapshot field `failed`: no deviatoric stress, no "
+                                 "tension from then on, its mass and momentum kept) instead of "
+                                 "carrying p_min for as long as it is stretched. Needs p_min."),
             "pl_sigma0": _pos("power_law (Liao et al. 2022 eq 13): quasi-static yield stress "
                               "sigma0 of sigma_y = sigma0 (1 + eps_p/pl_eps0)^pl_n R "
                               "(1 - (T - T_room)/(T_m - T_room))^pl_l, zero at and above melt.",
@@ -1047,6 +1052,9 @@ def _validate_material(path, label, m):
     if m["eos"] == "hjc" and m["p_min"] is not None:
         raise DeckError(path, label, "p_min", "no value for eos 'hjc' (its tensile limit is "
                         "-hjc_t (1 - D))", m["p_min"])
+    if m["spall_failure"] and m["p_min"] is None:
+        raise DeckError(path, label, "spall_failure", "a p_min to fail at (spall_failure = .true. "
+                        "needs the material's spall cut-off p_min)", "no p_min")
 
 
 def _check_melting(path, label, m):

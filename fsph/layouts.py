@@ -209,6 +209,7 @@ PROPERTIES = (
     ("sg_b", "1/K", "Steinberg-Guinan G'_T/G0 (B)"),
     # Johnson-Cook failure (Johnson & Cook 1985)
     ("jcf_on", "-", "Johnson-Cook failure: 1 on, 0 off"),
+    ("spall_fail", "-", "spall failure: 1 a point whose pressure reaches p_min fails, 0 off"),
     ("jc_d1", "-", "Johnson-Cook failure D1"),
     ("jc_d2", "-", "Johnson-Cook failure D2"),
     ("jc_d3", "-", "Johnson-Cook failure D3"),

@@ -376,6 +376,7 @@ def _model_rows(m):
         "pl_rate_form": RATE_FORMS[_given(m, "pl_rate_form", "power")],
         "sg_eps_i": _given(m, "sg_eps_i", 0.0),
         "jcf_on": 1.0 if all(m.get(k) is not None for k in JC_FAILURE_KEYS) else 0.0,
+        "spall_fail": 1.0 if m.get("spall_failure") else 0.0,
         "jc_efmin": _given(m, "jc_efmin", JC_EFMIN_DEFAULT),
         "fracture_energy": _given(m, "fracture_energy", 0.0),
     }

@@ -9,7 +9,7 @@
 !> pressure (compression positive) and q the artificial viscous pressure.
 !> Strain rates d(4) = (d_rr, d_zz, d_rz, d_tt) are tensor components
 !> (d_rz = gamma_rz / 2). Model switches stored in the property row
-!> (temp_model, melt_model, pl_rate_form, jcf_on) are ids held as reals;
+!> (temp_model, melt_model, pl_rate_form, jcf_on, spall_fail) are ids held as reals;
 !> the strength model and EOS ids (istrength, ieos) are arguments passed by
 !> value, so that a caller that passes them as constants (the element
 !> update) gets from the compiler a copy of these routines with those
@@ -30,7 +30,7 @@ module fsph_material
                           prop_t_room, prop_yield, prop_temp_model, prop_melt_model, prop_melt_a, &
                           prop_pl_sigma0, prop_pl_eps0, prop_pl_rate0, prop_pl_n, prop_pl_m, prop_pl_l, &
                           prop_pl_rate_form, prop_sg_y0, prop_sg_ymax, prop_sg_beta, prop_sg_n, prop_sg_eps_i, &
-                          prop_sg_a, prop_sg_b, prop_jcf_on, prop_jc_d1, prop_jc_d2, prop_jc_d3, prop_jc_d4, &
+                          prop_sg_a, prop_sg_b, prop_jcf_on, prop_spall_fail, prop_jc_d1, prop_jc_d2, prop_jc_d3, prop_jc_d4, &
                           prop_jc_d5, prop_jc_efmin, prop_ise_mu_lo, prop_ise_beta, prop_ise_u_top, &
                           prop_ise_tw00, prop_ise_tdw00, prop_ise_cw00, prop_ise_cdw00, &
                           ise_tension_intervals, ise_compression_intervals, mg_denominator_floor, &
@@ -803,9 +803,11 @@ contains
     p_floor = pressure_floor(props, hist)
     if (p_new < p_floor) then
       ! spall cut-off (no tension once failed): the pressure stays at the
-      ! floor and the p dv work is done at it
+      ! floor and the p dv work is done at it; with spall failure the
+      ! point has failed (no tension, no deviator from the next step on)
       p_new = p_floor
       e = e_star - 0.5_wp*p_new*dv
+      if (model_id(props(prop_spall_fail)) == 1) hist(hist_failed) = 1.0_wp
     end if
     p = p_new
     temp = state_temperature(props, ieos, rho_new, e, hist, temp)

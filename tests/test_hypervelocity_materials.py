@@ -421,6 +421,40 @@ def test_failed_point_pressure_rule():
     assert material_point_functions(m, rho, p=3.0e9, failed=1.0)["p_cut"] == 3.0e9
 
 
+@pytest.mark.parametrize("spall_failure", [False, True])
+def test_spall_cut_off_and_spall_failure(spall_failure):
+    """Steinberg-Guinan copper (p_min -1.35 GPa) stretched in uniaxial
+    strain, 0.2 % a step: the pressure falls, then stays at p_min with the
+    p dv work done at it. With spall_failure the point fails in the step
+    that reaches p_min: from the next step on it carries no tension and
+    no deviator, and the energy stops taking p dv work."""
+    m = material("ofhc_copper_sg", spall_failure=spall_failure)
+    rho0, dt = 8930.0, 1.0e-8
+    state = dict(fresh(), failed=0.0)
+    rho, reached = rho0, None
+    for step in range(40):
+        rho_new = rho * (1.0 - 0.002)
+        d = np.array([0.0, -math.log(rho_new / rho) / dt, 0.0, 0.0])
+        out = material_point_update(m, dt, d, 0.0, rho, rho_new, 0.0, state)
+        if reached is None and out["p"] == m["p_min"]:
+            reached = step
+            assert out["failed"] == (1.0 if spall_failure else 0.0)
+        elif reached is not None:
+            if spall_failure:
+                assert out["p"] == 0.0 and np.all(out["s"] == 0.0) and out["failed"] == 1.0
+                if step > reached + 1:
+                    # the step after failure still books the trapezoidal half
+                    # of the last stress's work; then nothing
+                    assert out["e"] == pytest.approx(state["e"], rel=1e-12)
+            else:
+                assert out["p"] == m["p_min"] and out["failed"] == 0.0
+        else:
+            assert m["p_min"] < out["p"] < state["p"] + 1.0
+        state = {k: out[k] for k in ("s", "p", "eps_p", "e", "temp", "failed")}
+        rho = rho_new
+    assert reached is not None and reached < 39
+
+
 def test_no_failure_without_constants():
     """The same shear history without jc_d*: damage stays 0."""
     m = material("ofhc_copper")
@@ -478,6 +512,8 @@ BAD = {
     "failure_with_elastic": ("name='steel'\n library='steel_elastic_bar'\n jc_d1=0.5\n jc_d2=1.0\n jc_d3=-1.0\n"
                              " jc_d4=0.0\n jc_d5=0.0", "jc_d1"),
     "p_min_with_hjc": ("name='steel'\n library='concrete_48mpa_hjc'\n p_min=-1.0e6", "p_min"),
+    "spall_failure_without_p_min": ("name='steel'\n library='ofhc_copper'\n spall_failure=.true.",
+                                    "spall_failure"),
     "ymax_below_y0": ("name='steel'\n library='ofhc_copper_sg'\n sg_ymax=0.1e9", "sg_ymax"),
     "melt_on_cold_elastic": ("name='steel'\n library='steel_elastic_bar'\n melt_temperature=1800.0\n"
                              " specific_heat=477.0", "melt_temperature"),
