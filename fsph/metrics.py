@@ -115,8 +115,9 @@ def taylor(snap, body, body_index, w_height=None):
             "detached_mass_kg": float(p_mass[detached].sum()) if len(p_mass) else 0.0}
 
 
-def field_peaks(snap, fields=("plastic_strain", "temperature")):
-    """Largest value of each of fields (plastic strain [-], temperature [K])
+def field_peaks(snap, fields=("plastic_strain", "temperature", "internal_energy")):
+    """Largest value of each of fields (plastic strain [-], temperature [K],
+    specific internal energy [J/kg])
     over elements and particles, with where: the point (r, z) [mm] (element
     centroid or particle centre), whether an element or a particle, its
     index and body (0-based)."""

@@ -56,7 +56,7 @@ def test_balanced_run_has_no_warning_and_no_untracked_temperature(tmp_path):
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "bar" / "summary.json").read_text())
     assert summary["warnings"] == []
-    assert list(summary["peaks"]) == ["plastic_strain"]
+    assert list(summary["peaks"]) == ["plastic_strain", "internal_energy"]
     assert "peak temperature" not in proc.stdout
 
 
@@ -123,6 +123,11 @@ def test_peak_fields_in_summary_and_console(tmp_path):
     assert peaks["plastic_strain"]["in"] == "element" and peaks["plastic_strain"]["index"] == k
     assert peaks["plastic_strain"]["r_mm"] == pytest.approx(centre[0] * 1e3, rel=1e-12)
     assert peaks["temperature"]["value"] == pytest.approx(temp.max(), rel=1e-12)
+    with h5py.File(out / "fsph.h5") as h5:
+        last = h5["snapshots"][sorted(h5["snapshots"])[-1]]
+        last_e = last["internal_energy"][...]
+    assert peaks["internal_energy"]["value"] == pytest.approx(last_e.max(), rel=1e-12)
+    assert "peak internal_energy" in proc.stdout
     # adiabatic heating of Johnson-Cook copper: hotter than the room
     assert peaks["temperature"]["value"] > 293.15 + 10.0
 
