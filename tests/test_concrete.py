@@ -127,6 +127,28 @@ def test_1058_sph_conserves_momentum(sph_1058):
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "measured -1244 kJ/kg against a hottest projectile particle of +1785 kJ/kg (-70 %): a particle "
+    "of the steel nose's surface at the contact, at -10 GPa; from 100 to 200 us its booked energy "
+    "fell 1381 kJ/kg while its own stress times its corrected strain rate gave +1782 kJ/kg: the "
+    "energy equation charges the plain SPH rate conjugate to the momentum equation (exact "
+    "conservation), the stress update the corrected one, and at an incomplete kernel they part "
+    "(docs/validation.md, concrete, fields)"))
+def test_1058_sph_projectile_has_no_particle_colder_than_the_reference_state(sph_1058):
+    """The family's bar on the projectile of the pure SPH run: no particle
+    below minus 1 % of its hottest particle's specific internal energy
+    (along an isentrope from rho0, e = 0 compression and tension both
+    raise e; plastic and viscous work only add)."""
+    import h5py
+    with h5py.File(sph_1058["_output"] / "fsph.h5") as h5:
+        snaps = h5["snapshots"]
+        part = snaps[sorted(snaps)[-1]]["particles"]
+        rod = part["body"][...] == 0
+        e = part["internal_energy"][...][rod]
+    assert e.min() >= -0.01 * e.max()
+
+
+@pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="measured 481.7 m/s, +7.3 % against 449 (Xiao et al. 2012 with fixed "
                    "coupling: 466; 472.8 m/s before the SPH viscosity's compression switch, which "
                    "removed the viscous drag of the fully damaged crater); the converged "
