@@ -25,7 +25,7 @@ module fsph_solver
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
                       axis_resultant, &
                       pair_weights, compression_switch
-  use fsph_mirror, only: mirror_select, mirror_fill_start, mirror_fill_mid, &
+  use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
                          mirror_fill_stress, mirror_reaction_z
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
@@ -521,7 +521,8 @@ contains
         ! one total-Lagrangian body and nothing else: no SPH sums, no
         ! contact between particles; the lists stay empty
         call empty_lists(sim%particles)
-      else if (.not. lists_still_valid(sim%particles, sim%nodes, sim%elements, sim%body_coupled, sim%conversion%alpha_h)) then
+      else if (.not. lists_still_valid(sim%particles, sim%nodes, sim%elements, sim%body_coupled, &
+                                       sim%conversion%alpha_h, .not. any_mirror_plane(sim))) then
         skin = list_skin(sim%particles, sim%control%neighbour_skin)
         pt%n_imag = 0
         if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
@@ -635,6 +636,17 @@ contains
       end if
     end associate
   end subroutine select_mirrors
+
+  !> Whether a rigid plane gives the particles mirror images (a plane
+  !> normal to the axis, fsph_mirror).
+  logical function any_mirror_plane(sim)
+    type(simulation_t), intent(in) :: sim
+    integer :: ip
+    any_mirror_plane = .false.
+    do ip = 1, sim%n_planes
+      if (mirror_plane_normal_to_axis(sim%planes(ip)%normal)) any_mirror_plane = .true.
+    end do
+  end function any_mirror_plane
 
   !> Plane points and normals as arrays (2, n_planes).
   subroutine plane_arrays(sim, point, normal)

@@ -3,9 +3,16 @@
 !> reused while no pair can have come within the kernel support unlisted:
 !> while 2 d_max + kernel_support dh_max < skin, with d_max the largest
 !> displacement since the build of a real particle or of the centroid of an
-!> element of a coupled body (an imaginary particle, listed or not), and
-!> dh_max the largest growth of such an element's h = alpha_h sqrt(A) (a
-!> particle's h does not change). Rows are sorted, and entries beyond the
+!> element of a coupled body (an imaginary particle, listed or not),
+!> measured from a common axial shift c_z, and dh_max the largest growth of
+!> such an element's h = alpha_h sqrt(A) (a particle's h does not change).
+!> Two points' separation changes by |d_i - d_j| <= |d_i - c| + |d_j - c|
+!> for any common c, and a ghost across the axis (-r, z) moves with
+!> (-d_r, d_z), so c = (0, c_z) bounds its pairs too; c_z is the middle of
+!> the axial displacements (a projectile or a flyer in flight, translating
+!> along the axis, then keeps its lists). With a rigid plane normal to the
+!> axis (mirror images chosen by their particle's distance to the fixed
+!> plane) c_z is 0. Rows are sorted, and entries beyond the
 !> support contribute exact zeros, so the sums, and the run, are the same
 !> bit for bit as with lists rebuilt every cycle (tested). A conversion,
 !> an erosion, a restart or a verification hook that moves particles
@@ -68,37 +75,62 @@ contains
 
   !> Whether the lists of the last build still hold every pair within the
   !> kernel support (see the module header).
-  logical function lists_still_valid(pt, nd, el, body_coupled, alpha_h)
+  logical function lists_still_valid(pt, nd, el, body_coupled, alpha_h, axial_shift)
     type(particle_set_t), intent(in) :: pt
     type(node_set_t), intent(in) :: nd
     type(element_set_t), intent(in) :: el
     logical, intent(in) :: body_coupled(:)
     real(wp), intent(in) :: alpha_h
+    !> displacements may be measured from a common axial shift (no rigid
+    !> plane normal to the axis)
+    logical, intent(in) :: axial_shift
     integer :: n, ne, ie
-    real(wp) :: d2_max, dh_max, xe(2)
+    real(wp) :: d2_max, dh_max, xe(2), dz_lo, dz_hi, c_z
     lists_still_valid = .false.
     n = pt%n
     ne = el%n
     if (.not. pt%lists_valid .or. n /= pt%n_listed .or. n == 0) return
-    d2_max = 0.0_wp
-    dh_max = 0.0_wp
-    !$omp parallel do default(none) shared(pt, n) private(ie) reduction(max:d2_max)
-    do ie = 1, n
-      d2_max = max(d2_max, sum((pt%x(:, ie) - pt%x_listed(:, ie))**2))
-    end do
-    !$omp end parallel do
     if (ne > 0) then
       if (size(pt%elem_listed, 2) < ne) return
-      !$omp parallel do default(none) shared(pt, nd, el, body_coupled, alpha_h, ne) private(ie, xe) &
-      !$omp reduction(max:d2_max, dh_max)
+    end if
+    ! the common axial shift: the middle of the points' axial displacements
+    c_z = 0.0_wp
+    if (axial_shift) then
+      dz_lo = huge(1.0_wp)
+      dz_hi = -huge(1.0_wp)
+      !$omp parallel do default(none) shared(pt, n) private(ie) reduction(min:dz_lo) reduction(max:dz_hi)
+      do ie = 1, n
+        dz_lo = min(dz_lo, pt%x(2, ie) - pt%x_listed(2, ie))
+        dz_hi = max(dz_hi, pt%x(2, ie) - pt%x_listed(2, ie))
+      end do
+      !$omp end parallel do
+      !$omp parallel do default(none) shared(pt, nd, el, body_coupled, ne) private(ie, xe) &
+      !$omp reduction(min:dz_lo) reduction(max:dz_hi)
       do ie = 1, ne
         if (.not. coupled_body(body_coupled, el%body(ie))) cycle
         xe = element_mean(nd%x, el%conn, ie)
-        d2_max = max(d2_max, sum((xe - pt%elem_listed(1:2, ie))**2))
-        dh_max = max(dh_max, element_smoothing_length(alpha_h, el%area(ie)) - pt%elem_listed(3, ie))
+        dz_lo = min(dz_lo, xe(2) - pt%elem_listed(2, ie))
+        dz_hi = max(dz_hi, xe(2) - pt%elem_listed(2, ie))
       end do
       !$omp end parallel do
+      c_z = 0.5_wp*(dz_lo + dz_hi)
     end if
+    d2_max = 0.0_wp
+    dh_max = 0.0_wp
+    !$omp parallel do default(none) shared(pt, n, c_z) private(ie) reduction(max:d2_max)
+    do ie = 1, n
+      d2_max = max(d2_max, (pt%x(1, ie) - pt%x_listed(1, ie))**2 + (pt%x(2, ie) - pt%x_listed(2, ie) - c_z)**2)
+    end do
+    !$omp end parallel do
+    !$omp parallel do default(none) shared(pt, nd, el, body_coupled, alpha_h, ne, c_z) private(ie, xe) &
+    !$omp reduction(max:d2_max, dh_max)
+    do ie = 1, ne
+      if (.not. coupled_body(body_coupled, el%body(ie))) cycle
+      xe = element_mean(nd%x, el%conn, ie)
+      d2_max = max(d2_max, (xe(1) - pt%elem_listed(1, ie))**2 + (xe(2) - pt%elem_listed(2, ie) - c_z)**2)
+      dh_max = max(dh_max, element_smoothing_length(alpha_h, el%area(ie)) - pt%elem_listed(3, ie))
+    end do
+    !$omp end parallel do
     lists_still_valid = 2.0_wp*sqrt(d2_max) + kernel_support*dh_max < pt%skin
   end function lists_still_valid
 
