@@ -473,7 +473,10 @@ SCHEMA = {
                                   "on it (pairs beyond the support add exact zeros, the lists "
                                   "are in index order); 0 rebuilds every cycle. It trades the "
                                   "cost of the search against that of the extra pairs "
-                                  "(docs/performance.md).",
+                                  "(docs/performance.md). The skin follows the flow from this "
+                                  "value up to three times it: lists that expire within two "
+                                  "cycles of their build widen the next one by 1.5, lists that "
+                                  "last twelve narrow it again (a debris cloud at 5 km/s).",
                                   lower=0.0, upper=1.0),
             "eigenerosion_factor": _pos("Geometric factor lambda of the eigenerosion energy "
                                         "release rate G = lambda 2h <W> of &material "

@@ -35,7 +35,7 @@ module fsph_solver
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
                            association_reach
-  use fsph_verlet, only: lists_still_valid, record_lists, list_skin
+  use fsph_verlet, only: lists_still_valid, record_lists, list_skin, adapt_skin
   use fsph_convert, only: assign_groups, convert_elements
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct, contact_step_limit
@@ -510,9 +510,12 @@ contains
     integer, intent(out) :: ntot
     integer :: i, n
     real(wp) :: skin
+    logical :: expired
     integer, allocatable :: search_body(:)
     associate (pt => sim%particles)
       n = pt%n
+      ! lists that may only expire by the displacement test
+      expired = pt%lists_valid .and. n == pt%n_listed .and. n > 0
       if (pt%lists_valid) then
         if (sim%elements%n > 0 .and. pt%n_imag > 0) call refill_imaginary(sim, stage_start)
         call fill_mirrors_start(sim)
@@ -523,6 +526,7 @@ contains
         call empty_lists(sim%particles)
       else if (.not. lists_still_valid(sim%particles, sim%nodes, sim%elements, sim%body_coupled, &
                                        sim%conversion%alpha_h, .not. any_mirror_plane(sim))) then
+        if (expired) call adapt_skin(sim%particles)
         skin = list_skin(sim%particles, sim%control%neighbour_skin)
         pt%n_imag = 0
         if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
@@ -536,6 +540,8 @@ contains
                              pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
                              pt%cnt_ptr, pt%cnt_list)
         call record_lists(sim%particles, sim%nodes, sim%elements, sim%conversion%alpha_h, skin)
+      else
+        pt%list_uses = pt%list_uses + 1
       end if
       ntot = n + pt%n_imag + pt%n_mirror
       do i = 1, n

@@ -110,6 +110,8 @@ module fsph_state
     real(wp) :: skin = 0.0_wp             !< skin of the current lists [m]
     integer :: n_listed = 0               !< real particles when the lists were built
     integer :: n_rebuilds = 0             !< list builds so far
+    real(wp) :: skin_scale = 1.0_wp       !< the skin over the deck's (fsph_verlet adapt_skin) [-]
+    integer :: list_uses = 0              !< cycles the current lists have served
     real(wp), allocatable :: x_listed(:, :) !< real particle positions at the build (2, capacity) [m]
     real(wp), allocatable :: elem_listed(:, :) !< element centroids (r, z) and h at the build (3, ne) [m]
     integer, allocatable :: nbr_ptr(:), nbr_list(:), cnt_ptr(:), cnt_list(:)

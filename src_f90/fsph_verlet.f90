@@ -26,20 +26,46 @@ module fsph_verlet
   implicit none
   private
 
-  public :: lists_still_valid, record_lists, invalidate_lists, list_skin
+  public :: lists_still_valid, record_lists, invalidate_lists, list_skin, adapt_skin
+
+  !> Bounds of the skin's scale over the deck's `neighbour_skin` [-], the
+  !> lives (cycles) of lists below and above which it grows and shrinks,
+  !> and its factor per step.
+  real(wp), parameter :: skin_scale_max = 3.0_wp, skin_scale_step = 1.5_wp
+  integer, parameter :: short_life = 2, long_life = 12
 
 contains
 
   !> Skin for lists built now [m]: the control fraction of the smallest
-  !> kernel support of the real particles (0: lists rebuilt every cycle).
+  !> kernel support of the real particles, times the adapted scale (0:
+  !> lists rebuilt every cycle).
   real(wp) function list_skin(pt, neighbour_skin)
     type(particle_set_t), intent(in) :: pt
     real(wp), intent(in) :: neighbour_skin
     integer :: n
     n = pt%n
     list_skin = 0.0_wp
-    if (n > 0) list_skin = neighbour_skin*kernel_support*minval(pt%h(1:n))
+    if (n > 0) list_skin = pt%skin_scale*neighbour_skin*kernel_support*minval(pt%h(1:n))
   end function list_skin
+
+  !> The skin follows the flow: when lists that expired by the
+  !> displacement test (not a conversion or another forced rebuild) had
+  !> served short_life cycles or fewer, the next skin is skin_scale_step
+  !> times wider (up to skin_scale_max times the deck's); when they served
+  !> long_life cycles or more, that much narrower (down to the deck's). A
+  !> wider skin lists more pairs beyond the support, which add exact
+  !> zeros: the run is the same bit for bit at any skin, only its cost
+  !> moves (at 5 km/s the points' spread of velocities used the deck's
+  !> skin up in about a step, and the search was 30 % of a debris run).
+  !> A function of the cycle history only: the same for any thread count.
+  subroutine adapt_skin(pt)
+    type(particle_set_t), intent(inout) :: pt
+    if (pt%list_uses <= short_life) then
+      pt%skin_scale = min(pt%skin_scale*skin_scale_step, skin_scale_max)
+    else if (pt%list_uses >= long_life) then
+      pt%skin_scale = max(pt%skin_scale/skin_scale_step, 1.0_wp)
+    end if
+  end subroutine adapt_skin
 
   !> Forget the lists: the next cycle rebuilds them.
   subroutine invalidate_lists(pt)
@@ -71,6 +97,7 @@ contains
     pt%n_listed = n
     pt%lists_valid = skin > 0.0_wp
     pt%n_rebuilds = pt%n_rebuilds + 1
+    pt%list_uses = 0
   end subroutine record_lists
 
   !> Whether the lists of the last build still hold every pair within the
