@@ -455,8 +455,7 @@ contains
         call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
         call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                                pt%grad_v, pt%switch, pt%entry_source, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, &
-                               pt%low_pair, &
-                               pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
+                               pt%low_pair, pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, &
                                pt%acc_axis)
         ! total-Lagrangian particles: their own forces (no SPH sums)
