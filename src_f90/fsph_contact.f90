@@ -398,7 +398,8 @@ contains
     real(wp), intent(out) :: dt_min
     integer, intent(out) :: icontrol
     type(contact_pair_t) :: pair
-    integer :: j, i
+    integer :: j, i, n_node, ie, ie_min
+    real(wp) :: v_s(2), dte, dte_min
     dt_min = huge(1.0_wp)
     icontrol = 0
     if (.not. ct%enabled .or. ct%n_seg == 0 .or. .not. (dt > 0.0_wp)) return
@@ -408,41 +409,78 @@ contains
       if (all(pt%continuum(1:pt%n) == ct%seg_cont(1))) return
     end if
     call build_buckets(ct, nd, pt, dt)
-    if (ct%several_continua) then
-      do j = 1, ct%n_snode
+    n_node = 0
+    if (ct%several_continua) n_node = ct%n_snode
+    ! slaves 1..n_node the surface nodes, then the particles; each thread
+    ! keeps the least (step, element) it meets and the threads' are merged
+    ! the same way: the least pair does not depend on the order, so the
+    ! result does not depend on the thread count
+    !$omp parallel default(none) shared(ct, nd, pt, el, dt, c_q, c_l, n_node, dt_min, icontrol) &
+    !$omp private(j, i, pair, v_s, ie, dte, dte_min, ie_min)
+    dte_min = huge(1.0_wp)
+    ie_min = 0
+    !$omp do schedule(dynamic, 64)
+    do j = 1, n_node + pt%n
+      if (j <= n_node) then
         call find_contact(ct, nd, node_predicted(nd, ct%snode(j), dt), nd%x(:, ct%snode(j)), 0.0_wp, &
                           ct%snode_cont(j), .false., ct%snode(j), dt, pair)
-        if (pair%found) call strike(nd%v(:, ct%snode(j)))
-      end do
-    end if
-    do i = 1, pt%n
-      call find_contact(ct, nd, particle_predicted(pt, nd, i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                        .false., 0, dt, pair)
-      if (.not. pair%found) cycle
-      if (pt%tie_a(i) > 0) then
-        call strike((1.0_wp - pt%tie_xi(i))*nd%v(:, pt%tie_a(i)) + pt%tie_xi(i)*nd%v(:, pt%tie_b(i)))
+        if (.not. pair%found) cycle
+        v_s = nd%v(:, ct%snode(j))
       else
-        call strike(pt%v(:, i))
+        i = j - n_node
+        call find_contact(ct, nd, particle_predicted(pt, nd, i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
+                          .false., 0, dt, pair)
+        if (.not. pair%found) cycle
+        if (pt%tie_a(i) > 0) then
+          v_s = (1.0_wp - pt%tie_xi(i))*nd%v(:, pt%tie_a(i)) + pt%tie_xi(i)*nd%v(:, pt%tie_b(i))
+        else
+          v_s = pt%v(:, i)
+        end if
       end if
+      call strike_step(ct, nd, el, pair, v_s, c_q, c_l, dte, ie)
+      if (ie > 0) call keep_least(dte, ie, dte_min, ie_min)
     end do
-  contains
-    !> The struck element's step at the closing speed of a slave moving at v_s.
-    subroutine strike(v_s)
-      real(wp), intent(in) :: v_s(2)
-      real(wp) :: v_m(2), v_n, dte
-      integer :: ie
-      v_m = pair%weight(1)*nd%v(:, pair%master(1))
-      if (pair%master(2) > 0) v_m = v_m + pair%weight(2)*nd%v(:, pair%master(2))
-      v_n = dot_product(v_m - v_s, pair%normal)     ! closing speed [m/s]
-      if (.not. (v_n > 0.0_wp)) return
-      ie = ct%seg_elem(pair%segment)
-      dte = element_step(el%lmin(ie), el%area(ie), el%c(ie), -v_n/el%lmin(ie), c_q, c_l)
-      if (dte < dt_min .or. (dte == dt_min .and. ie < icontrol)) then
-        dt_min = dte
-        icontrol = ie
-      end if
-    end subroutine strike
+    !$omp end do
+    !$omp critical (contact_step_merge)
+    if (ie_min > 0) call keep_least(dte_min, ie_min, dt_min, icontrol)
+    !$omp end critical (contact_step_merge)
+    !$omp end parallel
   end subroutine contact_step_limit
+
+  !> The struck element's step [s] at the closing speed of a slave moving
+  !> at v_s [m/s] onto the master segment of `pair`, and the element (0 when
+  !> the slave does not close on it).
+  pure subroutine strike_step(ct, nd, el, pair, v_s, c_q, c_l, dte, ie)
+    type(contact_t), intent(in) :: ct
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
+    type(contact_pair_t), intent(in) :: pair
+    real(wp), intent(in) :: v_s(2), c_q, c_l
+    real(wp), intent(out) :: dte
+    integer, intent(out) :: ie
+    real(wp) :: v_m(2), v_n
+    dte = huge(1.0_wp)
+    ie = 0
+    v_m = pair%weight(1)*nd%v(:, pair%master(1))
+    if (pair%master(2) > 0) v_m = v_m + pair%weight(2)*nd%v(:, pair%master(2))
+    v_n = dot_product(v_m - v_s, pair%normal)     ! closing speed [m/s]
+    if (.not. (v_n > 0.0_wp)) return
+    ie = ct%seg_elem(pair%segment)
+    dte = element_step(el%lmin(ie), el%area(ie), el%c(ie), -v_n/el%lmin(ie), c_q, c_l)
+  end subroutine strike_step
+
+  !> (dt_min, icontrol) becomes the lesser of itself and (dte, ie): the
+  !> smaller step, the lower element on a tie.
+  pure subroutine keep_least(dte, ie, dt_min, icontrol)
+    real(wp), intent(in) :: dte
+    integer, intent(in) :: ie
+    real(wp), intent(inout) :: dt_min
+    integer, intent(inout) :: icontrol
+    if (dte < dt_min .or. (dte == dt_min .and. (ie < icontrol .or. icontrol == 0))) then
+      dt_min = dte
+      icontrol = ie
+    end if
+  end subroutine keep_least
 
   !> Velocities of nodes and free particles before the corrections.
   subroutine keep_start_velocities(ct, nd, pt)
