@@ -454,7 +454,7 @@ contains
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
         call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
         call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
-                               pt%grad_v, pt%switch, pt%entry_source, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, &
+                               pt%grad_v, pt%switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, &
                                pt%low_pair, pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, &
                                pt%acc_axis)
@@ -549,8 +549,6 @@ contains
       end do
       call reserve(pt%intact, ntot)
       call fill_intact(sim%particles)
-      call reserve(pt%entry_source, ntot)
-      call fill_entry_source(sim%particles)
       call reserve(pt%pair_q, size(pt%nbr_list))
       call reserve(pt%nbr_grad, 2, size(pt%nbr_list))
       call reserve(pt%pair_force, 2, size(pt%nbr_list))
@@ -583,22 +581,6 @@ contains
     call reserve(pt%low_other, 1)
     call reserve(pt%cnt_list, 1)
   end subroutine empty_lists
-
-  !> The real particle behind each entry (fsph_sph sph_accelerations): a
-  !> real particle itself, an imaginary particle (an element) none (0), a
-  !> mirror image across a plane minus its particle.
-  subroutine fill_entry_source(pt)
-    type(particle_set_t), intent(inout) :: pt
-    integer :: i, n
-    n = pt%n
-    do i = 1, n
-      pt%entry_source(i) = i
-    end do
-    pt%entry_source(n + 1:n + pt%n_imag) = 0
-    do i = 1, pt%n_mirror
-      pt%entry_source(n + pt%n_imag + i) = -pt%mirror_of(i)
-    end do
-  end subroutine fill_entry_source
 
   !> Which entries are intact (1) and which have failed (0): real particles
   !> by their history, imaginary ones (elements) intact, mirror images as

@@ -203,6 +203,21 @@ contains
     w = f(1)*v_i(1) + 0.5_wp*f(2)*(v_i(2) - vz_j)
   end function ghost_work
 
+  !> The real particle an entry j of the sums stands for: itself (1..n),
+  !> none for an imaginary particle (an element, 0), minus it for a mirror
+  !> image across a plane (entries after the imaginary ones; mirror_of
+  !> names their particles).
+  pure integer function entry_particle(j, n, n_imag, mirror_of) result(src)
+    integer, intent(in) :: j, n, n_imag, mirror_of(*)
+    if (j <= n) then
+      src = j
+    else if (j > n + n_imag) then
+      src = -mirror_of(j - n - n_imag)
+    else
+      src = 0
+    end if
+  end function entry_particle
+
   !> Compression switch of the pairwise viscosity, per particle:
   !> f = |div v|/(|div v| + |D'| + 1e-4 c/h), from the strain rates d
   !> (rr, zz, rz, tt) of the particle's last update [1/s]: 1 in a uniform
@@ -243,7 +258,7 @@ contains
   !> 1..n) for the hourglass term and switch their compression switches;
   !> imaginary particles and mirror images (entries > n) carry neither.
   subroutine sph_accelerations(n, ntot, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, &
-                               source, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, &
+                               mirror_of, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, &
                                pair_force, pair_hg, pair_in, acc_imag, acc_axis)
     integer, intent(in) :: n             !< real particles (rows computed)
     integer, intent(in) :: ntot          !< real, imaginary and mirror entries (neighbours)
@@ -253,10 +268,9 @@ contains
     real(wp), intent(in) :: intact(ntot) !< 1 intact, 0 failed: whose stress acts on whom (acts_on) [-]
     real(wp), intent(in) :: grad_v(4, n) !< dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz of the last update [1/s]
     real(wp), intent(in) :: switch(n)    !< compression switch of the viscosity [-]
-    !> the real particle each entry stands for: itself (1..n), none for
-    !> an imaginary particle (0), minus it for a mirror image across a
-    !> plane (its velocity gradient mirrored) [-]
-    integer, intent(in) :: source(ntot)
+    !> the particle of each mirror image across a plane (entries
+    !> n + n_imag + 1 ..)
+    integer, intent(in) :: mirror_of(*)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
     real(wp), intent(in) :: c_hg         !< hourglass coefficient [-]
@@ -273,7 +287,7 @@ contains
     real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2), a_axis
     real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2)
     !$omp parallel default(none) &
-    !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, source, nbr_ptr, nbr_list) &
+    !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, mirror_of, nbr_ptr, nbr_list) &
     !$omp shared(low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in) &
     !$omp shared(acc_imag, acc_axis) &
     !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi) &
@@ -308,7 +322,7 @@ contains
         ! compression switch (an image's is its particle's: the mirrored
         ! strain rate has the same divergence and deviator); between a
         ! particle and an element the viscosity acts in full
-        src = source(j)
+        src = entry_particle(j, n, n_imag, mirror_of)
         if (src /= 0) q = q*0.5_wp*(switch(i) + switch(abs(src)))
         if (src > 0) then
           ! particles and their ghosts: the hourglass term on the

@@ -131,10 +131,6 @@ module fsph_state
     real(wp), allocatable :: cnt_normal(:, :) !< Riemann contact: each particle's contact normal [1/m]
     real(wp), allocatable :: fracture_work(:, :) !< eigenerosion work space (3, n)
     real(wp), allocatable :: intact(:)   !< per entry: 1 intact, 0 failed (fsph_eigenerosion) [-]
-    !> per entry: the real particle it stands for (itself; 0 for an
-    !> imaginary particle; minus the particle of a mirror image across a
-    !> plane)
-    integer, allocatable :: entry_source(:)
     integer :: n_failed_last = 0         !< particles that failed by eigenerosion in the last cycle
     logical, allocatable :: cnt_in(:)     !< Riemann contact: entry within the kernel support at the start of the cycle
     real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
