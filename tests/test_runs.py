@@ -35,10 +35,27 @@ from conftest import CASES, rod_deck
 # the mirror images across the anvil took their particle's compression
 # switch (the other two have no such images: unchanged); before,
 # taylor_armco 31ed9818....
+#
+# The plate and concrete runs call the host's math library (pow, log and exp
+# of the Johnson-Cook and HJC models), whose last bits depend on the code
+# path it picks for the processor: glibc chooses among FMA, AVX and SSE2
+# variants of exp, log and pow by the CPU's features. These two runs
+# therefore have one state per host kind, all from the same source. The
+# digests, in order: the Intel Xeon hosts where they were first stored; an
+# AMD EPYC guest with AVX2 and FMA but no AVX-512 (2026-11-27: the same plate
+# state as the Xeon's, another concrete state, for a cause not pinned down);
+# that guest with glibc held to its SSE2 paths
+# (GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA,-FMA4,-AVX), which changes both.
+# The Taylor rod (elastic-perfectly-plastic Armco) is the same on all. A
+# host with yet another state fails here; its digest is added only once the
+# code at the stored one is shown to give it there.
 REFERENCE_DIGESTS = {
-    "taylor_armco": "2da700f26a7fb1357d105f9c95a067f997aa54e70e00e0094451bc293f40709a",
-    "al_plate_508": "b0f8fc1c0f89bb5a656f9d69af65e901c8eed250061557c7b021fce652eb2cdd",
-    "concrete_1058": "a4de5c91b218811e85af360fae03631623b2214da8acd3ee622962d7ad474e35",
+    "taylor_armco": ("2da700f26a7fb1357d105f9c95a067f997aa54e70e00e0094451bc293f40709a",),
+    "al_plate_508": ("b0f8fc1c0f89bb5a656f9d69af65e901c8eed250061557c7b021fce652eb2cdd",
+                     "8f9d604300c715b9fc94611c20fd2eba617d5e8a22a7e8a2445334b5e58cbf22"),
+    "concrete_1058": ("a4de5c91b218811e85af360fae03631623b2214da8acd3ee622962d7ad474e35",
+                      "7142ad813c181afed69e8448dc23175f7d412406aa9e387e1814018acb3cb405",
+                      "ab9b54b1d2b58b95ec42216036a7131d669dd8ea5ff76a9fad08316b93f41c0f"),
 }
 
 
@@ -47,7 +64,7 @@ def test_reference_run_ends_in_the_stored_state(case):
     deck = deck_module.load(CASES / f"{case}.nml")
     sim = fsph.Simulation(deck)
     sim.advance(deck["control"]["end_time"])
-    assert state_digest(sim) == REFERENCE_DIGESTS[case]
+    assert state_digest(sim) in REFERENCE_DIGESTS[case]
 
 
 def small_decks(write_deck):
