@@ -47,6 +47,13 @@ module fsph_contact
   !> the body or to another segment) [-].
   real(wp), parameter :: capture_depth = 0.5_wp
 
+  !> Relative margin of find_contact's box test [-]: the box around a
+  !> segment is widened by this fraction of its reach and size beyond the
+  !> exact bound (and by 1e-6 of it times the point's coordinates), far
+  !> above the rounding of the distances the test stands for, so that it
+  !> passes over only segments the search would have passed over.
+  real(wp), parameter :: reach_margin = 1.0e-6_wp
+
   !> Slave kinds.
   integer, parameter :: slave_node = 1, slave_particle = 2
 
@@ -261,7 +268,7 @@ contains
     logical, intent(in) :: own_allowed
     type(contact_pair_t), intent(out) :: best
     logical, intent(in), optional :: whole
-    real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2), overlap
+    real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2), overlap, reach
     integer :: ir, iz, ic, m, k, a, b
     if (.not. ct%grid%ok) return
     if (.not. (abs(p(1)) <= huge(1.0_wp) .and. abs(p(2)) <= huge(1.0_wp))) return
@@ -283,6 +290,16 @@ contains
       xa = node_predicted(nd, a, dt)
       xb = node_predicted(nd, b, dt)
       t = xb - xa
+      ! beyond every reach of the segment, passed before the square root:
+      ! a contact needs the point within max(thick, capture_depth l) of
+      ! the segment (case a) or within thick of an end (case c), so within
+      ! the segment's box widened by that reach (l bounded by |t_r| + |t_z|,
+      ! and a margin far above the rounding of the tests below)
+      reach = max(thick, capture_depth*(abs(t(1)) + abs(t(2))))
+      reach = reach*(1.0_wp + reach_margin) + reach_margin*(abs(t(1)) + abs(t(2))) &
+              + 1.0e-6_wp*reach_margin*(abs(p(1)) + abs(p(2)))
+      if (p(1) < min(xa(1), xb(1)) - reach .or. p(1) > max(xa(1), xb(1)) + reach .or. &
+          p(2) < min(xa(2), xb(2)) - reach .or. p(2) > max(xa(2), xb(2)) + reach) cycle
       l = norm2(t)
       if (.not. (l > 0.0_wp)) cycle
       t = t/l
