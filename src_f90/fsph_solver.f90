@@ -538,7 +538,8 @@ contains
         call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, search_body, skin, pt%search, &
                              pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
                              pt%cnt_ptr, pt%cnt_list)
-        call record_lists(sim%particles, sim%nodes, sim%elements, sim%conversion%alpha_h, skin)
+        call record_lists(sim%particles, sim%nodes, sim%elements, sim%body_coupled, sim%conversion%alpha_h, &
+                          skin)
       else
         pt%list_uses = pt%list_uses + 1
       end if

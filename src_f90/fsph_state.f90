@@ -113,7 +113,10 @@ module fsph_state
     real(wp) :: skin_scale = 1.0_wp       !< the skin over the deck's (fsph_verlet adapt_skin) [-]
     integer :: list_uses = 0              !< cycles the current lists have served
     real(wp), allocatable :: x_listed(:, :) !< real particle positions at the build (2, capacity) [m]
-    real(wp), allocatable :: elem_listed(:, :) !< element centroids (r, z) and h at the build (3, ne) [m]
+    real(wp), allocatable :: elem_listed(:) !< h of each element at the build (ne) [m]
+    real(wp), allocatable :: node_listed(:, :) !< node positions at the build (2, nodes) [m]
+    integer, allocatable :: coupled_nodes(:) !< the nodes of the elements of coupled bodies at the build
+    integer :: n_coupled_nodes = 0
     integer, allocatable :: nbr_ptr(:), nbr_list(:), cnt_ptr(:), cnt_list(:)
     integer, allocatable :: half_end(:)   !< end (exclusive) of the half entries of each row
     integer, allocatable :: low_ptr(:), low_pair(:), low_other(:) !< low lists: partner and pair entry

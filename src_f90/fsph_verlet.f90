@@ -2,8 +2,9 @@
 !> fsph_neighbours are built with every pair's reach widened by a skin, and
 !> reused while no pair can have come within the kernel support unlisted:
 !> while 2 d_max + kernel_support dh_max < skin, with d_max the largest
-!> displacement since the build of a real particle or of the centroid of an
-!> element of a coupled body (an imaginary particle, listed or not),
+!> displacement since the build of a real particle or of a node of an
+!> element of a coupled body (the node farthest moved bounds the centroid
+!> of its elements, where an imaginary particle stands, listed or not),
 !> measured from a common axial shift c_z, and dh_max the largest growth of
 !> such an element's h = alpha_h sqrt(A) (a particle's h does not change).
 !> Two points' separation changes by |d_i - d_j| <= |d_i - c| + |d_j - c|
@@ -22,7 +23,7 @@ module fsph_verlet
   use fsph_state, only: particle_set_t, node_set_t, element_set_t
   use fsph_arrays, only: reserve
   use fsph_kernel, only: kernel_support
-  use fsph_coupling, only: coupled_body, element_mean, element_smoothing_length
+  use fsph_coupling, only: coupled_body, element_smoothing_length
   implicit none
   private
 
@@ -73,26 +74,50 @@ contains
     pt%lists_valid = .false.
   end subroutine invalidate_lists
 
-  !> Positions of the real particles and centroids and h of the elements at
-  !> a build with skin `skin` [m].
-  subroutine record_lists(pt, nd, el, alpha_h, skin)
+  !> Positions of the real particles and of the nodes, the h of the
+  !> elements and which nodes belong to elements of coupled bodies, at a
+  !> build with skin `skin` [m].
+  subroutine record_lists(pt, nd, el, body_coupled, alpha_h, skin)
     type(particle_set_t), intent(inout) :: pt
     type(node_set_t), intent(in) :: nd
     type(element_set_t), intent(in) :: el
+    logical, intent(in) :: body_coupled(:)
     real(wp), intent(in) :: alpha_h
     real(wp), intent(in) :: skin
-    integer :: n, ne, ie
+    integer :: n, ne, ie, a, k
     n = pt%n
     ne = el%n
     if (.not. allocated(pt%x_listed)) allocate (pt%x_listed(2, pt%capacity))
     pt%x_listed(:, 1:n) = pt%x(:, 1:n)
-    call reserve(pt%elem_listed, 3, max(ne, 1))
-    !$omp parallel do default(none) shared(pt, nd, el, alpha_h, ne) private(ie)
+    call reserve(pt%elem_listed, max(ne, 1))
+    call reserve(pt%node_listed, 2, max(nd%n, 1))
+    call reserve(pt%coupled_nodes, max(nd%n, 1))
+    !$omp parallel default(none) shared(pt, nd, el, alpha_h, ne) private(ie, a)
+    !$omp do
     do ie = 1, ne
-      pt%elem_listed(1:2, ie) = element_mean(nd%x, el%conn, ie)
-      pt%elem_listed(3, ie) = element_smoothing_length(alpha_h, el%area(ie))
+      pt%elem_listed(ie) = element_smoothing_length(alpha_h, el%area(ie))
     end do
-    !$omp end parallel do
+    !$omp end do nowait
+    !$omp do
+    do a = 1, nd%n
+      pt%node_listed(:, a) = nd%x(:, a)
+    end do
+    !$omp end do
+    !$omp end parallel
+    ! the coupled bodies' nodes, in index order (a node marked by its
+    ! elements first, then listed)
+    pt%coupled_nodes(1:nd%n) = 0
+    do ie = 1, ne
+      if (.not. coupled_body(body_coupled, el%body(ie))) cycle
+      pt%coupled_nodes(el%conn(:, ie)) = 1
+    end do
+    k = 0
+    do a = 1, nd%n
+      if (pt%coupled_nodes(a) == 0) cycle
+      k = k + 1
+      pt%coupled_nodes(k) = a
+    end do
+    pt%n_coupled_nodes = k
     pt%skin = skin
     pt%n_listed = n
     pt%lists_valid = skin > 0.0_wp
@@ -101,7 +126,11 @@ contains
   end subroutine record_lists
 
   !> Whether the lists of the last build still hold every pair within the
-  !> kernel support (see the module header).
+  !> kernel support (see the module header). An element's imaginary
+  !> particle stands at the mean of its nodes, so it has moved, from any
+  !> common shift, no farther than the farthest of its nodes: the nodes of
+  !> the coupled bodies bound the imaginary particles' displacements (one
+  !> pass over the nodes instead of a centroid per element).
   logical function lists_still_valid(pt, nd, el, body_coupled, alpha_h, axial_shift)
     type(particle_set_t), intent(in) :: pt
     type(node_set_t), intent(in) :: nd
@@ -111,14 +140,18 @@ contains
     !> displacements may be measured from a common axial shift (no rigid
     !> plane normal to the axis)
     logical, intent(in) :: axial_shift
-    integer :: n, ne, ie
-    real(wp) :: d2_max, dh_max, xe(2), dz_lo, dz_hi, c_z
+    integer :: n, ne, ie, k, a, n_nodes
+    real(wp) :: d2_max, dh_max, dz_lo, dz_hi, c_z
     lists_still_valid = .false.
     n = pt%n
     ne = el%n
     if (.not. pt%lists_valid .or. n /= pt%n_listed .or. n == 0) return
+    n_nodes = pt%n_coupled_nodes
     if (ne > 0) then
-      if (size(pt%elem_listed, 2) < ne) return
+      if (size(pt%elem_listed) < ne) return
+    end if
+    if (n_nodes > 0) then
+      if (size(pt%node_listed, 2) < nd%n) return
     end if
     ! the common axial shift: the middle of the points' axial displacements
     c_z = 0.0_wp
@@ -131,13 +164,12 @@ contains
         dz_hi = max(dz_hi, pt%x(2, ie) - pt%x_listed(2, ie))
       end do
       !$omp end parallel do
-      !$omp parallel do default(none) shared(pt, nd, el, body_coupled, ne) private(ie, xe) &
+      !$omp parallel do default(none) shared(pt, nd, n_nodes) private(k, a) &
       !$omp reduction(min:dz_lo) reduction(max:dz_hi)
-      do ie = 1, ne
-        if (.not. coupled_body(body_coupled, el%body(ie))) cycle
-        xe = element_mean(nd%x, el%conn, ie)
-        dz_lo = min(dz_lo, xe(2) - pt%elem_listed(2, ie))
-        dz_hi = max(dz_hi, xe(2) - pt%elem_listed(2, ie))
+      do k = 1, n_nodes
+        a = pt%coupled_nodes(k)
+        dz_lo = min(dz_lo, nd%x(2, a) - pt%node_listed(2, a))
+        dz_hi = max(dz_hi, nd%x(2, a) - pt%node_listed(2, a))
       end do
       !$omp end parallel do
       c_z = 0.5_wp*(dz_lo + dz_hi)
@@ -149,13 +181,16 @@ contains
       d2_max = max(d2_max, (pt%x(1, ie) - pt%x_listed(1, ie))**2 + (pt%x(2, ie) - pt%x_listed(2, ie) - c_z)**2)
     end do
     !$omp end parallel do
-    !$omp parallel do default(none) shared(pt, nd, el, body_coupled, alpha_h, ne, c_z) private(ie, xe) &
-    !$omp reduction(max:d2_max, dh_max)
+    !$omp parallel do default(none) shared(pt, nd, n_nodes, c_z) private(k, a) reduction(max:d2_max)
+    do k = 1, n_nodes
+      a = pt%coupled_nodes(k)
+      d2_max = max(d2_max, (nd%x(1, a) - pt%node_listed(1, a))**2 + (nd%x(2, a) - pt%node_listed(2, a) - c_z)**2)
+    end do
+    !$omp end parallel do
+    !$omp parallel do default(none) shared(pt, el, body_coupled, alpha_h, ne) private(ie) reduction(max:dh_max)
     do ie = 1, ne
       if (.not. coupled_body(body_coupled, el%body(ie))) cycle
-      xe = element_mean(nd%x, el%conn, ie)
-      d2_max = max(d2_max, (xe(1) - pt%elem_listed(1, ie))**2 + (xe(2) - pt%elem_listed(2, ie) - c_z)**2)
-      dh_max = max(dh_max, element_smoothing_length(alpha_h, el%area(ie)) - pt%elem_listed(3, ie))
+      dh_max = max(dh_max, element_smoothing_length(alpha_h, el%area(ie)) - pt%elem_listed(ie))
     end do
     !$omp end parallel do
     lists_still_valid = 2.0_wp*sqrt(d2_max) + kernel_support*dh_max < pt%skin
