@@ -217,6 +217,7 @@ contains
     type(conversion_t), intent(in) :: cv
     integer, intent(in) :: ie
     real(wp) :: xe(2, 3)
+    integer :: k
     select case (cv%criterion)
     case (criterion_plastic_strain)
       meets_criterion = el%eps_p(ie) >= cv%eps_c
@@ -226,7 +227,11 @@ contains
       ! below theta_c; an element that started below theta_c (graded or
       ! mapped meshes) below theta_relative times its initial angle
       ! (conversion_limits)
-      xe = nd%x(:, el%conn(:, ie))
+      ! corner by corner: the vector subscript nd%x(:, el%conn(:, ie)) made
+      ! gfortran allocate a temporary for every element at every cycle
+      do k = 1, 3
+        xe(:, k) = nd%x(:, el%conn(k, ie))
+      end do
       meets_criterion = has_angle_below(xe, el%cos_limit(ie))
     end select
   end function meets_criterion

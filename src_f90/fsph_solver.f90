@@ -992,7 +992,9 @@ contains
       allocate (node_body(nd%n))
       node_body = 0
       do e = 1, el%n
-        node_body(el%conn(:, e)) = el%body(e)
+        do k = 1, 3
+          node_body(el%conn(k, e)) = el%body(e)
+        end do
       end do
       do a = 1, nd%n
         b = node_body(a)

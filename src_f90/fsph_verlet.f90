@@ -109,7 +109,9 @@ contains
     pt%coupled_nodes(1:nd%n) = 0
     do ie = 1, ne
       if (.not. coupled_body(body_coupled, el%body(ie))) cycle
-      pt%coupled_nodes(el%conn(:, ie)) = 1
+      do a = 1, 3
+        pt%coupled_nodes(el%conn(a, ie)) = 1
+      end do
     end do
     k = 0
     do a = 1, nd%n
