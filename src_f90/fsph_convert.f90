@@ -58,17 +58,24 @@ contains
   !> Whether a triangle has an interior angle below the angle whose cosine
   !> is cos_limit > 0 (the minimum-angle test without trigonometric calls or
   !> square roots: an angle below it has u.w > 0 and
-  !> (u.w)^2 > cos_limit^2 |u|^2 |w|^2).
+  !> (u.w)^2 > cos_limit^2 |u|^2 |w|^2, u and w its two edges from the
+  !> corner). The edges e_k = x_(k+1) - x_k serve all three corners (at
+  !> corner k, u = e_k and w = -e_(k-1)): negation is exact, so the test is
+  !> the one with each corner's own differences, to the bit.
   pure logical function has_angle_below(xe, cos_limit) result(below)
     real(wp), intent(in) :: xe(2, 3), cos_limit
-    real(wp) :: u(2), w(2), uw
-    integer :: k
+    real(wp) :: e(2, 3), len2(3), uw, c2
+    integer :: k, km
+    do k = 1, 3
+      e(:, k) = xe(:, modulo(k, 3) + 1) - xe(:, k)
+      len2(k) = e(1, k)**2 + e(2, k)**2
+    end do
+    c2 = cos_limit**2
     below = .false.
     do k = 1, 3
-      u = xe(:, modulo(k, 3) + 1) - xe(:, k)
-      w = xe(:, modulo(k + 1, 3) + 1) - xe(:, k)
-      uw = u(1)*w(1) + u(2)*w(2)
-      if (uw > 0.0_wp .and. uw*uw > cos_limit**2*(u(1)**2 + u(2)**2)*(w(1)**2 + w(2)**2)) below = .true.
+      km = modulo(k + 1, 3) + 1
+      uw = -(e(1, k)*e(1, km) + e(2, k)*e(2, km))
+      if (uw > 0.0_wp .and. uw*uw > c2*len2(k)*len2(km)) below = .true.
     end do
   end function has_angle_below
 
