@@ -28,8 +28,9 @@
 !>  - A tied particle moves with its edge: its correction goes to the two
 !>    edge nodes with the tie weights (effective mass of the tie point).
 !>  - Search in stages: buckets (each segment registered in the cells its
-!>    reach overlaps), candidates in the point's cell, distance, then the
-!>    correction; O(N) per pass.
+!>    reach overlaps), candidates in the point's cell, a box test (the
+!>    segment's box widened by its reach), distance, then the correction;
+!>    O(N) per pass.
 module fsph_contact
   use fsph_kinds, only: wp
   use fsph_state, only: contact_t, contact_grid_t, node_set_t, element_set_t, particle_set_t
