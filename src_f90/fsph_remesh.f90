@@ -26,7 +26,7 @@ contains
     logical, intent(in) :: drop(:)
     logical, allocatable, intent(out) :: keep_node(:)
     logical, allocatable :: keep(:)
-    integer :: ie
+    integer :: ie, k
     allocate (keep(el%n))
     keep = .not. drop(1:el%n)
     call compact(el%conn, keep); call compact(el%mat, keep); call compact(el%body, keep)
@@ -43,8 +43,12 @@ contains
     allocate (el%fc(2, 3, max(el%n, 1)))
     allocate (keep_node(n_nodes))
     keep_node = .false.
+    ! corner by corner (a vector subscript here was a heap temporary per
+    ! element at every conversion)
     do ie = 1, el%n
-      keep_node(el%conn(:, ie)) = .true.
+      do k = 1, 3
+        keep_node(el%conn(k, ie)) = .true.
+      end do
     end do
   end subroutine remove_elements
 
@@ -69,14 +73,17 @@ contains
       new_index(a) = m
     end do
     do i = 1, el%n
-      el%conn(:, i) = new_index(el%conn(:, i))
+      do a = 1, 3
+        el%conn(a, i) = new_index(el%conn(a, i))
+      end do
     end do
     do i = 1, pt%n
       pt%tie_a(i) = new_index(pt%tie_a(i))
       pt%tie_b(i) = new_index(pt%tie_b(i))
     end do
     do k = 1, cp%n_edges
-      cp%edge(:, k) = new_index(cp%edge(:, k))
+      cp%edge(1, k) = new_index(cp%edge(1, k))
+      cp%edge(2, k) = new_index(cp%edge(2, k))
     end do
     call compact(nd%x, keep_node); call compact(nd%x0, keep_node); call compact(nd%v, keep_node)
     call compact(nd%f, keep_node); call compact(nd%x_old, keep_node)
