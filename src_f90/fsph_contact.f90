@@ -48,12 +48,12 @@ module fsph_contact
   !> the body or to another segment) [-].
   real(wp), parameter :: capture_depth = 0.5_wp
 
-  !> Relative margin of find_contact's box test [-]: the box around a
-  !> segment is widened by this fraction of its reach and size beyond the
-  !> exact bound (and by 1e-6 of it times the point's coordinates), far
+  !> Margins of find_contact's box test [-]: the box around a segment is
+  !> widened beyond the exact bound by reach_margin times its reach and
+  !> its size, and by coordinate_margin times the point's coordinates, far
   !> above the rounding of the distances the test stands for, so that it
   !> passes over only segments the search would have passed over.
-  real(wp), parameter :: reach_margin = 1.0e-6_wp
+  real(wp), parameter :: reach_margin = 1.0e-6_wp, coordinate_margin = 1.0e-12_wp
 
   !> Slave kinds.
   integer, parameter :: slave_node = 1, slave_particle = 2
@@ -298,7 +298,7 @@ contains
       ! and a margin far above the rounding of the tests below)
       reach = max(thick, capture_depth*(abs(t(1)) + abs(t(2))))
       reach = reach*(1.0_wp + reach_margin) + reach_margin*(abs(t(1)) + abs(t(2))) &
-              + 1.0e-6_wp*reach_margin*(abs(p(1)) + abs(p(2)))
+              + coordinate_margin*(abs(p(1)) + abs(p(2)))
       if (p(1) < min(xa(1), xb(1)) - reach .or. p(1) > max(xa(1), xb(1)) + reach .or. &
           p(2) < min(xa(2), xb(2)) - reach .or. p(2) > max(xa(2), xb(2)) + reach) cycle
       l = norm2(t)
