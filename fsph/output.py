@@ -498,20 +498,15 @@ class RunWriter:
             g.attrs["time"] = snap["time"]
             g.attrs["cycle"] = snap["cycle"]
             if "conn" in snap:
-                g["nodes"] = snap["x"]
-                g["nodes_initial"] = snap["x0"]
-                g["velocity"] = snap["velocity"]
-                g["connectivity"] = snap["conn"]
+                for name, field in (("nodes", "x"), ("nodes_initial", "x0"), ("velocity", "velocity"),
+                                    ("connectivity", "conn")):
+                    _put_field(g, name, snap[field], field)
                 for name in SNAPSHOT_CELL_FIELDS:
-                    g[name] = snap[name]
-                g["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
-                _describe(g, {"nodes": "x", "nodes_initial": "x0", "connectivity": "conn"})
+                    _put_field(g, name, snap[name], name)
             if "particles" in snap:
                 pg = g.create_group("particles")
                 for name, values in snap["particles"].items():
-                    pg[name] = values
-                pg["stress"].attrs["components"] = ",".join(STRESS_COMPONENTS)
-                _describe(pg, {})
+                    _put_field(pg, name, values, name)
             self._name_ids(g)
             snapshots.move(PARTIAL_SNAPSHOT, f"{self.n_snapshots:05d}")
         vtu_bytes = self._write_vtu(snap) if self.vtu else 0
@@ -654,13 +649,18 @@ def _with_units(mesh):
                        cell_data=named(mesh.cell_data))
 
 
-def _describe(group, aliases):
-    """Set the attribute `units` of every dataset of a snapshot group
-    (aliases: dataset name -> field name of SNAPSHOT_UNITS)."""
-    for name, data in group.items():
-        unit = SNAPSHOT_UNITS.get(aliases.get(name, name))
-        if unit is not None and isinstance(data, h5py.Dataset):
-            data.attrs["units"] = unit
+def _put_field(group, name, values, field):
+    """The dataset `name` of a snapshot group holding `values`, with the
+    attribute `units` of its field (SNAPSHOT_UNITS; none for a field not
+    listed there) and, for the stress, its `components`. Set on the new
+    dataset at once: reopening each dataset by name afterwards cost as
+    much as writing it."""
+    data = group.create_dataset(name, data=values)
+    unit = SNAPSHOT_UNITS.get(field)
+    if unit is not None:
+        data.attrs["units"] = unit
+    if name == "stress":
+        data.attrs["components"] = ",".join(STRESS_COMPONENTS)
 
 
 def _append_metrics(h5, kind, record, units):
