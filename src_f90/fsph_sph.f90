@@ -435,6 +435,13 @@ contains
     do i = 1, n
       acc9 = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
+        ! a listed pair outside the support at the start of the cycle adds
+        ! nothing (a zero gradient); the lists' skin makes about a sixth
+        ! of the entries such pairs
+        if (.not. pair_in(k)) then
+          grad(:, k) = 0.0_wp
+          cycle
+        end if
         j = abs(nbr_list(k))
         sg = entry_sign(nbr_list(k))
         dx(1) = x(1, i) - sg*x(1, j)
@@ -445,7 +452,7 @@ contains
           cycle
         end if
         g_ij = merge(kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j))), 0.0_wp, &
-                     pair_in(k) .and. in_support(dist2, h(i), h(j)))*dx
+                     in_support(dist2, h(i), h(j)))*dx
         grad(:, k) = g_ij
         dvji(1) = sg*v(1, j) - v(1, i)
         dvji(2) = v(2, j) - v(2, i)
@@ -520,8 +527,8 @@ contains
   !> hourglass parts with the weights given; de itself is summed as
   !> without them).
   subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, &
-                             low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, pair_work_k, de, &
-                             de_parts)
+                             low_ptr, low_pair, low_other, pair_in, pair_q, pair_hg, pair_force, grad, pair_work_k, &
+                             de, de_parts)
     integer, intent(in) :: n, ntot
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
@@ -529,6 +536,9 @@ contains
     real(wp), intent(in) :: intact(ntot) !< 1 intact, 0 failed: whose stress acts on whom (acts_on) [-]
     integer, intent(in) :: tie(n)        !< first node of the edge a particle is tied to (0: free)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
+    !> the entries within the support at the start of the cycle
+    !> (sph_accelerations); the others have no force and no gradient
+    logical, intent(in) :: pair_in(*)
     real(wp), intent(in) :: pair_q(*), pair_hg(2, *), pair_force(2, *), grad(2, *)
     !> the partner's work rate per unit mass of i, then its viscous and
     !> hourglass parts [m^2/(kg s^3)]
@@ -541,7 +551,7 @@ contains
     real(wp), parameter :: zero4(4) = 0.0_wp
     !$omp parallel default(none) &
     !$omp shared(n, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, low_ptr, low_pair) &
-    !$omp shared(low_other) &
+    !$omp shared(low_other, pair_in) &
     !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de, de_parts) &
     !$omp private(i, k, j, m, o, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work) &
     !$omp private(sum_visc, sum_hg, f_part)
@@ -552,6 +562,10 @@ contains
       sum_visc = 0.0_wp
       sum_hg = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
+        if (.not. pair_in(k)) then
+          pair_work_k(:, k) = 0.0_wp
+          cycle
+        end if
         j = abs(nbr_list(k))
         if (nbr_list(k) < 0) then
           ! a ghost: the work of its force on the particle becomes heat,
@@ -597,6 +611,7 @@ contains
       sum_hg = de_parts(2, i)
       do m = low_ptr(i), low_ptr(i + 1) - 1
         k = low_pair(m)
+        if (.not. pair_in(k)) cycle
         o = low_other(m)
         sum_e = sum_e + mass(o)*pair_work_k(1, k)
         sum_visc = sum_visc + mass(o)*pair_work_k(2, k)
