@@ -299,17 +299,17 @@ contains
     real(wp), intent(in) :: x(2, n), h(n), skin
     integer, intent(in) :: body(n)
     type(neighbour_work_t), intent(inout) :: work
-    integer :: ii, jj, l, jz, kk, n_half, n_low, n_one, n_cnt, bi, width, cwidth
-    integer :: near, same, real_j, up, jr_lo, jr_hi, jz_lo, jz_hi, row
-    real(wp) :: ri, zi, reach_i, reach, d2, big, cell
+    integer :: ii, l, jz, n_half, n_low, n_one, n_cnt, bi, width, cwidth
+    integer :: jr_lo, jr_hi, jz_lo, jz_hi, row
+    real(wp) :: ri, zi, reach_i, big, cell
     ! a row holds width entries; writes past them go to the scratch slot
     ! width + 1, and a count above width makes the caller widen and rescan
     width = work%width
     cwidth = work%contact_width
     !$omp parallel do default(none) schedule(dynamic, 64) &
     !$omp shared(nq, x, h, body, skin, work, width, cwidth) &
-    !$omp private(ii, jj, l, jz, kk, n_half, n_low, n_one, n_cnt, bi, ri, zi, reach_i, reach, d2, big, cell) &
-    !$omp private(near, same, real_j, up, jr_lo, jr_hi, jz_lo, jz_hi, row)
+    !$omp private(ii, l, jz, n_half, n_low, n_one, n_cnt, bi, ri, zi, reach_i, big, cell) &
+    !$omp private(jr_lo, jr_hi, jz_lo, jz_hi, row)
     do ii = 1, nq
       ri = x(1, ii)
       zi = x(2, ii)
@@ -336,29 +336,9 @@ contains
           ! real and imaginary neighbours and contact candidates: the cells
           ! jr_lo .. jr_hi of a row are one run of sorted points
           row = work%level_offset(l) + 1 + work%level_nr(l)*jz
-          do kk = work%cell_start(row + jr_lo), work%cell_start(row + jr_hi + 1) - 1
-            jj = work%item(kk)
-            d2 = (ri - work%xs(1, kk))**2 + (zi - work%xs(2, kk))**2
-            reach = reach_i + work%reach_s(kk)
-            ! 0/1 flags, so the common path has no data-dependent branch
-            near = merge(1, 0, d2 < reach*reach)*merge(1, 0, jj /= ii)
-            same = merge(1, 0, work%body_s(kk) == bi)
-            real_j = merge(1, 0, jj <= nq)
-            up = merge(1, 0, jj > ii)
-            work%half_row(min(n_half + 1, width + 1), ii) = jj
-            work%low_row(min(n_low + 1, width + 1), ii) = jj
-            work%one_row(min(n_one + 1, width + 1), ii) = jj
-            n_half = n_half + near*same*real_j*up
-            n_low = n_low + near*same*real_j*(1 - up)
-            n_one = n_one + near*same*(1 - real_j)
-            if (near > same) then
-              ! another body within reach: a contact candidate if real
-              if (jj <= nq) then
-                n_cnt = n_cnt + 1
-                if (n_cnt <= cwidth) work%cnt_row(n_cnt, ii) = jj
-              end if
-            end if
-          end do
+          call scan_run(work%cell_start(row + jr_lo), work%cell_start(row + jr_hi + 1) - 1, work%item, work%xs, &
+                        work%reach_s, work%body_s, ii, nq, ri, zi, reach_i, bi, width, cwidth, work%half_row(:, ii), &
+                        work%low_row(:, ii), work%one_row(:, ii), work%cnt_row(:, ii), n_half, n_low, n_one, n_cnt)
           ! ghosts, for points whose reach crosses the axis
           if (big > ri) call scan_mirrors(work, l, row, ii, nq, ri, zi, reach_i, big, bi, width, n_one, &
                                           cwidth, n_cnt)
@@ -378,6 +358,54 @@ contains
     end do
     !$omp end parallel do
   end subroutine scan_points
+
+  !> The candidates kk_lo .. kk_hi (one run of sorted points: the cells of
+  !> a grid row) of query point ii at (ri, zi) with reach reach_i and body
+  !> bi: each accepted one goes to the half, low or one-way row or the
+  !> contact row (rows and counts as in scan_points). On arrays passed as
+  !> arguments, which Fortran guarantees do not overlap, the compiler keeps
+  !> the counts in registers across the rows' stores (as components of the
+  !> search's work it reloaded them after every store).
+  subroutine scan_run(kk_lo, kk_hi, item, xs, reach_s, body_s, ii, nq, ri, zi, reach_i, bi, width, cwidth, &
+                      half_row, low_row, one_row, cnt_row, n_half, n_low, n_one, n_cnt)
+    integer, intent(in) :: kk_lo, kk_hi, item(*), body_s(*), ii, nq, bi, width, cwidth
+    real(wp), intent(in) :: xs(2, *), reach_s(*), ri, zi, reach_i
+    integer, intent(inout) :: half_row(width + 1), low_row(width + 1), one_row(width + 1), cnt_row(cwidth)
+    integer, intent(inout) :: n_half, n_low, n_one, n_cnt
+    integer :: kk, jj, near, same, real_j, up, nh, nl, no, nc
+    real(wp) :: d2, reach
+    nh = n_half
+    nl = n_low
+    no = n_one
+    nc = n_cnt
+    do kk = kk_lo, kk_hi
+      jj = item(kk)
+      d2 = (ri - xs(1, kk))**2 + (zi - xs(2, kk))**2
+      reach = reach_i + reach_s(kk)
+      ! 0/1 flags, so the common path has no data-dependent branch
+      near = merge(1, 0, d2 < reach*reach)*merge(1, 0, jj /= ii)
+      same = merge(1, 0, body_s(kk) == bi)
+      real_j = merge(1, 0, jj <= nq)
+      up = merge(1, 0, jj > ii)
+      half_row(min(nh + 1, width + 1)) = jj
+      low_row(min(nl + 1, width + 1)) = jj
+      one_row(min(no + 1, width + 1)) = jj
+      nh = nh + near*same*real_j*up
+      nl = nl + near*same*real_j*(1 - up)
+      no = no + near*same*(1 - real_j)
+      if (near > same) then
+        ! another body within reach: a contact candidate if real
+        if (jj <= nq) then
+          nc = nc + 1
+          if (nc <= cwidth) cnt_row(nc) = jj
+        end if
+      end if
+    end do
+    n_half = nh
+    n_low = nl
+    n_one = no
+    n_cnt = nc
+  end subroutine scan_run
 
   !> Mirror images (-r_j, z_j) across the axis in grid row `row` of level
   !> l for query point ii at (ri, zi) (reach reach_i, level reach big, body
