@@ -285,16 +285,27 @@ contains
     real(wp), intent(out) :: acc_axis(n)
     integer :: i, k, j, src
     real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2), a_axis
-    real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2)
+    real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2), xi(2), vi(2), hi, rhoi, ci, sigi(4), inti, switch_i
     !$omp parallel default(none) &
     !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, mirror_of, nbr_ptr, nbr_list) &
     !$omp shared(low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in) &
     !$omp shared(acc_imag, acc_axis) &
     !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi) &
-    !$omp private(a_axis, src)
+    !$omp private(a_axis, src, xi, vi, hi, rhoi, ci, sigi, inti, switch_i)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
+      ! the row's own values in locals: the stores to the pair arrays
+      ! below would otherwise make the compiler read them again for every
+      ! entry
       wi = wgt(i)
+      xi = x(:, i)
+      vi = v(:, i)
+      hi = h(i)
+      rhoi = rho(i)
+      ci = c(i)
+      sigi = sig(:, i)
+      inti = intact(i)
+      switch_i = switch(i)
       gi = entry_gradient(grad_v(:, i), 1.0_wp)
       a(1) = -sig(4, i)/(rho(i)*x(1, i))
       a(2) = 0.0_wp
@@ -303,39 +314,39 @@ contains
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         j = abs(nbr_list(k))
         sg = entry_sign(nbr_list(k))
-        dx = [x(1, i) - sg*x(1, j), x(2, i) - x(2, j)]
+        dx = [xi(1) - sg*x(1, j), xi(2) - x(2, j)]
         dist2 = dx(1)**2 + dx(2)**2
         ! the pairs of this cycle: those within the support now, by the
         ! search's own test (a listed pair beyond it, from the lists' skin,
         ! adds exact zeros here and in the mid-step sums)
-        pair_in(k) = in_support(dist2, h(i), h(j)) .and. dist2 > 0.0_wp
+        pair_in(k) = in_support(dist2, hi, h(j)) .and. dist2 > 0.0_wp
         pair_q(k) = 0.0_wp
         pair_force(:, k) = 0.0_wp
         pair_hg(:, k) = 0.0_wp
         if (.not. pair_in(k)) cycle
-        hij = 0.5_wp*(h(i) + h(j))
+        hij = 0.5_wp*(hi + h(j))
         factor = kernel_gradient_factor(dist2, 1.0_wp/hij)
         grad = factor*dx
-        dv = [v(1, i) - sg*v(1, j), v(2, i) - v(2, j)]
-        q = pair_viscosity(dx, dv, dist2, hij, 0.5_wp*(rho(i) + rho(j)), 0.5_wp*(c(i) + c(j)), c_q, c_l)
+        dv = [vi(1) - sg*v(1, j), vi(2) - v(2, j)]
+        q = pair_viscosity(dx, dv, dist2, hij, 0.5_wp*(rhoi + rho(j)), 0.5_wp*(ci + c(j)), c_q, c_l)
         ! particles, their ghosts and their images across planes: the
         ! compression switch (an image's is its particle's: the mirrored
         ! strain rate has the same divergence and deviator); between a
         ! particle and an element the viscosity acts in full
         src = entry_particle(j, n, n_imag, mirror_of)
-        if (src /= 0) q = q*0.5_wp*(switch(i) + switch(abs(src)))
+        if (src /= 0) q = q*0.5_wp*(switch_i + switch(abs(src)))
         if (src > 0) then
           ! particles and their ghosts: the hourglass term on the
           ! velocity difference their gradients do not explain
           dv_hg = dv - 0.5_wp*matmul(gi + entry_gradient(grad_v(:, j), sg), dx)
-          p_hg = c_hg*0.5_wp*(rho(i) + rho(j))*0.5_wp*(c(i) + c(j))*hij*factor*dv_hg
+          p_hg = c_hg*0.5_wp*(rhoi + rho(j))*0.5_wp*(ci + c(j))*hij*factor*dv_hg
         else
           p_hg = 0.0_wp
         end if
         pair_q(k) = q
         pair_hg(:, k) = p_hg
-        stot = pair_stress(acts_on(intact(i), intact(j))*wi, sig(:, i), &
-                           acts_on(intact(j), intact(i))*sg*wgt(j), sig(:, j), sg)
+        stot = pair_stress(acts_on(inti, intact(j))*wi, sigi, &
+                           acts_on(intact(j), inti)*sg*wgt(j), sig(:, j), sg)
         ! stress with the signed ring mass, viscosity and hourglass with m_j
         f(1) = two_pi*(sg*(stot(1)*grad(1) + stot(3)*grad(2)) + (wi + wgt(j))*(p_hg(1) - q*grad(1)))
         f(2) = two_pi*(sg*(stot(3)*grad(1) + stot(2)*grad(2)) + (wi + wgt(j))*(p_hg(2) - q*grad(2)))
