@@ -855,7 +855,7 @@ contains
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
         call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, &
                              pt%wgt, pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
-                             pt%low_other, pt%pair_in, &
+                             pt%low_other, &
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de, &
                              pt%de_parts)
         pt%de_parts(3, 1:n) = 0.0_wp

@@ -448,7 +448,8 @@ contains
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         ! a listed pair outside the support at the start of the cycle adds
         ! nothing (a zero gradient); the lists' skin makes about a sixth
-        ! of the entries such pairs
+        ! of the entries such pairs. (The same test in the energy sum,
+        ! whose entries cost less, mispredicted more than it saved.)
         if (.not. pair_in(k)) then
           grad(:, k) = 0.0_wp
           cycle
@@ -538,8 +539,8 @@ contains
   !> hourglass parts with the weights given; de itself is summed as
   !> without them).
   subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, &
-                             low_ptr, low_pair, low_other, pair_in, pair_q, pair_hg, pair_force, grad, pair_work_k, &
-                             de, de_parts)
+                             low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, pair_work_k, de, &
+                             de_parts)
     integer, intent(in) :: n, ntot
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
@@ -547,9 +548,6 @@ contains
     real(wp), intent(in) :: intact(ntot) !< 1 intact, 0 failed: whose stress acts on whom (acts_on) [-]
     integer, intent(in) :: tie(n)        !< first node of the edge a particle is tied to (0: free)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
-    !> the entries within the support at the start of the cycle
-    !> (sph_accelerations); the others have no force and no gradient
-    logical, intent(in) :: pair_in(*)
     real(wp), intent(in) :: pair_q(*), pair_hg(2, *), pair_force(2, *), grad(2, *)
     !> the partner's work rate per unit mass of i, then its viscous and
     !> hourglass parts [m^2/(kg s^3)]
@@ -562,7 +560,7 @@ contains
     real(wp), parameter :: zero4(4) = 0.0_wp
     !$omp parallel default(none) &
     !$omp shared(n, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, low_ptr, low_pair) &
-    !$omp shared(low_other, pair_in) &
+    !$omp shared(low_other) &
     !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de, de_parts) &
     !$omp private(i, k, j, m, o, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work) &
     !$omp private(sum_visc, sum_hg, f_part)
@@ -573,10 +571,6 @@ contains
       sum_visc = 0.0_wp
       sum_hg = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
-        if (.not. pair_in(k)) then
-          pair_work_k(:, k) = 0.0_wp
-          cycle
-        end if
         j = abs(nbr_list(k))
         if (nbr_list(k) < 0) then
           ! a ghost: the work of its force on the particle becomes heat,
@@ -622,7 +616,6 @@ contains
       sum_hg = de_parts(2, i)
       do m = low_ptr(i), low_ptr(i + 1) - 1
         k = low_pair(m)
-        if (.not. pair_in(k)) cycle
         o = low_other(m)
         sum_e = sum_e + mass(o)*pair_work_k(1, k)
         sum_visc = sum_visc + mass(o)*pair_work_k(2, k)

@@ -63,8 +63,8 @@ contains
       call axis_resultant(np, size(sim%continuum_of_body), pt%continuum, pt%mass, pt%acc_axis, acc)
       ! the energy equation with the stress, viscosity and velocities of this state
       call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, &
-                           pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, &
-                           pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, de, pt%de_parts)
+                           pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
+                           pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, de, pt%de_parts)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates
