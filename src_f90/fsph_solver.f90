@@ -22,7 +22,6 @@ module fsph_solver
   use fsph_boundary, only: apply_axis, apply_rigid_plane
   use fsph_integrate, only: integrate_velocities, integrate_positions
   use fsph_neighbours, only: build_neighbours
-  use fsph_sph, only: entry_inverse_lengths, imaginary_entries, imaginary_inverse_lengths
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
                       axis_resultant, &
                       pair_weights, compression_switch
@@ -455,7 +454,7 @@ contains
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
         call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
         call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
-                               pt%grad_v, pt%switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%pair_inv_h, pt%low_ptr, &
+                               pt%grad_v, pt%switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, &
                                pt%low_pair, pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, &
                                pt%acc_axis)
@@ -510,7 +509,7 @@ contains
     integer, intent(out) :: ntot
     integer :: i, n
     real(wp) :: skin
-    logical :: expired, rebuilt
+    logical :: expired
     integer, allocatable :: search_body(:)
     associate (pt => sim%particles)
       n = pt%n
@@ -520,7 +519,6 @@ contains
         if (sim%elements%n > 0 .and. pt%n_imag > 0) call refill_imaginary(sim, stage_start)
         call fill_mirrors_start(sim)
       end if
-      rebuilt = .true.
       if (sim%total%alone) then
         ! one total-Lagrangian body and nothing else: no SPH sums, no
         ! contact between particles; the lists stay empty
@@ -544,19 +542,8 @@ contains
                           skin)
       else
         pt%list_uses = pt%list_uses + 1
-        rebuilt = .false.
       end if
       ntot = n + pt%n_imag + pt%n_mirror
-      ! each entry's 1/h_ij: all of them after a build, the imaginary
-      ! entries' after their refill
-      call reserve(pt%pair_inv_h, size(pt%nbr_list))
-      if (rebuilt) then
-        call entry_inverse_lengths(n, pt%h, pt%nbr_ptr, pt%nbr_list, pt%pair_inv_h)
-        call imaginary_entries(n, pt%n_imag, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%imag_entry, &
-                               pt%n_imag_entries)
-      else if (pt%n_imag_entries > 0) then
-        call imaginary_inverse_lengths(pt%n_imag_entries, pt%imag_entry, pt%h, pt%nbr_list, pt%pair_inv_h)
-      end if
       do i = 1, n
         pt%sig(:, i) = pt%s(:, i)
         pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
@@ -811,8 +798,6 @@ contains
       end if
       call timer_start(sim%timers, phase_coupling)
       if (pt%n_imag > 0) call refill_imaginary(sim, stage_mid)
-      if (pt%n_imag_entries > 0) &
-        call imaginary_inverse_lengths(pt%n_imag_entries, pt%imag_entry, pt%h, pt%nbr_list, pt%pair_inv_h)
       if (pt%n_mirror > 0) then
         call plane_arrays(sim, point, normal)
         call mirror_fill_mid(n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%mirror_plane, sim%n_planes, point, &
@@ -823,7 +808,7 @@ contains
       call timer_start(sim%timers, phase_sph_sums)
       call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho, pt%wgt, pt%planar_area)
       call sph_rates(n, ntot, pt%x_mid, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
-                     pt%nbr_list, pt%pair_inv_h, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, &
+                     pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, &
                      pt%drho, &
                      pt%d, pt%spin, pt%grad_v)
       if (sim%control%particle_contact == particle_contact_riemann) then

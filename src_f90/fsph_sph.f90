@@ -83,7 +83,6 @@ module fsph_sph
   private
 
   public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
-  public :: entry_inverse_lengths, imaginary_entries, imaginary_inverse_lengths
   public :: compression_switch, ghost_work, entry_sign, axis_resultant
 
   !> Softening of the pairwise strain rate, times h^2 [-].
@@ -125,79 +124,6 @@ contains
     end do
     !$omp end parallel do
   end subroutine pair_weights
-
-  !> 1/h_ij = 2/(h_i + h_j) [1/m] of every entry of the lists, for the
-  !> kernel gradients of the accelerations and the rates (the same value
-  !> as 1/(0.5 (h_i + h_j)) to the bit). A real particle's h, and its
-  !> images', stays as it is between list builds; an imaginary particle's
-  !> follows its element (imaginary_inverse_lengths). Kept per entry, it
-  !> spares each pair of both sums a division.
-  subroutine entry_inverse_lengths(n, h, nbr_ptr, nbr_list, inv_h)
-    integer, intent(in) :: n, nbr_ptr(n + 1), nbr_list(*)
-    real(wp), intent(in) :: h(*)
-    real(wp), intent(out) :: inv_h(*)
-    integer :: i, k
-    !$omp parallel do default(none) schedule(dynamic, 64) shared(n, h, nbr_ptr, nbr_list, inv_h) private(i, k)
-    do i = 1, n
-      do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
-        inv_h(k) = 2.0_wp/(h(i) + h(abs(nbr_list(k))))
-      end do
-    end do
-    !$omp end parallel do
-  end subroutine entry_inverse_lengths
-
-  !> The (row, entry) of every entry whose smoothing length follows an
-  !> element, in list order, and their number m: the imaginary particles
-  !> (n < j <= n + n_imag), their ghosts across the axis and their mirror
-  !> images across planes (mirror_of names an image's particle); entries
-  !> is resized to hold them.
-  subroutine imaginary_entries(n, n_imag, mirror_of, nbr_ptr, nbr_list, entries, m)
-    integer, intent(in) :: n, n_imag, mirror_of(*), nbr_ptr(n + 1), nbr_list(*)
-    integer, allocatable, intent(inout) :: entries(:, :)
-    integer, intent(out) :: m
-    integer :: i, k
-    m = 0
-    do k = 1, nbr_ptr(n + 1) - 1
-      if (follows_element(abs(nbr_list(k)), n, n_imag, mirror_of)) m = m + 1
-    end do
-    if (allocated(entries)) then
-      if (size(entries, 2) < m) deallocate (entries)
-    end if
-    if (.not. allocated(entries)) allocate (entries(2, max(m + m/4, 16)))
-    m = 0
-    do i = 1, n
-      do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
-        if (follows_element(abs(nbr_list(k)), n, n_imag, mirror_of)) then
-          m = m + 1
-          entries(:, m) = [i, k]
-        end if
-      end do
-    end do
-  end subroutine imaginary_entries
-
-  !> Whether entry j (1 .. n + n_imag + images) is an imaginary particle
-  !> or the image of one.
-  pure logical function follows_element(j, n, n_imag, mirror_of)
-    integer, intent(in) :: j, n, n_imag, mirror_of(*)
-    integer :: src
-    src = j
-    if (j > n + n_imag) src = mirror_of(j - n - n_imag)
-    follows_element = src > n .and. src <= n + n_imag
-  end function follows_element
-
-  !> entry_inverse_lengths for the m imaginary entries (row, entry) only,
-  !> after their smoothing lengths were set anew.
-  subroutine imaginary_inverse_lengths(m, entries, h, nbr_list, inv_h)
-    integer, intent(in) :: m, entries(2, *), nbr_list(*)
-    real(wp), intent(in) :: h(*)
-    real(wp), intent(inout) :: inv_h(*)
-    integer :: e
-    !$omp parallel do default(none) schedule(static) shared(m, entries, h, nbr_list, inv_h) private(e)
-    do e = 1, m
-      inv_h(entries(2, e)) = 2.0_wp/(h(entries(1, e)) + h(abs(nbr_list(entries(2, e)))))
-    end do
-    !$omp end parallel do
-  end subroutine imaginary_inverse_lengths
 
   !> Sign of a neighbour entry as a factor: -1 for a ghost (-j), +1 else.
   !> A ghost's r, v_r, sigma_rz, signed ring mass and stress weight are
@@ -332,8 +258,8 @@ contains
   !> 1..n) for the hourglass term and switch their compression switches;
   !> imaginary particles and mirror images (entries > n) carry neither.
   subroutine sph_accelerations(n, ntot, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, &
-                               mirror_of, nbr_ptr, nbr_list, inv_h, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, &
-                               pair_q, pair_force, pair_hg, pair_in, acc_imag, acc_axis)
+                               mirror_of, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, &
+                               pair_force, pair_hg, pair_in, acc_imag, acc_axis)
     integer, intent(in) :: n             !< real particles (rows computed)
     integer, intent(in) :: ntot          !< real, imaginary and mirror entries (neighbours)
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
@@ -346,7 +272,6 @@ contains
     !> n + n_imag + 1 ..)
     integer, intent(in) :: mirror_of(*)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
-    real(wp), intent(in) :: inv_h(*)     !< 1/h_ij of each entry (entry_inverse_lengths) [1/m]
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
     real(wp), intent(in) :: c_hg         !< hourglass coefficient [-]
     real(wp), intent(out) :: acc(2, n)
@@ -363,7 +288,7 @@ contains
     real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2), xi(2), vi(2), hi, rhoi, ci, sigi(4), inti, switch_i
     !$omp parallel default(none) &
     !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, mirror_of, nbr_ptr, nbr_list) &
-    !$omp shared(inv_h, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in) &
+    !$omp shared(low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in) &
     !$omp shared(acc_imag, acc_axis) &
     !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi) &
     !$omp private(a_axis, src, xi, vi, hi, rhoi, ci, sigi, inti, switch_i)
@@ -400,7 +325,7 @@ contains
         pair_hg(:, k) = 0.0_wp
         if (.not. pair_in(k)) cycle
         hij = 0.5_wp*(hi + h(j))
-        factor = kernel_gradient_factor(dist2, inv_h(k))
+        factor = kernel_gradient_factor(dist2, 1.0_wp/hij)
         grad = factor*dx
         dv = [vi(1) - sg*v(1, j), vi(2) - v(2, j)]
         q = pair_viscosity(dx, dv, dist2, hij, 0.5_wp*(rhoi + rho(j)), 0.5_wp*(ci + c(j)), c_q, c_l)
@@ -498,13 +423,12 @@ contains
   !> (fsph_eigenerosion); an intact particle's density and velocity
   !> gradient leave its failed neighbours out (acts_on), a failed
   !> particle's take all.
-  subroutine sph_rates(n, ntot, x, v, mass, rho, h, area, intact, nbr_ptr, nbr_list, inv_h, low_ptr, low_pair, &
+  subroutine sph_rates(n, ntot, x, v, mass, rho, h, area, intact, nbr_ptr, nbr_list, low_ptr, low_pair, &
                        low_other, pair_in, grad, sums, drho, d, spin, grad_v)
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), mass(ntot), rho(ntot), h(ntot), area(ntot)
     real(wp), intent(in) :: intact(ntot)  !< 1 intact, 0 failed [-]
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
-    real(wp), intent(in) :: inv_h(*)     !< 1/h_ij of each entry at these smoothing lengths [1/m]
     logical, intent(in) :: pair_in(*)    !< the entries of this cycle (sph_accelerations)
     real(wp), intent(out) :: grad(2, *)  !< kernel gradient grad_i W of each entry [1/m^3]
     real(wp), intent(out) :: sums(9, n)
@@ -515,7 +439,7 @@ contains
     real(wp) :: sg, dx(2), dvji(2), dist2, g_ij(2), acc9(9), gv(2, 2), lm(2, 2), inv(2, 2), det, g(2, 2)
     real(wp) :: seen
     !$omp parallel default(none) &
-    !$omp shared(n, x, v, mass, rho, h, area, intact, nbr_ptr, nbr_list, inv_h, low_ptr, low_pair, low_other, pair_in) &
+    !$omp shared(n, x, v, mass, rho, h, area, intact, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_in) &
     !$omp shared(grad, sums, drho, d, spin, grad_v) &
     !$omp private(i, k, j, m, sg, dx, dvji, dist2, g_ij, acc9, gv, lm, inv, det, g, seen)
     !$omp do schedule(dynamic, 64)
@@ -539,7 +463,7 @@ contains
           grad(:, k) = 0.0_wp
           cycle
         end if
-        g_ij = merge(kernel_gradient_factor(dist2, inv_h(k)), 0.0_wp, &
+        g_ij = merge(kernel_gradient_factor(dist2, 2.0_wp/(h(i) + h(j))), 0.0_wp, &
                      in_support(dist2, h(i), h(j)))*dx
         grad(:, k) = g_ij
         dvji(1) = sg*v(1, j) - v(1, i)

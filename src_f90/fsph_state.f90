@@ -126,12 +126,6 @@ module fsph_state
     real(wp), allocatable :: pair_work(:, :) !< partner's work rate per entry and unit mass, its viscous and
                                              !< hourglass parts (3, entries) [m^2/(kg s^3)]
     logical, allocatable :: pair_in(:)    !< entry within the kernel support at the start of the cycle
-    !> 1/h_ij = 2/(h_i + h_j) of each entry at this stage [1/m]: set for all
-    !> at a list build, then only for the imaginary entries (whose h follows
-    !> their element) at each refill (fsph_sph entry_inverse_lengths)
-    real(wp), allocatable :: pair_inv_h(:)
-    integer, allocatable :: imag_entry(:, :) !< (row, entry) of each imaginary entry of the lists
-    integer :: n_imag_entries = 0         !< imaginary entries in the lists
     real(wp), allocatable :: rate_sums(:, :) !< work: partial rate sums (9, capacity)
     real(wp), allocatable :: contact_excess(:) !< work: particle contact stiffness times excess filling
     real(wp), allocatable :: cnt_force(:, :) !< Riemann contact: acceleration per unit partner mass per contact entry [m/(kg s^2)]

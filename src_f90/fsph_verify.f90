@@ -49,18 +49,15 @@ contains
       grad_v = 0.0_wp
       switch = 0.0_wp
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
-                             grad_v, switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%pair_inv_h, pt%low_ptr, pt%low_pair, &
-                             pt%low_other, &
+                             grad_v, switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
                              pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
       call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
-                     pt%nbr_list, pt%pair_inv_h, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, &
-                     pt%rate_sums, &
+                     pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, &
                      drho, d, spin, grad_v)
       call compression_switch(np, d, pt%c, pt%h, switch)
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
-                             grad_v, switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%pair_inv_h, pt%low_ptr, pt%low_pair, &
-                             pt%low_other, &
+                             grad_v, switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
                              pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
       call axis_resultant(np, size(sim%continuum_of_body), pt%continuum, pt%mass, pt%acc_axis, acc)
