@@ -49,11 +49,11 @@ contains
 
   !> Gradient factor F = (dW/d dist)/dist [1/m^4] of a pair at squared
   !> distance dist2 > 0 [m^2] with 1/h given [1/m]: grad_i W(|x_i - x_j|, h)
-  !> = F (x_i - x_j). Both branches of the spline are evaluated and one is
-  !> selected: about half of a particle's neighbours lie on each side of
-  !> q = 1, so a branch there is mispredicted half the time, each time
-  !> after the square root and division it waits for. Beyond the support
-  !> max(2 - q, 0) makes the outer branch zero. (1/h comes from the
+  !> = F (x_i - x_j). Written as a selection of the spline's two branches;
+  !> gfortran 12 compiles it into a branch on q < 1 with the division in
+  !> the outer arm all the same (a selection made arithmetic, with no
+  !> branch, was measured no faster in the default case: docs/performance.md).
+  !> Beyond the support max(2 - q, 0) makes the outer branch zero. (1/h comes from the
   !> caller: its division does not wait for the square root. Deriving 1/h
   !> and 1/q from one reciprocal of dist h made the pair loops slower, as
   !> that reciprocal must wait for it.)
