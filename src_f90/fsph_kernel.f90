@@ -52,11 +52,12 @@ contains
   !> = F (x_i - x_j). Written as a selection of the spline's two branches;
   !> gfortran 12 compiles it into a branch on q < 1 with the division in
   !> the outer arm all the same (a selection made arithmetic, with no
-  !> branch, was measured no faster in the default case: docs/performance.md).
-  !> Beyond the support max(2 - q, 0) makes the outer branch zero. (1/h comes from the
-  !> caller: its division does not wait for the square root. Deriving 1/h
-  !> and 1/q from one reciprocal of dist h made the pair loops slower, as
-  !> that reciprocal must wait for it.)
+  !> branch, was measured no faster in the default case:
+  !> docs/performance.md). Beyond the support max(2 - q, 0) makes the
+  !> outer branch zero. (1/h comes from the caller: its division does not
+  !> wait for the square root. Deriving 1/h and 1/q from one reciprocal of
+  !> dist h made the pair loops slower, as that reciprocal must wait for
+  !> it.)
   pure elemental function kernel_gradient_factor(dist2, inv_h) result(f)
     real(wp), intent(in) :: dist2, inv_h
     real(wp) :: f, q, inv_h2
