@@ -478,6 +478,21 @@ SCHEMA = {
                                   "cycles of their build widen the next one by 1.5, lists that "
                                   "last twelve narrow it again (a debris cloud at 5 km/s).",
                                   lower=0.0, upper=1.0),
+            "spatial_order_min": Key("int", 4096, "-",
+                                     "Fewest particles kept in spatial order. Particles made by "
+                                     "conversion are appended in the order their elements "
+                                     "convert, which spreads the data of a particle's neighbours "
+                                     "over memory; from this many particles on, they are "
+                                     "renumbered by cell rows after a conversion, and again each "
+                                     "time their number has grown by 5 %. It reorders the pair "
+                                     "sums, so results change in their last digits (not with the "
+                                     "thread count; a restart renumbers where the run did); the "
+                                     "snapshots' particle id stays with each particle. Below "
+                                     "about 4 000 particles the neighbours' data fit in a core's "
+                                     "L2 cache in any order (docs/performance.md, \"Particles in "
+                                     "spatial order\"). 0: never. Runs with total-Lagrangian "
+                                     "bodies are not renumbered.",
+                                     lower=0),
             "eigenerosion_factor": _pos("Geometric factor lambda of the eigenerosion energy "
                                         "release rate G = lambda 2h <W> of &material "
                                         "fracture_energy (of order 1; Pandolfi & Ortiz 2012 "

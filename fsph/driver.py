@@ -116,7 +116,7 @@ def _format_peaks(peaks):
     """Printed lines of the peak fields (metrics.field_peaks)."""
     units = {"plastic_strain": "", "temperature": " K", "internal_energy": " J/kg"}
     return [f"  peak {name:<17s} {p['value']:10.4g}{units[name]}   at r {p['r_mm']:.3f} mm, "
-            f"z {p['z_mm']:.3f} mm ({p['in']} {p['index']})" for name, p in peaks.items()]
+            f"z {p['z_mm']:.3f} mm ({p['in']} id {p['id']})" for name, p in peaks.items()]
 
 
 def _warnings(ctrl, energies, writer):

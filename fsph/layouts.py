@@ -132,7 +132,7 @@ CHECKPOINT_REAL = (
 CHECKPOINT_INT = (
     "elements/conn", "elements/mat", "elements/body", "elements/group", "nodes/on_axis",
     "particles/mat", "particles/body", "particles/continuum", "particles/tie_a",
-    "particles/tie_b", "particles/assoc", "coupling/edge", "elements/id",
+    "particles/tie_b", "particles/assoc", "coupling/edge", "elements/id", "particles/id",
 )
 # the clock and the books
 CHECKPOINT_REAL_SCALARS = (

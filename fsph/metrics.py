@@ -120,7 +120,9 @@ def field_peaks(snap, fields=("plastic_strain", "temperature", "internal_energy"
     specific internal energy [J/kg])
     over elements and particles, with where: the point (r, z) [mm] (element
     centroid or particle centre), whether an element or a particle, its
-    index and body (0-based)."""
+    index in the snapshot, its id (the snapshots' `id` field, which stays
+    with it: elements are removed and particles renumbered) and body
+    (0-based)."""
     peaks = {}
     for field in fields:
         best = None
@@ -128,18 +130,19 @@ def field_peaks(snap, fields=("plastic_strain", "temperature", "internal_energy"
             values = snap[field]
             k = int(np.argmax(values))
             where = snap["x"][snap["conn"][k]].mean(axis=0)
-            best = (float(values[k]), where, "element", k, int(snap["body"][k]))
+            best = (float(values[k]), where, "element", k, int(snap["id"][k]), int(snap["body"][k]))
         if "particles" in snap:
             part = snap["particles"]
             values = part[field]
             if len(values):
                 k = int(np.argmax(values))
                 if best is None or values[k] > best[0]:
-                    best = (float(values[k]), part["x"][k], "particle", k, int(part["body"][k]))
+                    best = (float(values[k]), part["x"][k], "particle", k, int(part["id"][k]),
+                            int(part["body"][k]))
         if best is not None:
-            value, where, kind, index, body = best
+            value, where, kind, index, ident, body = best
             peaks[field] = {"value": value, "r_mm": float(where[0] * 1e3), "z_mm": float(where[1] * 1e3),
-                            "in": kind, "index": index, "body": body}
+                            "in": kind, "index": index, "id": ident, "body": body}
     return peaks
 
 

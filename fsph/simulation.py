@@ -109,7 +109,7 @@ class Simulation:
         _api.set_sph_control(self._run, sph["c_q"], sph["c_l"], sph["hourglass"],
                              layouts.index_of([n for n, _ in layouts.PARTICLE_CONTACTS], sph["particle_contact"]),
                              sph["contact_penalty"], touch, slope, sph["debris_density"], sph["neighbour_skin"],
-                             sph["eigenerosion_factor"])
+                             sph["eigenerosion_factor"], sph["spatial_order_min"])
         props, strength, eos = property_table(materials)
         self._call(_api.set_materials(self._run, props, strength, eos), "material table")
 
@@ -591,8 +591,10 @@ class Simulation:
             snap.update(_element_snapshot(raw))
         if len(raw["particle_ids"]):
             part = _particle_snapshot(raw["particle_fields"], raw["particle_ids"])
+            # the particles of the set-up by their ids (renumbered in spatial order)
             radius0 = part["radius"].copy()
-            radius0[:len(self.particle_radius0)] = self.particle_radius0
+            initial = part["id"] < len(self.particle_radius0)
+            radius0[initial] = self.particle_radius0[part["id"][initial]]
             part["radius0"] = radius0
             snap["particles"] = part
         return snap

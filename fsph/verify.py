@@ -56,6 +56,20 @@ def convert_now(sim):
     return int(_verify.convert_now(sim._run))
 
 
+def spatial_order(x, h):
+    """The order in which particles at x (n, 2) (r, z) [m] with smoothing
+    lengths h (n) [m] are renumbered (fsph_spatial spatial_order): order[k]
+    is the particle (0-based) that takes place k."""
+    x = np.asfortranarray(np.asarray(x, dtype=float).T)
+    return np.asarray(_verify.spatial_order_of(x, np.asarray(h, dtype=float))) - 1
+
+
+def renumber_due(n_before, n_after, n_min):
+    """Whether a conversion that took the particles from n_before to
+    n_after renumbers them under &sph spatial_order_min = n_min."""
+    return bool(_verify.renumber_due_at(int(n_before), int(n_after), int(n_min)))
+
+
 # ---- intermediate products of the cycle -----------------------------------
 def strain_rates(sim):
     """Element strain rates (m, 4) (rr, zz, rz, tt) and spin (m,) for the

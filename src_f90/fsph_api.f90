@@ -151,9 +151,10 @@ contains
   !> penalty (fraction of an approach pushed back per step), other-body
   !> filling at touching and its rate per spacing of approach [-]; the
   !> debris density fraction [-]; the neighbour lists' skin as a fraction
-  !> of the smallest kernel support (0: lists rebuilt every cycle) [-].
+  !> of the smallest kernel support (0: lists rebuilt every cycle) [-]; the
+  !> fewest particles kept in spatial order (0: never; fsph_spatial).
   subroutine set_sph_control(run, c_q, c_l, c_hg, particle_contact, contact_penalty, contact_touch, contact_slope, &
-                             debris_ratio, neighbour_skin, eigenerosion_factor)
+                             debris_ratio, neighbour_skin, eigenerosion_factor, spatial_order_min)
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: particle_contact !< contact between particle bodies (fsph.layouts PARTICLE_CONTACTS, 1-based)
@@ -162,7 +163,9 @@ contains
     real(wp), intent(in) :: debris_ratio  !< debris below this fraction of the reference density [-]
     real(wp), intent(in) :: neighbour_skin
     real(wp), intent(in) :: eigenerosion_factor !< geometric factor lambda of the eigenerosion release rate [-]
+    integer, intent(in) :: spatial_order_min
     sim => run_state(run)
+    sim%control%spatial_order_min = spatial_order_min
     sim%control%neighbour_skin = max(neighbour_skin, 0.0_wp)
     sim%particles%lists_valid = .false.
     sim%control%sph_c_q = c_q

@@ -293,6 +293,8 @@ contains
       pt%h(i) = element_smoothing_length(cv%alpha_h, el%area(ie))
       pt%mat(i) = el%mat(ie)
       pt%body(i) = el%body(ie)
+      ! particles are only ever added: the n-th particle made has id n
+      pt%id(i) = i
       pt%continuum(i) = continuum_of_body(el%body(ie))
       pt%acc(:, i) = 0.0_wp
       pt%tie_a(i) = 0

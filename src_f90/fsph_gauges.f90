@@ -50,7 +50,7 @@ module fsph_gauges
   end type gauge_set_t
 
   public :: gauges_define, gauges_unlocate, gauges_locate_elements, gauges_locate_particles, gauges_track, gauges_refind
-  public :: gauges_switch, gauges_lose, gauges_begin_record, gauges_find_elements, gauges_find_particles
+  public :: gauges_switch, gauges_lose, gauges_renumber, gauges_begin_record, gauges_find_elements, gauges_find_particles
   public :: gauges_element_rows, gauges_particle_rows
   public :: barycentric_weights, containing_element, nearest_particle, gauge_row
 
@@ -292,6 +292,24 @@ contains
       g%switch_time(k) = time
     end do
   end subroutine gauges_switch
+
+  !> The real particles were renumbered, particle k being the one that was
+  !> order(k) (fsph_spatial): the material gauges on particles follow
+  !> theirs.
+  pure subroutine gauges_renumber(g, order)
+    type(gauge_set_t), intent(inout) :: g
+    integer, intent(in) :: order(:)
+    integer, allocatable :: place(:)
+    integer :: k
+    if (g%n == 0) return
+    allocate (place(size(order)))
+    do k = 1, size(order)
+      place(order(k)) = k
+    end do
+    do k = 1, g%n
+      if (g%kind(k) == gauge_kind_material .and. g%on(k) == gauge_on_particle) g%index(k) = place(g%index(k))
+    end do
+  end subroutine gauges_renumber
 
   !> The gauges whose element was deleted (gone; erosion) are in no
   !> material from `time` [s] on.

@@ -94,6 +94,7 @@ contains
     case (cki_particles_tie_a); if (allocated(sim%particles%tie_a)) p => int_row(sim%particles%tie_a, np)
     case (cki_particles_tie_b); if (allocated(sim%particles%tie_b)) p => int_row(sim%particles%tie_b, np)
     case (cki_particles_assoc); if (allocated(sim%particles%assoc)) p => sim%particles%assoc(:, 1:np)
+    case (cki_particles_id); if (allocated(sim%particles%id)) p => int_row(sim%particles%id, np)
     case (cki_coupling_edge); if (allocated(sim%coupling%edge)) p => sim%coupling%edge(:, 1:sim%coupling%n_edges)
     end select
   end function int_view

@@ -67,10 +67,7 @@ contains
     n = pt%n
     ids(id_material, :) = pt%mat(1:n)
     ids(id_body, :) = pt%body(1:n)
-    ! particles are only ever appended: the index is the particle's id
-    do i = 1, n
-      ids(id_id, i) = i
-    end do
+    ids(id_id, :) = pt%id(1:n)
     fields(pf_x_r:pf_x_r + 1, :) = pt%x(:, 1:n)
     fields(pf_x0_r:pf_x0_r + 1, :) = pt%x0(:, 1:n)
     fields(pf_v_r:pf_v_r + 1, :) = pt%v(:, 1:n)

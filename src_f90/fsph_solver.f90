@@ -5,7 +5,8 @@ module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
-  use fsph_state, only: simulation_t, particle_set_t, state_grow_particles
+  use fsph_state, only: simulation_t, particle_set_t, state_grow_particles, state_permute_particles
+  use fsph_spatial, only: spatial_order, renumber_due
   use fsph_arrays, only: reserve, grow
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
                           prop_t_room, strength_hjc, eos_hjc, history_columns, hcol_time, hcol_cycle, &
@@ -44,7 +45,7 @@ module fsph_solver
   use fsph_threads, only: governor_begin, governor_cycle, governor_end
   use fsph_gauges, only: gauges_unlocate, gauges_locate_elements, gauges_locate_particles, gauges_track, &
                          gauges_refind, gauges_switch, gauges_lose, gauges_begin_record, gauges_find_elements, &
-                         gauges_find_particles, gauges_element_rows, gauges_particle_rows
+                         gauges_find_particles, gauges_element_rows, gauges_particle_rows, gauges_renumber
   implicit none
   private
 
@@ -369,7 +370,7 @@ contains
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
-    integer :: n_new, n_eroded
+    integer :: n_new, n_eroded, n_before
 
     ! 1. forces at t^n: element nodal forces; imaginary particles,
     !    particle neighbours, SPH accelerations, particle contact; coupling
@@ -411,9 +412,11 @@ contains
       call gauges_track(sim%gauges, sim%elements%n, sim%nodes%n, sim%elements%conn, sim%nodes%x)
     call erode_elements(sim%erosion, sim%elements, sim%nodes, sim%particles, sim%coupling, sim%contact, &
                         sim%continuum_of_body, n_eroded)
+    n_before = sim%particles%n
     call convert_elements(sim%elements, sim%nodes, sim%particles, sim%coupling, sim%conversion, sim%contact, &
                           sim%continuum_of_body, sim%body_coupled, n_new)
     if (sim%gauges%n > 0 .and. n_eroded + n_new > 0) call follow_gauges(sim, n_new > 0)
+    if (n_new > 0) call keep_spatial_order(sim, n_before)
     call timer_stop(sim%timers, phase_conversion)
     ! 8. next stable step
     call timer_start(sim%timers, phase_time_step)
@@ -950,6 +953,23 @@ contains
       if (allocated(sim%history)) call record_gauges(sim, 1, sim%n_history)
     end associate
   end subroutine locate_gauges
+
+  !> After a conversion took the real particles from n_before: put them in
+  !> spatial order when their count has grown enough (fsph_spatial), the
+  !> gauges following their particles. Not in a run with total-Lagrangian
+  !> particles, whose reference data are held by particle number.
+  subroutine keep_spatial_order(sim, n_before)
+    type(simulation_t), intent(inout) :: sim
+    integer, intent(in) :: n_before
+    integer, allocatable :: order(:)
+    integer :: n
+    n = sim%particles%n
+    if (total_active(sim%total) .or. .not. renumber_due(n_before, n, sim%control%spatial_order_min)) return
+    allocate (order(n))
+    call spatial_order(n, sim%particles%x(:, 1:n), sim%particles%h(1:n), order)
+    call state_permute_particles(sim%particles, order)
+    call gauges_renumber(sim%gauges, order)
+  end subroutine keep_spatial_order
 
   !> After erosion or conversion removed elements: the material gauges
   !> find their elements again, or move to a particle (converted: the

@@ -8,7 +8,7 @@ module fsph_state
   use fsph_kinds, only: wp
   use fsph_layouts, only: n_hist
   use fsph_neighbours, only: neighbour_work_t
-  use fsph_arrays, only: grow
+  use fsph_arrays, only: grow, permute
   use fsph_timers, only: phase_timers_t
   use fsph_threads, only: thread_governor_t
   use fsph_gauges, only: gauge_set_t
@@ -90,6 +90,9 @@ module fsph_state
     real(wp), allocatable :: h(:)         !< smoothing length [m]
     real(wp), allocatable :: radius(:)    !< particle radius (contact, planes) [m]
     integer, allocatable :: mat(:), body(:)
+    !> the particle's number as it was made (set-up, then conversion, in
+    !> order): kept when the particles are renumbered in spatial order
+    integer, allocatable :: id(:)
     real(wp), allocatable :: rho(:)       !< density [kg/m^3]
     real(wp), allocatable :: s(:, :)      !< deviatoric stress rr, zz, rz, tt [Pa]
     real(wp), allocatable :: sig(:, :)    !< total stress s - p I [Pa]
@@ -240,6 +243,7 @@ module fsph_state
     real(wp) :: debris_ratio = 0.1_wp    !< particles below this fraction of the reference density are debris [-]
     real(wp) :: neighbour_skin = 0.1_wp  !< skin of the neighbour lists, fraction of the smallest support [-]
     real(wp) :: eigenerosion_factor = 1.0_wp !< geometric factor lambda of the eigenerosion release rate [-]
+    integer :: spatial_order_min = 4096  !< fewest real particles renumbered in spatial order (0: never) [-]
   end type control_t
 
   type, public :: simulation_t
@@ -282,7 +286,7 @@ module fsph_state
     type(thread_governor_t) :: governor   !< OpenMP threads of each cycle (fsph_threads)
   end type simulation_t
 
-  public :: state_allocate, state_allocate_particles, state_grow_particles
+  public :: state_allocate, state_allocate_particles, state_grow_particles, state_permute_particles
 
 contains
 
@@ -319,7 +323,7 @@ contains
   subroutine state_allocate_particles(sim, np, capacity)
     type(simulation_t), intent(inout) :: sim
     integer, intent(in) :: np, capacity
-    integer :: cap
+    integer :: cap, i
     cap = max(capacity, np, 1)
     sim%particles = particle_set_t()
     sim%ready = .false.
@@ -335,7 +339,7 @@ contains
                 pt%continuum(cap), pt%tie_a(cap), pt%tie_b(cap), pt%tie_xi(cap), pt%assoc(2, cap), &
                 pt%hist(n_hist, cap), pt%wgt(cap), pt%planar_area(cap), pt%half_end(cap), &
                 pt%low_ptr(cap + 1), pt%rate_sums(9, cap), pt%contact_excess(cap), pt%grad_v(4, cap), &
-                pt%switch(cap), pt%mirror_of(cap), pt%mirror_plane(cap))
+                pt%switch(cap), pt%mirror_of(cap), pt%mirror_plane(cap), pt%id(cap))
       pt%grad_v = 0.0_wp; pt%switch = 0.0_wp; pt%mirror_of = 0; pt%mirror_plane = 0
       pt%hist = 0.0_wp
       pt%wgt = 0.0_wp; pt%planar_area = 0.0_wp
@@ -346,6 +350,7 @@ contains
       pt%de = 0.0_wp; pt%de_parts = 0.0_wp; pt%d = 0.0_wp; pt%spin = 0.0_wp; pt%e_old = 0.0_wp; pt%rho_old = 0.0_wp
       pt%rho_mid = 0.0_wp; pt%sig_mid = 0.0_wp; pt%imag_elem = 0; pt%continuum = 0
       pt%tie_a = 0; pt%tie_b = 0; pt%tie_xi = 0.0_wp; pt%assoc = 0
+      pt%id = [(i, i = 1, cap)]
     end associate
   end subroutine state_allocate_particles
 
@@ -373,9 +378,34 @@ contains
       call grow(pt%wgt, cap); call grow(pt%planar_area, cap); call grow(pt%half_end, cap)
       call grow(pt%low_ptr, cap + 1); call grow(pt%rate_sums, cap); call grow(pt%contact_excess, cap)
       call grow(pt%grad_v, cap); call grow(pt%switch, cap); call grow(pt%mirror_of, cap)
-      call grow(pt%mirror_plane, cap)
+      call grow(pt%mirror_plane, cap); call grow(pt%id, cap)
       if (allocated(pt%x_listed)) call grow(pt%x_listed, cap)
     end block
   end subroutine state_grow_particles
+
+  !> Renumber the real particles: particle k takes the state of particle
+  !> order(k) (fsph_spatial spatial_order), with its id. Every array of a
+  !> particle's own state moves with it; the neighbour lists, the
+  !> imaginary and mirror entries and the pair work arrays are rebuilt at
+  !> the next cycle. What refers to particles by number outside the set
+  !> (gauges) is the caller's to follow.
+  subroutine state_permute_particles(pt, order)
+    type(particle_set_t), intent(inout) :: pt
+    integer, intent(in) :: order(:)
+    call permute(pt%x, order); call permute(pt%x0, order); call permute(pt%x_old, order)
+    call permute(pt%x_mid, order); call permute(pt%v, order); call permute(pt%v_bar, order)
+    call permute(pt%acc, order); call permute(pt%acc_imag, order); call permute(pt%mass, order)
+    call permute(pt%h, order); call permute(pt%radius, order); call permute(pt%mat, order)
+    call permute(pt%body, order); call permute(pt%id, order); call permute(pt%rho, order)
+    call permute(pt%s, order); call permute(pt%sig, order); call permute(pt%p, order)
+    call permute(pt%eps_p, order); call permute(pt%e, order); call permute(pt%temp, order)
+    call permute(pt%c, order); call permute(pt%hist, order); call permute(pt%drho, order)
+    call permute(pt%de, order); call permute(pt%d, order); call permute(pt%spin, order)
+    call permute(pt%de_parts, order); call permute(pt%grad_v, order); call permute(pt%switch, order)
+    call permute(pt%e_old, order); call permute(pt%rho_old, order); call permute(pt%rho_mid, order)
+    call permute(pt%sig_mid, order); call permute(pt%continuum, order); call permute(pt%tie_a, order)
+    call permute(pt%tie_b, order); call permute(pt%tie_xi, order); call permute(pt%assoc, order)
+    pt%lists_valid = .false.
+  end subroutine state_permute_particles
 
 end module fsph_state

@@ -88,7 +88,8 @@
 !> list order, so results do not depend on the thread count.
 module fsph_tlsph
   use fsph_kinds, only: wp, pi, two_pi, axis_tolerance
-  use fsph_kernel, only: kernel_support, kernel_gradient_factor, in_support, kernel_w
+  use fsph_kernel, only: kernel_gradient_factor, in_support, kernel_w
+  use fsph_spatial, only: make_grid
   use fsph_status, only: status_ok, status_bad_input, status_inverted_element
   implicit none
   private
@@ -112,9 +113,6 @@ module fsph_tlsph
   !> flags a particle whose neighbours barely span the plane: its condition
   !> number would exceed about 40 [-].
   real(wp), parameter, public :: correction_min_eigenvalue = 2.7e-2_wp
-  !> Largest number of cells of the reference grid per particle [-]: the
-  !> cells grow when the particles are spread out (memory stays O(N)).
-  real(wp), parameter :: cells_per_point = 4.0_wp
 
 contains
 
@@ -176,54 +174,6 @@ contains
     !$omp end parallel do
     ierr = status_ok
   end subroutine reference_neighbours
-
-  !> The cell grid of the reference points: square cells of side at least
-  !> the largest support kernel_support max(h) (so a point's neighbours
-  !> lie in its own and the 8 adjacent cells), from the lowest (R, Z),
-  !> widened when there would be more than cells_per_point cells per
-  !> point; the points sorted by cell (counting sort, by index inside a
-  !> cell). cell_start(c) .. cell_start(c+1)-1 are cell c's positions in
-  !> item.
-  subroutine make_grid(n, x0, h, cell, r0, z0, nr, nz, cell_start, item)
-    integer, intent(in) :: n
-    real(wp), intent(in) :: x0(2, n), h(n)
-    real(wp), intent(out) :: cell, r0, z0  !< [m]
-    integer, intent(out) :: nr, nz
-    integer, allocatable, intent(out) :: cell_start(:), item(:)
-    integer, allocatable :: cell_of(:), fill(:)
-    real(wp) :: r1, z1
-    integer :: i, c
-    r0 = minval(x0(1, :)); r1 = maxval(x0(1, :))
-    z0 = minval(x0(2, :)); z1 = maxval(x0(2, :))
-    cell = kernel_support*maxval(h)
-    cell = max(cell, sqrt((r1 - r0 + cell)*(z1 - z0 + cell)/(cells_per_point*n)), &
-               max(r1 - r0, z1 - z0)/(cells_per_point*n))
-    nr = int((r1 - r0)/cell) + 1
-    nz = int((z1 - z0)/cell) + 1
-    allocate (cell_start(nr*nz + 1), item(n), cell_of(n), fill(nr*nz))
-    cell_start = 0
-    do i = 1, n
-      c = grid_cell(x0(1, i), x0(2, i), cell, r0, z0, nr, nz)
-      cell_of(i) = c
-      cell_start(c + 1) = cell_start(c + 1) + 1
-    end do
-    cell_start(1) = 1
-    do c = 1, nr*nz
-      cell_start(c + 1) = cell_start(c + 1) + cell_start(c)
-    end do
-    fill = cell_start(1:nr*nz)
-    do i = 1, n
-      item(fill(cell_of(i))) = i
-      fill(cell_of(i)) = fill(cell_of(i)) + 1
-    end do
-  end subroutine make_grid
-
-  !> Cell (1 .. nr nz) of a point of the grid.
-  pure integer function grid_cell(r, z, cell, r0, z0, nr, nz)
-    real(wp), intent(in) :: r, z, cell, r0, z0
-    integer, intent(in) :: nr, nz
-    grid_cell = 1 + min(int((r - r0)/cell), nr - 1) + nr*min(int((z - z0)/cell), nz - 1)
-  end function grid_cell
 
   !> The row of particle i: its count, and with cap > 0 its first cap
   !> entries in row (reals first, then mirror images as -j).

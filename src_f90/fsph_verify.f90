@@ -16,7 +16,7 @@ module fsph_verify
   public :: get_particle_rates, get_principal_strains, triangle_principal_strain
   public :: hjc_point_pressure, contact_pair_values, get_particle_ties, convert_now, set_stress_state
   public :: get_forces, set_neighbour_width, get_neighbour_count, get_neighbours
-  public :: get_strain_rates, material_point, material_point_functions
+  public :: get_strain_rates, material_point, material_point_functions, spatial_order_of, renumber_due_at
 
 contains
 
@@ -95,6 +95,26 @@ contains
     real(wp), intent(out) :: strain
     strain = principal_log_strain(x, x0)
   end subroutine triangle_principal_strain
+
+  !> The order in which n points (r, z) [m] with smoothing lengths h [m]
+  !> are renumbered: order(k) is the point (1-based) that takes place k
+  !> (fsph_spatial spatial_order).
+  subroutine spatial_order_of(n, x, h, order)
+    use fsph_spatial, only: spatial_order
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(2, n), h(n)
+    integer, intent(out) :: order(n)
+    call spatial_order(n, x, h, order)
+  end subroutine spatial_order_of
+
+  !> Whether a conversion that took the particles from n_before to n_after
+  !> renumbers them, with &sph spatial_order_min = n_min (fsph_spatial).
+  subroutine renumber_due_at(n_before, n_after, n_min, due)
+    use fsph_spatial, only: renumber_due
+    integer, intent(in) :: n_before, n_after, n_min
+    logical, intent(out) :: due
+    due = renumber_due(n_before, n_after, n_min)
+  end subroutine renumber_due_at
 
   !> HJC pressure of one point (unit tests of the branches): volumetric
   !> strain, damage and largest strain so far in; pressure [Pa], dp/dmu [Pa]

@@ -34,7 +34,10 @@ from conftest import CASES, rod_deck
 # before, 53be78ad..., 8f153020..., ec35eeaa.... Re-measured 2026-11-27 after
 # the mirror images across the anvil took their particle's compression
 # switch (the other two have no such images: unchanged); before,
-# taylor_armco 31ed9818....
+# taylor_armco 31ed9818.... The particles' ids (kept since particles are
+# renumbered in spatial order, from 4 096 of them after a conversion) enter
+# the digest only once they differ from the particles' numbers: none of
+# these runs renumbers, and their digests are those before the ids.
 #
 # The plate and concrete runs call the host's math library (pow, log and exp
 # of the Johnson-Cook and HJC models), whose last bits depend on the code

@@ -18,13 +18,15 @@ from conftest import rod_deck
 @pytest.fixture(scope="module")
 def adaptive_rod(tmp_path_factory):
     """An elastic-perfectly-plastic Armco rod at 400 m/s onto the plane,
-    adaptive, 2 us: its elements yield and turn into particles."""
+    adaptive, 2 us: its elements yield and turn into particles, which are
+    renumbered in spatial order from 20 of them."""
     folder = tmp_path_factory.mktemp("vtu")
     deck = folder / "rod.nml"
     deck.write_text(rod_deck(control="mode = 'adaptive'\n end_time = 2e-6",
                              material="name = 'steel'\n library = 'armco_iron'",
                              body="velocity_z = -400.0\n n_radial = 6\n n_axial = 24")
-                    .replace("n_snapshots = 2", "n_snapshots = 4") + "&convert\n theta_c = 40.0\n/\n")
+                    .replace("n_snapshots = 2", "n_snapshots = 4") + "&convert\n theta_c = 40.0\n/\n"
+                    + "&sph\n spatial_order_min = 20\n/\n")
     summary = run(deck, folder / "out", quiet=True)
     assert summary["n_converted"] > 0
     return folder / "out"
@@ -75,8 +77,10 @@ def test_mises_at_most_the_yield_stress_and_displacement(adaptive_rod):
 def test_ids_follow_elements_and_particles(adaptive_rod):
     """An element keeps its id (its index at t = 0) when others turn into
     particles: the initial positions of its nodes, which travel with the
-    material, are those of that id at t = 0; a particle's id is its index,
-    and its initial position does not change between snapshots."""
+    material, are those of that id at t = 0; a particle's id is its number
+    as it was made, which it keeps when the particles are renumbered in
+    spatial order: the initial position of each id does not change between
+    snapshots."""
     import h5py
     with h5py.File(adaptive_rod / "fsph.h5") as h5:
         snaps = [h5["snapshots"][k] for k in sorted(h5["snapshots"])]
@@ -90,9 +94,11 @@ def test_ids_follow_elements_and_particles(adaptive_rod):
         particles = [s["particles"] for s in snaps if "particles" in s]
         assert len(particles) >= 2
         a, b = particles[0], particles[-1]
-        n = len(a["id"])
-        assert list(b["id"][...][:n]) == list(a["id"][...]) == list(range(n))
-        assert np.array_equal(b["x0"][...][:n], a["x0"][...])
+        id_a, id_b = a["id"][...], b["id"][...]
+        assert sorted(id_a) == list(range(len(id_a))) and sorted(id_b) == list(range(len(id_b)))
+        assert len(id_b) > len(id_a) and list(id_b) != list(range(len(id_b)))   # renumbered
+        x0_of_id = b["x0"][...][np.argsort(id_b)]
+        assert np.array_equal(x0_of_id[id_a], a["x0"][...])
     mesh = meshio.read(adaptive_rod / f"vtu/elements_{len(snaps) - 1:05d}.vtu")
     assert np.array_equal(mesh.cell_data["id"][0], ids)
 
