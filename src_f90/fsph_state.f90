@@ -384,27 +384,25 @@ contains
   end subroutine state_grow_particles
 
   !> Renumber the real particles: particle k takes the state of particle
-  !> order(k) (fsph_spatial spatial_order), with its id. Every array of a
-  !> particle's own state moves with it; the neighbour lists, the
-  !> imaginary and mirror entries and the pair work arrays are rebuilt at
-  !> the next cycle. What refers to particles by number outside the set
-  !> (gauges) is the caller's to follow.
+  !> order(k) (fsph_spatial spatial_order), with its id. The arrays that
+  !> move are those a checkpoint holds (fsph_restart), which a restart
+  !> shows to be the whole state the next cycle reads; the rest (mid-step
+  !> and work arrays, stresses and switches derived from them) is
+  !> recomputed before it is read. The neighbour lists, the imaginary and
+  !> mirror entries and the pair work arrays are rebuilt at the next cycle.
+  !> What refers to particles by number outside the set (gauges) is the
+  !> caller's to follow.
   subroutine state_permute_particles(pt, order)
     type(particle_set_t), intent(inout) :: pt
     integer, intent(in) :: order(:)
-    call permute(pt%x, order); call permute(pt%x0, order); call permute(pt%x_old, order)
-    call permute(pt%x_mid, order); call permute(pt%v, order); call permute(pt%v_bar, order)
-    call permute(pt%acc, order); call permute(pt%acc_imag, order); call permute(pt%mass, order)
-    call permute(pt%h, order); call permute(pt%radius, order); call permute(pt%mat, order)
-    call permute(pt%body, order); call permute(pt%id, order); call permute(pt%rho, order)
-    call permute(pt%s, order); call permute(pt%sig, order); call permute(pt%p, order)
+    call permute(pt%x, order); call permute(pt%x0, order); call permute(pt%v, order)
+    call permute(pt%mass, order); call permute(pt%h, order); call permute(pt%radius, order)
+    call permute(pt%rho, order); call permute(pt%s, order); call permute(pt%p, order)
     call permute(pt%eps_p, order); call permute(pt%e, order); call permute(pt%temp, order)
-    call permute(pt%c, order); call permute(pt%hist, order); call permute(pt%drho, order)
-    call permute(pt%de, order); call permute(pt%d, order); call permute(pt%spin, order)
-    call permute(pt%de_parts, order); call permute(pt%grad_v, order); call permute(pt%switch, order)
-    call permute(pt%e_old, order); call permute(pt%rho_old, order); call permute(pt%rho_mid, order)
-    call permute(pt%sig_mid, order); call permute(pt%continuum, order); call permute(pt%tie_a, order)
-    call permute(pt%tie_b, order); call permute(pt%tie_xi, order); call permute(pt%assoc, order)
+    call permute(pt%c, order); call permute(pt%tie_xi, order); call permute(pt%hist, order)
+    call permute(pt%d, order); call permute(pt%grad_v, order); call permute(pt%mat, order)
+    call permute(pt%body, order); call permute(pt%continuum, order); call permute(pt%tie_a, order)
+    call permute(pt%tie_b, order); call permute(pt%assoc, order); call permute(pt%id, order)
     pt%lists_valid = .false.
   end subroutine state_permute_particles
 
