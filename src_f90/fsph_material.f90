@@ -244,6 +244,31 @@ contains
     end if
   end function melting_temperature
 
+  !> Whether a point at temperature temp [K] and density rho [kg/m^3] is at
+  !> or above its melting temperature: temp >= melting_temperature, to the
+  !> bit. Below T_m0 the Lindemann law's exponential and power are not
+  !> evaluated when its coefficients cannot lower T_m (a >= 0 and
+  !> Gamma0 - a - 1/3 >= 0: in compression both factors are then at least
+  !> 1, and exp and pow, rounded faithfully, keep them so), which holds for
+  !> every library entry; a Steinberg-Guinan point asks several times per
+  !> step (shear modulus, flow stress, melting rule, sound speed).
+  pure logical function at_melt(props, rho, temp)
+    real(wp), intent(in) :: props(n_props)
+    real(wp), intent(in) :: rho, temp
+    real(wp) :: a
+    a = props(prop_melt_a)
+    if (temp < props(prop_t_melt)) then
+      if (model_id(props(prop_melt_model)) /= melt_lindemann) then
+        at_melt = .false.
+        return
+      else if (2.0_wp*a >= 0.0_wp .and. -2.0_wp*(props(prop_gamma0) - a - one_third) <= 0.0_wp) then
+        at_melt = .false.
+        return
+      end if
+    end if
+    at_melt = temp >= melting_temperature(props, rho)
+  end function at_melt
+
   !> Cubic Hermite interpolation on [0, 1]: values w0, w1 at the ends and
   !> slopes times the interval d0, d1.
   pure function hermite(w0, d0, w1, d1, t) result(w)
@@ -328,7 +353,7 @@ contains
     real(wp), intent(in) :: temp           !< temperature [K]
     real(wp), intent(inout) :: s(4)        !< deviatoric stress [Pa]
     real(wp), intent(inout) :: hist(n_hist) !< history variables of the point
-    if (temp >= melting_temperature(props, rho)) then
+    if (at_melt(props, rho, temp)) then
       s = 0.0_wp
       hist(hist_melted) = 1.0_wp
     else
@@ -364,7 +389,7 @@ contains
     real(wp), intent(in) :: props(n_props), rho, p, temp
     real(wp) :: f
     f = 0.0_wp
-    if (temp >= melting_temperature(props, rho)) return
+    if (at_melt(props, rho, temp)) return
     f = max(1.0_wp + props(prop_sg_a)*p*(props(prop_rho0)/rho)**one_third &
             - props(prop_sg_b)*(temp - sg_reference_temperature), 0.0_wp)
   end function sg_factor
@@ -419,12 +444,41 @@ contains
       sy = props(prop_pl_sigma0)*(1.0_wp + eps_p/props(prop_pl_eps0))**props(prop_pl_n) &
            *power_law_rate(props, rate_p)*thermal_factor
     case (strength_steinberg_guinan)
-      sy = min(props(prop_sg_y0)*(1.0_wp + props(prop_sg_beta)*(eps_p + props(prop_sg_eps_i)))**props(prop_sg_n), &
-               props(prop_sg_ymax))*thermal_factor
+      sy = min(sg_hardening(props, eps_p), props(prop_sg_ymax))*thermal_factor
     case default
       sy = huge(1.0_wp)
     end select
   end function flow_stress
+
+  !> Steinberg-Guinan work hardening Y0 [1 + beta (eps_p + eps_i)]^n [Pa]
+  !> (Steinberg, Cochran & Guinan 1980): Y0 itself, without the power, for
+  !> a point that has not yielded (1^n = 1 exactly, so the same bits).
+  pure real(wp) function sg_hardening(props, eps_p) result(hard)
+    real(wp), intent(in) :: props(n_props)
+    real(wp), intent(in) :: eps_p          !< equivalent plastic strain [-]
+    real(wp) :: base
+    base = 1.0_wp + props(prop_sg_beta)*(eps_p + props(prop_sg_eps_i))
+    if (base == 1.0_wp) then
+      hard = props(prop_sg_y0)
+    else
+      hard = props(prop_sg_y0)*base**props(prop_sg_n)
+    end if
+  end function sg_hardening
+
+  !> Steinberg-Guinan flow stress min(hardening, Ymax) f [Pa] and its slope
+  !> in eps_p [Pa] (zero at Ymax), f the pressure and temperature factor.
+  pure subroutine sg_flow(props, eps_p, thermal_factor, sy, dsy)
+    real(wp), intent(in) :: props(n_props)
+    real(wp), intent(in) :: eps_p, thermal_factor
+    real(wp), intent(out) :: sy, dsy
+    real(wp) :: hard
+    hard = sg_hardening(props, eps_p)
+    sy = min(hard, props(prop_sg_ymax))*thermal_factor
+    dsy = 0.0_wp
+    if (hard < props(prop_sg_ymax)) &
+      dsy = hard*props(prop_sg_n)*props(prop_sg_beta)/(1.0_wp + props(prop_sg_beta)*(eps_p + props(prop_sg_eps_i))) &
+            *thermal_factor
+  end subroutine sg_flow
 
   !> Slope of the flow stress along the return, d sy/d(d eps_p) [Pa], with
   !> the plastic strain rate d eps_p/dt (inv_dt = 1/dt [1/s]): only the
@@ -450,14 +504,27 @@ contains
             *(props(prop_pl_n)/props(prop_pl_eps0)*hard/base*power_law_rate(props, rate_p) &
               + hard*power_law_rate_slope(props, rate_p)*inv_dt)
     case (strength_steinberg_guinan)
-      base = 1.0_wp + props(prop_sg_beta)*(eps_p + props(prop_sg_eps_i))
-      hard = props(prop_sg_y0)*base**props(prop_sg_n)
-      dsy = 0.0_wp
-      if (hard < props(prop_sg_ymax)) dsy = hard*props(prop_sg_n)*props(prop_sg_beta)/base*thermal_factor
+      call sg_flow(props, eps_p, thermal_factor, hard, dsy)
     case default
       dsy = 0.0_wp
     end select
   end function flow_slope
+
+  !> Flow stress and its slope along the return together (flow_stress,
+  !> flow_slope), the same bits: Steinberg-Guinan's hardening power, which
+  !> both carry, is taken once per Newton iteration.
+  pure subroutine flow_stress_slope(props, istrength, eps_p, rate_p, inv_dt, rate_factor, thermal_factor, sy, dsy)
+    real(wp), intent(in) :: props(n_props)
+    integer, value :: istrength
+    real(wp), intent(in) :: eps_p, rate_p, inv_dt, rate_factor, thermal_factor
+    real(wp), intent(out) :: sy, dsy       !< [Pa]
+    if (istrength == strength_steinberg_guinan) then
+      call sg_flow(props, eps_p, thermal_factor, sy, dsy)
+    else
+      sy = flow_stress(props, istrength, eps_p, rate_p, rate_factor, thermal_factor)
+      dsy = flow_slope(props, istrength, eps_p, rate_p, inv_dt, rate_factor, thermal_factor)
+    end if
+  end subroutine flow_stress_slope
 
   !> Flow stress of a point's strength model [Pa] at plastic strain eps_p,
   !> plastic strain rate rate_p [1/s], total equivalent strain rate
@@ -484,22 +551,22 @@ contains
     real(wp), intent(in) :: rate_eq        !< equivalent total strain rate [1/s]
     real(wp), intent(in) :: p, temp, rho   !< [Pa], [K], [kg/m^3]
     real(wp), intent(out) :: rate_factor, thermal_factor
-    real(wp) :: tm
     rate_factor = 1.0_wp
     thermal_factor = 1.0_wp
-    tm = melting_temperature(props, rho)
     select case (istrength)
     case (strength_johnson_cook)
       if (props(prop_jc_c) /= 0.0_wp) then
         if (rate_eq > props(prop_eps0)) rate_factor = 1.0_wp + props(prop_jc_c)*log(rate_eq/props(prop_eps0))
       end if
-      thermal_factor = softening(homologous_temperature(props, temp, tm), props(prop_jc_m), .true.)
+      thermal_factor = softening(homologous_temperature(props, temp, melting_temperature(props, rho)), &
+                                 props(prop_jc_m), .true.)
     case (strength_power_law)
-      thermal_factor = softening(homologous_temperature(props, temp, tm), props(prop_pl_l), .false.)
+      thermal_factor = softening(homologous_temperature(props, temp, melting_temperature(props, rho)), &
+                                 props(prop_pl_l), .false.)
     case (strength_steinberg_guinan)
       thermal_factor = sg_factor(props, rho, p, temp)
     case default
-      if (temp >= tm) thermal_factor = 0.0_wp
+      if (at_melt(props, rho, temp)) thermal_factor = 0.0_wp
     end select
   end subroutine strength_factors
 
@@ -543,8 +610,7 @@ contains
       hi = seq_trial/g3
       x = min((seq_trial - sy)/(g3 + dsy), hi)
       do it = 1, return_max_iterations
-        sy = flow_stress(props, istrength, eps_p + x, x*inv_dt, rate_factor, thermal_factor)
-        dsy = flow_slope(props, istrength, eps_p + x, x*inv_dt, inv_dt, rate_factor, thermal_factor)
+        call flow_stress_slope(props, istrength, eps_p + x, x*inv_dt, inv_dt, rate_factor, thermal_factor, sy, dsy)
         f = seq_trial - g3*x - sy
         df = -(g3 + dsy)
         call bracketed_newton_step(f, df, x, lo, hi, dx)
@@ -691,7 +757,15 @@ contains
     real(wp), intent(out) :: sy             !< flow stress at the end of the step [Pa]
     real(wp) :: g, rate_factor, thermal_factor, rate_eq
 
-    g = shear_modulus(props, istrength, rho, p, temp)
+    if (istrength == strength_steinberg_guinan) then
+      ! G and the flow stress carry the same factor (sg_factor, its melting
+      ! test and cube root): evaluated once
+      rate_factor = 1.0_wp
+      thermal_factor = sg_factor(props, rho, p, temp)
+      g = props(prop_shear)*thermal_factor
+    else
+      g = shear_modulus(props, istrength, rho, p, temp)
+    end if
     call elastic_trial(g, dt, d, spin, s, s_old, d_dev)
     deps_p = 0.0_wp
     sy = 0.0_wp
@@ -707,7 +781,8 @@ contains
     rate_eq = 0.0_wp
     if (istrength == strength_johnson_cook .and. props(prop_jc_c) /= 0.0_wp) &
       rate_eq = sqrt(2.0_wp/3.0_wp*deviator_double_contraction(d_dev, d_dev))
-    call strength_factors(props, istrength, rate_eq, p, temp, rho, rate_factor, thermal_factor)
+    if (istrength /= strength_steinberg_guinan) &
+      call strength_factors(props, istrength, rate_eq, p, temp, rho, rate_factor, thermal_factor)
     call radial_return(props, istrength, g, dt, rate_factor, thermal_factor, eps_p, s, deps_p, sy)
     eps_p = eps_p + deps_p
     if (model_id(props(prop_temp_model)) == temperature_plastic_work .and. props(prop_cv) > 0.0_wp) then
