@@ -22,8 +22,10 @@
 !>    continuum (Petschek & Libersky 1993; Xiao et al. 2012 section 2.1).
 !> Its low list (low_ptr(i) .. low_ptr(i+1)-1) holds the real particles
 !> j < i within the support, as low_other = j and low_pair = the entry of
-!> the pair (j, i) in j's row. Entries come in the order of the scan
-!> (cells, then points), which depends on the positions only. Contact candidates, particles of
+!> the pair (j, i) in j's row: the half rows transposed. Each part of a row
+!> is ascending, so the order of the entries, and of every sum, depends
+!> only on which points are listed, not on the cells or on when the lists
+!> were built. Contact candidates, particles of
 !> another body within the support (docs/method.md, "Contact"), have a separate full list
 !> (cnt_ptr, cnt_list), mirror images across the axis as -j. SPH sums never
 !> cross continuum boundaries. A point given a negative continuum (the
@@ -45,7 +47,7 @@ module fsph_neighbours
   !> Work arrays of the search, kept between calls so the cycle does not
   !> allocate once their sizes have settled.
   type, public :: neighbour_work_t
-    integer :: width = 32                  !< row width of the half, low and one-way buffers
+    integer :: width = 32                  !< row width of the half and one-way buffers
     integer :: contact_width = 4           !< row width of the contact buffer
     ! one grid per size level: points with h in [h_min 2^(l-1), h_min 2^l)
     integer :: n_levels = 0
@@ -63,9 +65,10 @@ module fsph_neighbours
     integer, allocatable :: body_s(:)      !< sorted continuum indices
     !> strided buffers (width + 1, nq): the last slot takes the writes of
     !> rejected candidates once a row is full
-    integer, allocatable :: half_row(:, :), low_row(:, :), one_row(:, :)
+    integer, allocatable :: half_row(:, :), one_row(:, :)
     integer, allocatable :: cnt_row(:, :)  !< (contact_width, nq)
-    integer, allocatable :: n_half(:), n_low(:), n_one(:), n_cnt(:) !< row lengths
+    !> row lengths; n_low: the low rows' lengths, then their fill cursors
+    integer, allocatable :: n_half(:), n_low(:), n_one(:), n_cnt(:)
   end type neighbour_work_t
 
   !> Rows are made this much wider than the longest list that overflowed [-].
@@ -75,7 +78,10 @@ contains
 
   !> Size levels and their grids: level l holds the points with h in
   !> [h_min 2^(l-1), h_min 2^l) (the last, all larger ones); its cells, of
-  !> side at least twice its largest reach, start at r = 0 and its lowest
+  !> side at least its largest reach (half the largest pair reach: a
+  !> point's candidates fill about 5 x 5 cells, 6.25 squared pair reaches,
+  !> against 9 with cells of the whole reach, for 12 % fewer instructions
+  !> of the search in debris case 1), start at r = 0 and its lowest
   !> z; a side grows if needed so that a level never has more than about 4
   !> cells per point (memory stays O(N) when particles scatter). One grid
   !> for all would be as coarse as the largest particle: a graded plate's
@@ -111,7 +117,7 @@ contains
         work%level_nz(l) = 0
         cycle
       end if
-      cell = 2.0_wp*work%level_reach(l)
+      cell = work%level_reach(l)
       cell = max(cell, sqrt((r_hi(l) + cell)*(z_hi(l) - z_lo(l) + cell)/(cells_per_point*count(l))))
       ! nor more than about cells_per_point cells per point along either
       ! side: a point flung far off along one side (a runaway the run is
@@ -149,7 +155,7 @@ contains
     type(neighbour_work_t), intent(inout) :: work
     integer, intent(out) :: nbr_ptr(nq + 1), half_end(nq), low_ptr(nq + 1), cnt_ptr(nq + 1)
     integer, allocatable, intent(inout) :: nbr_list(:), low_pair(:), low_other(:), cnt_list(:)
-    integer :: i, m, j, k, found
+    integer :: i, m, j, k
 
     nbr_ptr(1) = 1
     low_ptr(1) = 1
@@ -159,11 +165,11 @@ contains
     call ensure_rows(work, nq)
     do
       call scan_points(nq, n, x, h, body, skin, work)
-      if (max(maxval(work%n_half(1:nq)), maxval(work%n_low(1:nq)), maxval(work%n_one(1:nq))) <= work%width &
+      if (max(maxval(work%n_half(1:nq)), maxval(work%n_one(1:nq))) <= work%width &
           .and. maxval(work%n_cnt(1:nq)) <= work%contact_width) exit
       ! a row overflowed: widen the rows to the longest list and scan again
       work%width = max(work%width, maxval(work%n_half(1:nq)) + width_margin, &
-                       maxval(work%n_low(1:nq)) + width_margin, maxval(work%n_one(1:nq)) + width_margin)
+                       maxval(work%n_one(1:nq)) + width_margin)
       work%contact_width = max(work%contact_width, maxval(work%n_cnt(1:nq)) + width_margin)
       call ensure_rows(work, nq)
     end do
@@ -171,46 +177,51 @@ contains
     do i = 1, nq
       nbr_ptr(i + 1) = nbr_ptr(i) + work%n_half(i) + work%n_one(i)
       half_end(i) = nbr_ptr(i) + work%n_half(i)
-      low_ptr(i + 1) = low_ptr(i) + work%n_low(i)
       cnt_ptr(i + 1) = cnt_ptr(i) + work%n_cnt(i)
     end do
     call ensure_size(nbr_list, nbr_ptr(nq + 1) - 1)
-    call ensure_size(low_pair, low_ptr(nq + 1) - 1)
-    call ensure_size(low_other, low_ptr(nq + 1) - 1)
     call ensure_size(cnt_list, cnt_ptr(nq + 1) - 1)
     ! rows in place, each part ascending: the order of the entries, and so
     ! of every sum, depends only on which particles are listed, not on the
     ! cells or on when the lists were built (entries beyond the support
     ! that a skin adds contribute exact zeros)
     !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(nq, work, nbr_ptr, half_end, low_ptr, cnt_ptr, nbr_list, low_other, cnt_list) private(i)
+    !$omp shared(nq, work, nbr_ptr, half_end, cnt_ptr, nbr_list, cnt_list) private(i)
     do i = 1, nq
       call sort_ascending(work%half_row(1:work%n_half(i), i))
-      call sort_ascending(work%low_row(1:work%n_low(i), i))
       call sort_ascending(work%one_row(1:work%n_one(i), i))
       call sort_ascending(work%cnt_row(1:work%n_cnt(i), i))
       nbr_list(nbr_ptr(i):half_end(i) - 1) = work%half_row(1:work%n_half(i), i)
       nbr_list(half_end(i):nbr_ptr(i + 1) - 1) = work%one_row(1:work%n_one(i), i)
-      low_other(low_ptr(i):low_ptr(i + 1) - 1) = work%low_row(1:work%n_low(i), i)
       cnt_list(cnt_ptr(i):cnt_ptr(i + 1) - 1) = work%cnt_row(1:work%n_cnt(i), i)
     end do
     !$omp end parallel do
-    ! the pair of each low entry: the entry holding i in the half row of j
-    ! (the support test is symmetric in i and j, so it is there, once),
-    ! found by a branch-free scan of that short row
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(nq, nbr_ptr, half_end, low_ptr, nbr_list, low_other, low_pair) private(i, m, j, k, found)
-    do i = 1, nq
-      do m = low_ptr(i), low_ptr(i + 1) - 1
-        j = low_other(m)
-        found = 0
-        do k = nbr_ptr(j), half_end(j) - 1
-          found = found + merge(k, 0, nbr_list(k) == i)
-        end do
-        low_pair(m) = found
+    ! the low rows, the half rows transposed: i's low row lists each j < i
+    ! whose half row holds i (the support test is symmetric in i and j, so
+    ! i is there, once), with that entry as the pair; filled in ascending
+    ! j, so each row is ascending. Two serial passes over the half entries
+    ! (work%n_low counts, then serves as the rows' fill cursor).
+    work%n_low(1:nq) = 0
+    do j = 1, nq
+      do k = nbr_ptr(j), half_end(j) - 1
+        work%n_low(nbr_list(k)) = work%n_low(nbr_list(k)) + 1
       end do
     end do
-    !$omp end parallel do
+    do i = 1, nq
+      low_ptr(i + 1) = low_ptr(i) + work%n_low(i)
+      work%n_low(i) = low_ptr(i)
+    end do
+    call ensure_size(low_pair, low_ptr(nq + 1) - 1)
+    call ensure_size(low_other, low_ptr(nq + 1) - 1)
+    do j = 1, nq
+      do k = nbr_ptr(j), half_end(j) - 1
+        i = nbr_list(k)
+        m = work%n_low(i)
+        low_other(m) = j
+        low_pair(m) = k
+        work%n_low(i) = m + 1
+      end do
+    end do
 
   end subroutine build_neighbours
 
@@ -280,26 +291,26 @@ contains
     if (allocated(work%half_row)) then
       if (size(work%half_row, 1) < work%width + 1 .or. size(work%cnt_row, 1) < work%contact_width .or. &
           size(work%half_row, 2) < nq) &
-        deallocate (work%half_row, work%low_row, work%one_row, work%cnt_row, work%n_half, work%n_low, &
+        deallocate (work%half_row, work%one_row, work%cnt_row, work%n_half, work%n_low, &
                     work%n_one, work%n_cnt)
     end if
     if (.not. allocated(work%half_row)) &
-      allocate (work%half_row(work%width + 1, nq), work%low_row(work%width + 1, nq), &
+      allocate (work%half_row(work%width + 1, nq), &
                 work%one_row(work%width + 1, nq), work%cnt_row(work%contact_width, nq), &
                 work%n_half(nq), work%n_low(nq), work%n_one(nq), work%n_cnt(nq))
   end subroutine ensure_rows
 
   !> One pass over the real points: each accepted candidate goes to the
-  !> half, low or one-way row or the contact row (up to the row width; the
+  !> half or one-way row or the contact row (up to the row width; the
   !> counts go on, so the caller sees an overflow). A point looks, in every
   !> level, at the cells within its reach plus the level's largest reach:
-  !> in its own level and the coarser ones, the 3 x 3 cells around it.
+  !> in its own level and the coarser ones, about the 5 x 5 cells around it.
   subroutine scan_points(nq, n, x, h, body, skin, work)
     integer, intent(in) :: nq, n
     real(wp), intent(in) :: x(2, n), h(n), skin
     integer, intent(in) :: body(n)
     type(neighbour_work_t), intent(inout) :: work
-    integer :: ii, l, jz, n_half, n_low, n_one, n_cnt, bi, width, cwidth
+    integer :: ii, l, jz, n_half, n_one, n_cnt, bi, width, cwidth
     integer :: jr_lo, jr_hi, jz_lo, jz_hi, row
     real(wp) :: ri, zi, reach_i, big, cell
     ! a row holds width entries; writes past them go to the scratch slot
@@ -308,7 +319,7 @@ contains
     cwidth = work%contact_width
     !$omp parallel do default(none) schedule(dynamic, 64) &
     !$omp shared(nq, x, h, body, skin, work, width, cwidth) &
-    !$omp private(ii, l, jz, n_half, n_low, n_one, n_cnt, bi, ri, zi, reach_i, big, cell) &
+    !$omp private(ii, l, jz, n_half, n_one, n_cnt, bi, ri, zi, reach_i, big, cell) &
     !$omp private(jr_lo, jr_hi, jz_lo, jz_hi, row)
     do ii = 1, nq
       ri = x(1, ii)
@@ -316,7 +327,6 @@ contains
       reach_i = 0.5_wp*kernel_support*h(ii) + 0.5_wp*skin
       bi = body(ii)
       n_half = 0
-      n_low = 0
       n_one = 0
       n_cnt = 0
       do l = 1, work%n_levels
@@ -338,7 +348,7 @@ contains
           row = work%level_offset(l) + 1 + work%level_nr(l)*jz
           call scan_run(work%cell_start(row + jr_lo), work%cell_start(row + jr_hi + 1) - 1, work%item, work%xs, &
                         work%reach_s, work%body_s, ii, nq, ri, zi, reach_i, bi, width, cwidth, work%half_row(:, ii), &
-                        work%low_row(:, ii), work%one_row(:, ii), work%cnt_row(:, ii), n_half, n_low, n_one, n_cnt)
+                        work%one_row(:, ii), work%cnt_row(:, ii), n_half, n_one, n_cnt)
           ! ghosts, for points whose reach crosses the axis
           if (big > ri) call scan_mirrors(work, l, row, ii, nq, ri, zi, reach_i, big, bi, width, n_one, &
                                           cwidth, n_cnt)
@@ -348,11 +358,9 @@ contains
       ! fsph_total) has no SPH entries: it is a contact candidate only
       if (bi < 0) then
         n_half = 0
-        n_low = 0
         n_one = 0
       end if
       work%n_half(ii) = n_half
-      work%n_low(ii) = n_low
       work%n_one(ii) = n_one
       work%n_cnt(ii) = n_cnt
     end do
@@ -361,7 +369,7 @@ contains
 
   !> The candidates kk_lo .. kk_hi (one run of sorted points: the cells of
   !> a grid row) of query point ii at (ri, zi) with reach reach_i and body
-  !> bi: each accepted one goes to the half, low or one-way row or the
+  !> bi: each accepted one goes to the half or one-way row or the
   !> contact row (rows and counts as in scan_points). On arrays passed as
   !> arguments, which Fortran guarantees do not overlap, the compiler keeps
   !> the counts in registers across the rows' stores (as components of the
@@ -370,18 +378,17 @@ contains
   !> by a branch-free loop of the distance test alone (about a third of the
   !> candidates pass it), then only those are sorted into the rows.
   subroutine scan_run(kk_lo, kk_hi, item, xs, reach_s, body_s, ii, nq, ri, zi, reach_i, bi, width, cwidth, &
-                      half_row, low_row, one_row, cnt_row, n_half, n_low, n_one, n_cnt)
+                      half_row, one_row, cnt_row, n_half, n_one, n_cnt)
     integer, intent(in) :: kk_lo, kk_hi, item(*), body_s(*), ii, nq, bi, width, cwidth
     real(wp), intent(in) :: xs(2, *), reach_s(*), ri, zi, reach_i
-    integer, intent(inout) :: half_row(width + 1), low_row(width + 1), one_row(width + 1), cnt_row(cwidth)
-    integer, intent(inout) :: n_half, n_low, n_one, n_cnt
+    integer, intent(inout) :: half_row(width + 1), one_row(width + 1), cnt_row(cwidth)
+    integer, intent(inout) :: n_half, n_one, n_cnt
     !> candidates taken per chunk [-]
     integer, parameter :: chunk = 64
     integer :: within(chunk + 1)
-    integer :: kk, k0, k1, t, m, jj, near, same, real_j, up, nh, nl, no, nc
+    integer :: kk, k0, k1, t, m, jj, near, same, real_j, up, nh, no, nc
     real(wp) :: d2, reach
     nh = n_half
-    nl = n_low
     no = n_one
     nc = n_cnt
     do k0 = kk_lo, kk_hi, chunk
@@ -402,10 +409,8 @@ contains
         real_j = merge(1, 0, jj <= nq)
         up = merge(1, 0, jj > ii)
         half_row(min(nh + 1, width + 1)) = jj
-        low_row(min(nl + 1, width + 1)) = jj
         one_row(min(no + 1, width + 1)) = jj
         nh = nh + near*same*real_j*up
-        nl = nl + near*same*real_j*(1 - up)
         no = no + near*same*(1 - real_j)
         if (near > same) then
           ! another body within reach: a contact candidate if real
@@ -417,7 +422,6 @@ contains
       end do
     end do
     n_half = nh
-    n_low = nl
     n_one = no
     n_cnt = nc
   end subroutine scan_run
