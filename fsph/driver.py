@@ -533,8 +533,9 @@ def _final_metrics(books, deck, reference):
     """Case metrics of the last good snapshot, with the snapshot series
     (and a perforation's settling) where there is one, and their comparison
     with the reference ({} without)."""
-    case_metrics = metrics_module.case_metrics(books.last_good, deck)
     series = books.series
+    # the last record is the last good snapshot's (Books.record keeps both)
+    case_metrics = metrics_module.case_metrics(books.last_good, deck, series[-1] if series else None)
     if series:
         case_metrics["series"] = {key: [r[key] for r in series] for key in series[0]}
         if "perforation" in case_metrics:

@@ -402,8 +402,11 @@ def series_units(deck):
     return debris.UNITS
 
 
-def case_metrics(snap, deck):
-    """Metrics named by the deck's &metrics kind ({} for 'none')."""
+def case_metrics(snap, deck, series_record=None):
+    """Metrics named by the deck's &metrics kind ({} for 'none'). A debris
+    case starts from series_record, the snapshot's own record of
+    snapshot_series where the caller holds it (the same numbers, not
+    computed twice)."""
     met = deck["metrics"]
     names = [b["name"] for b in deck["body"]]
     ib = names.index(met["body"]) if met["body"] else 0
@@ -416,7 +419,7 @@ def case_metrics(snap, deck):
     if met["kind"] == "debris":
         from . import debris
         case = debris.DebrisCase.from_deck(deck)
-        record = debris.debris(snap, case)
+        record = dict(series_record) if series_record is not None else debris.debris(snap, case)
         record.update({"flyer": case.flyer_name, "flyer_material": case.flyer_material,
                        "target": case.target_name, "target_material": case.target_material,
                        "materials": [m["name"] for m in deck["material"]],
