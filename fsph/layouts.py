@@ -356,6 +356,11 @@ def _constants(prefix, names, docs=None, first=1, count=None):
     return lines
 
 
+def _particle_arrays(names):
+    """1-based ids of the particles' arrays among checkpoint `names`."""
+    return [k for k, n in enumerate(names, 1) if n.startswith("particles/")]
+
+
 def _ident(name):
     return name.replace("/", "_")
 
@@ -405,6 +410,10 @@ def fortran_source():
     out.append("  ! checkpoint: real and integer state arrays, real and integer scalars")
     out += _constants("ckr_", [_ident(n) for n in CHECKPOINT_REAL], count="n_real_arrays")
     out += _constants("cki_", [_ident(n) for n in CHECKPOINT_INT], count="n_int_arrays")
+    out.append("  ! the particles' arrays among them (each column one particle)")
+    out += [f"  integer, parameter, public :: {name}(*) = [{', '.join(str(k) for k in ids)}]"
+            for name, ids in (("ckr_of_particles", _particle_arrays(CHECKPOINT_REAL)),
+                              ("cki_of_particles", _particle_arrays(CHECKPOINT_INT)))]
     out += _constants("csr_", CHECKPOINT_REAL_SCALARS, count="n_real_scalars")
     out += _constants("csi_", CHECKPOINT_INT_SCALARS, count="n_int_scalars")
     out.append("  ! material property table props(n_props)")

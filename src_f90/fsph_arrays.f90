@@ -36,14 +36,6 @@ module fsph_arrays
     module procedure grow_r1, grow_r2, grow_r3, grow_i1, grow_i2, grow_l1
   end interface grow
 
-  !> Put the first size(order) items in the order `order` (item k takes
-  !> the item order(k) was), the rest unchanged (the particles renumbered
-  !> in spatial order, fsph_spatial).
-  public :: permute
-  interface permute
-    module procedure permute_r1, permute_r2, permute_i1, permute_i2
-  end interface permute
-
   !> Reallocate to n items (contents discarded, set to zero).
   public :: reset_size
   interface reset_size
@@ -91,30 +83,6 @@ contains
     end if
     allocate (a(n))
   end subroutine reserve_l1
-
-  subroutine permute_r1(a, order)
-    real(wp), intent(inout) :: a(:)
-    integer, intent(in) :: order(:)
-    a(1:size(order)) = a(order)
-  end subroutine permute_r1
-
-  subroutine permute_r2(a, order)
-    real(wp), intent(inout) :: a(:, :)
-    integer, intent(in) :: order(:)
-    a(:, 1:size(order)) = a(:, order)
-  end subroutine permute_r2
-
-  subroutine permute_i1(a, order)
-    integer, intent(inout) :: a(:)
-    integer, intent(in) :: order(:)
-    a(1:size(order)) = a(order)
-  end subroutine permute_i1
-
-  subroutine permute_i2(a, order)
-    integer, intent(inout) :: a(:, :)
-    integer, intent(in) :: order(:)
-    a(:, 1:size(order)) = a(:, order)
-  end subroutine permute_i2
 
   subroutine compact_r1(a, mask)
     real(wp), allocatable, intent(inout) :: a(:)

@@ -5,7 +5,8 @@ module fsph_solver
   use fsph_kinds, only: wp, axis_tolerance
   use fsph_status, only: status_ok, status_bad_input, status_not_ready, status_max_cycles, &
                          status_dt_floor, status_dt_drop, status_particle_axis, status_nonfinite_particle
-  use fsph_state, only: simulation_t, particle_set_t, state_grow_particles, state_permute_particles
+  use fsph_state, only: simulation_t, particle_set_t, state_grow_particles
+  use fsph_state_views, only: permute_particles
   use fsph_spatial, only: spatial_order, renumber_due
   use fsph_arrays, only: reserve, grow
   use fsph_layouts, only: n_strength_models, n_eos_models, prop_rho0, prop_fracture_energy, prop_shear, &
@@ -967,7 +968,7 @@ contains
     if (total_active(sim%total) .or. .not. renumber_due(n_before, n, sim%control%spatial_order_min)) return
     allocate (order(n))
     call spatial_order(n, sim%particles%x(:, 1:n), sim%particles%h(1:n), order)
-    call state_permute_particles(sim%particles, order)
+    call permute_particles(sim, order)
     call gauges_renumber(sim%gauges, order)
   end subroutine keep_spatial_order
 

@@ -8,7 +8,7 @@ module fsph_state
   use fsph_kinds, only: wp
   use fsph_layouts, only: n_hist
   use fsph_neighbours, only: neighbour_work_t
-  use fsph_arrays, only: grow, permute
+  use fsph_arrays, only: grow
   use fsph_timers, only: phase_timers_t
   use fsph_threads, only: thread_governor_t
   use fsph_gauges, only: gauge_set_t
@@ -286,7 +286,7 @@ module fsph_state
     type(thread_governor_t) :: governor   !< OpenMP threads of each cycle (fsph_threads)
   end type simulation_t
 
-  public :: state_allocate, state_allocate_particles, state_grow_particles, state_permute_particles
+  public :: state_allocate, state_allocate_particles, state_grow_particles
 
 contains
 
@@ -382,28 +382,5 @@ contains
       if (allocated(pt%x_listed)) call grow(pt%x_listed, cap)
     end block
   end subroutine state_grow_particles
-
-  !> Renumber the real particles: particle k takes the state of particle
-  !> order(k) (fsph_spatial spatial_order), with its id. The arrays that
-  !> move are those a checkpoint holds (fsph_restart), which a restart
-  !> shows to be the whole state the next cycle reads; the rest (mid-step
-  !> and work arrays, stresses and switches derived from them) is
-  !> recomputed before it is read. The neighbour lists, the imaginary and
-  !> mirror entries and the pair work arrays are rebuilt at the next cycle.
-  !> What refers to particles by number outside the set (gauges) is the
-  !> caller's to follow.
-  subroutine state_permute_particles(pt, order)
-    type(particle_set_t), intent(inout) :: pt
-    integer, intent(in) :: order(:)
-    call permute(pt%x, order); call permute(pt%x0, order); call permute(pt%v, order)
-    call permute(pt%mass, order); call permute(pt%h, order); call permute(pt%radius, order)
-    call permute(pt%rho, order); call permute(pt%s, order); call permute(pt%p, order)
-    call permute(pt%eps_p, order); call permute(pt%e, order); call permute(pt%temp, order)
-    call permute(pt%c, order); call permute(pt%tie_xi, order); call permute(pt%hist, order)
-    call permute(pt%d, order); call permute(pt%grad_v, order); call permute(pt%mat, order)
-    call permute(pt%body, order); call permute(pt%continuum, order); call permute(pt%tie_a, order)
-    call permute(pt%tie_b, order); call permute(pt%assoc, order); call permute(pt%id, order)
-    pt%lists_valid = .false.
-  end subroutine state_permute_particles
 
 end module fsph_state
