@@ -22,17 +22,22 @@ def run_child(code, args, threads):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def run_workload(name, params, threads, env_extra=None):
+def run_workload(name, params, threads, env_extra=None, cpu=None):
     """Run benchmarks/workloads.py NAME PARAMS in a child process with
     OMP_NUM_THREADS=threads and env_extra (from /, so the installed fsph is
-    imported); returns its JSON result with the child's wall time from
-    launch to exit (interpreter start-up included) as process_wall_s."""
+    imported), on processor `cpu` alone if given; returns its JSON result
+    with the child's wall time from launch to exit (interpreter start-up
+    included) as process_wall_s, and its start and end on this process's
+    perf_counter clock as window_s."""
     env = dict(os.environ, OMP_NUM_THREADS=str(threads), **(env_extra or {}))
+    pin = None if cpu is None else (lambda: os.sched_setaffinity(0, {cpu}))
     t0 = time.perf_counter()
     out = subprocess.run([sys.executable, str(WORKLOADS), name, json.dumps(params)], env=env,
-                         check=True, capture_output=True, text=True, cwd="/")
+                         check=True, capture_output=True, text=True, cwd="/", preexec_fn=pin)
+    t1 = time.perf_counter()
     result = json.loads(out.stdout.strip().splitlines()[-1])
-    result["process_wall_s"] = time.perf_counter() - t0
+    result["process_wall_s"] = t1 - t0
+    result["window_s"] = [t0, t1]
     return result
 
 

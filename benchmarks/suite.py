@@ -17,7 +17,11 @@ process of its own; peak memory is that child's resident set):
   e  the adaptive Taylor case refined x1, x2, x4 in each direction (2 680,
      10 720, 42 880 elements): cost growth exponent against the number of
      elements (ideal explicit 2D: 1.5), and the series as time to answer:
-     wall time against the L, D, W errors from experiment
+     wall time against the L, D, W errors from experiment. On one thread
+     with two processors the series runs on processor 0 while the x1 run
+     repeats on processor 1 as a clock of the host's speed (--no-clock:
+     without), and the exponent of the runs' times over the clock's is
+     the target's figure
   h  the debris cloud of case 1 (cases/debris_cu_al_1.nml, pure SPH on
      0.1 mm lattices, about 8 900 particles) run on to 10 us through
      `fsph run`: the hypervelocity issue's speed figure
@@ -45,8 +49,10 @@ threads only where a section is long.
 """
 
 import argparse
+import contextlib
 import json
 import math
+import os
 import time
 from pathlib import Path
 
@@ -169,17 +175,74 @@ def section_plate(outroot, quick, repeat):
     return result
 
 
-def section_refinement(outroot, quick, threads, repeat):
+class ReferenceClock:
+    """The x1 deck run over and over on processor `cpu`, one thread, in a
+    thread of this process, while the series runs on another processor:
+    the mean duration of the clock's runs that overlap a window measures
+    how fast the host was then. This host's speed drifts by more than the
+    exponent's differences within the minutes a series takes; a run's
+    time over the clock's is free of that drift."""
+
+    def __init__(self, deck, outdir, cpu):
+        import threading
+        self.deck, self.outdir, self.cpu = deck, outdir, cpu
+        self.windows = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, daemon=True)
+
+    def _loop(self):
+        while not self._stop.is_set():
+            r = run_workload("run", {"deck": str(self.deck), "outdir": str(self.outdir)}, 1, cpu=self.cpu)
+            self.windows.append(r["window_s"])
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+
+    def duration_during(self, window):
+        """Mean duration [s] of the clock's runs weighted by their overlap
+        with window (start, end); nan if none overlaps."""
+        w = np.array(self.windows, float).reshape(-1, 2)
+        overlap = np.clip(np.minimum(w[:, 1], window[1]) - np.maximum(w[:, 0], window[0]), 0.0, None)
+        if overlap.sum() <= 0.0:
+            return float("nan")
+        return float((overlap * (w[:, 1] - w[:, 0])).sum() / overlap.sum())
+
+
+def section_refinement(outroot, quick, threads, repeat, clock=True):
+    """The series x1, x2 (x4) on `threads` threads; with `clock` (one
+    thread, two processors or more) the series runs on processor 0 beside
+    a ReferenceClock on processor 1, and the exponent is also fitted to the
+    runs' times over the clock's."""
     factors = (1, 2) if quick else (1, 2, 4)
-    print(f"\n(e) adaptive Taylor rod refined x{', x'.join(map(str, factors))} in each direction")
+    clock = clock and threads == 1 and len(os.sched_getaffinity(0)) >= 2
+    print(f"\n(e) adaptive Taylor rod refined x{', x'.join(map(str, factors))} in each direction"
+          + (" (series on processor 0, the x1 run repeated on processor 1 as the host's clock)" if clock else ""))
+    decks = {f: (CASES / "taylor_armco.nml" if f == 1 else
+                 refined_deck(CASES / "taylor_armco.nml", outroot / "decks", (("n_radial", f), ("n_axial", f)),
+                              f"x{f}")) for f in factors}
     rows = []
-    for f in factors:
-        deck = CASES / "taylor_armco.nml"
-        if f > 1:
-            deck = refined_deck(deck, outroot / "decks", (("n_radial", f), ("n_axial", f)), f"x{f}")
-        # the short runs are repeated (the best counts); the x4 run, minutes long, once
-        rows.append({"factor": f, **section_run(f"x{f}", deck, outroot / f"x{f}", threads=(threads,),
-                                                repeat=repeat if f < 4 else 1)["rows"][0]})
+    with (ReferenceClock(decks[1], outroot / "clock", 1) if clock else contextlib.nullcontext()) as ref:
+        for f in factors:
+            # the short runs are repeated (the best counts); the x4 run, minutes long, once
+            runs = [run_workload("run", {"deck": str(decks[f]), "outdir": str(outroot / f"x{f}")}, threads,
+                                 cpu=0 if clock else None) for _ in range(repeat if f < 4 else 1)]
+            r = min(runs, key=lambda r: r["process_wall_s"])
+            print(f"  x{f} {threads} thread(s): {r['process_wall_s']:7.2f} s wall from launch "
+                  f"({r['solver_wall_s']:.2f} s in fsph.driver.run), {r['cycles']} cycles, "
+                  f"{r['n_elements_initial']} elements at t = 0, {r['n_particles_end']} particles at the end; "
+                  f"peak memory {r['peak_rss_mb']:.0f} MB")
+            rows.append({"factor": f, **r})
+    if clock:
+        # the clock's runs overlapping each window, once all have ended
+        for r in rows:
+            r["clock_s"] = ref.duration_during(r["window_s"])
+        print("  the clock's x1 run meanwhile: "
+              + ", ".join(f"x{r['factor']} {r['clock_s']:.2f} s" for r in rows))
     n = np.array([r["n_elements_initial"] for r in rows], float)
     wall = np.array([r["solver_wall_s"] for r in rows])
     cycles = np.array([r["cycles"] for r in rows], float)
@@ -187,8 +250,13 @@ def section_refinement(outroot, quick, threads, repeat):
     cycle_exponent = float(np.polyfit(np.log(n), np.log(cycles), 1)[0])
     print(f"  cost exponent (wall of the run against elements at t = 0, {threads} thread(s)): "
           f"{exponent:.2f}; cycles grow as N^{cycle_exponent:.2f} (ideal 0.5)")
+    out = {"rows": rows, "exponent": exponent, "cycle_exponent": cycle_exponent, "threads": threads}
+    if clock:
+        clocked = wall / np.array([r["clock_s"] for r in rows])
+        out["exponent_clocked"] = float(np.polyfit(np.log(n), np.log(clocked), 1)[0])
+        print(f"  cost exponent of the runs' times over the clock's: {out['exponent_clocked']:.2f}")
     time_to_answer(rows, threads)
-    return {"rows": rows, "exponent": exponent, "cycle_exponent": cycle_exponent, "threads": threads}
+    return out
 
 
 def time_to_answer(rows, threads):
@@ -291,12 +359,16 @@ def section_machine():
     return {"machine": info, "cpu_mhz": mhz, "stream_add_gb_s": bandwidth}
 
 
-#: (label, how to read the figure from the results, target, unit, "max" or "min")
+#: (label, how to read the figure from the results, target, unit, "max" or "min").
+#: The bars of the speed work now open (T3 60 ns, SPH 0.40 us, the default
+#: case 1.5 s, exponent 1.55, start-up 0.3 s, loaded threads 1.2); those of
+#: the work before it (80 ns, 1.0 us, 3 s, 1.6) are met and kept in
+#: docs/performance.md's Targets table beside them.
 TARGETS = (
-    ("T3 element cycle, 1 thread", lambda r: r["fem_block"]["rows"][0]["ns_per_item_cycle"], 80.0, "ns", "max"),
-    ("SPH particle cycle, 1 thread", lambda r: r["sph_block"]["rows"][0]["ns_per_item_cycle"] / 1e3, 1.0,
+    ("T3 element cycle, 1 thread", lambda r: r["fem_block"]["rows"][0]["ns_per_item_cycle"], 60.0, "ns", "max"),
+    ("SPH particle cycle, 1 thread", lambda r: r["sph_block"]["rows"][0]["ns_per_item_cycle"] / 1e3, 0.40,
      "us", "max"),
-    ("taylor_armco.nml fsph run, 2 threads", lambda r: r["taylor_adaptive"]["rows"][-1]["process_wall_s"], 3.0,
+    ("taylor_armco.nml fsph run, 2 threads", lambda r: r["taylor_adaptive"]["rows"][-1]["process_wall_s"], 1.5,
      "s", "max"),
     ("start-up: one-cycle run, launch to exit", lambda r: r["taylor_adaptive"]["startup"]["process_wall_s"], 0.3,
      "s", "max"),
@@ -304,7 +376,8 @@ TARGETS = (
      60.0, "s", "max"),
     ("pure SPH / adaptive, plate 508", lambda r: r["plate_508"]["ratio_sph_over_adaptive_2_threads"], 3.0, "",
      "min"),
-    ("cost exponent under refinement", lambda r: r["refinement"]["exponent"], 1.6, "", "max"),
+    ("cost exponent under refinement", lambda r: r["refinement"].get("exponent_clocked",
+                                                                   r["refinement"]["exponent"]), 1.55, "", "max"),
     ("debris case 1, 0.1 mm, to 10 us, 2 threads", lambda r: r["debris"]["rows"][-1]["process_wall_s"],
      60.0, "s", "max"),
     ("default case loaded, 2 threads / 1", lambda r: r["threads_under_load"]["loaded_ratio_adaptive"], 1.2, "",
@@ -347,6 +420,8 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3, help="runs of each block and Taylor figure (best)")
     ap.add_argument("--refinement-threads", type=int, default=1,
                     help="threads of the refinement runs (one core's timing is the steady one)")
+    ap.add_argument("--no-clock", action="store_true",
+                    help="section e without the x1 run repeated on the other processor as a clock")
     ap.add_argument("--out", default=str(REPO / "out" / "bench"), help="folder for run outputs")
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
@@ -379,7 +454,8 @@ def main(argv=None):
             results["debris"] = section_debris(outroot / "debris", min(args.repeat, 2))
         elif s == "e":
             results["refinement"] = section_refinement(outroot / "refinement", args.quick,
-                                                       args.refinement_threads, args.repeat)
+                                                       args.refinement_threads, args.repeat,
+                                                       clock=not args.no_clock)
         elif s == "t":
             results["threads_under_load"] = section_threads(outroot / "threads", args.repeat)
         else:
