@@ -69,3 +69,18 @@ def test_module_uses_only_its_layer_or_below(module):
         assert used in LAYERS, f"{module} uses {used}, which is in no layer of docs/method.md"
         assert LAYERS[used] <= layer, (f"{module} (layer {layer}) uses {used} "
                                        f"(layer {LAYERS[used]})")
+
+
+def _code_without_comments(path):
+    return "\n".join(line.split("!", 1)[0] for line in path.read_text().splitlines())
+
+
+@pytest.mark.parametrize("module", sorted(m for m in USES if m != "fsph_state" and LAYERS.get(m, 0) < 3))
+def test_only_the_run_and_the_api_see_the_whole_state(module):
+    """docs/method.md, "Parts, not the whole": below layer 3 a routine
+    receives the parts of the state it touches, never simulation_t
+    (fsph_state, which declares it, aside)."""
+    path = next(p for p in (ROOT / "src_f90").glob("*.f90*")
+                if re.search(rf"^\s*module\s+{module}\s*$", p.read_text(), re.M | re.I))
+    assert not re.search(r"\bsimulation_t\b", _code_without_comments(path), re.I), \
+        f"{module} (layer {LAYERS.get(module)}) uses simulation_t"
