@@ -1,6 +1,7 @@
 """The layers of docs/method.md ("Architecture") hold in the code: every
 Fortran module of src_f90/ (and every generated one it uses) is in the
-table, and a module uses only modules of its own layer or below."""
+table, a module uses only modules of its own layer or below, and below
+layer 3 no module but fsph_state (which declares it) names simulation_t."""
 
 import re
 from pathlib import Path
