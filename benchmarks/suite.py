@@ -271,7 +271,8 @@ def time_to_answer(rows, threads):
           + " ".join(f"{k[0] + ' err':>8s}" for k in keys) + f" {'mean |err|':>10s}")
     for r in rows:
         cmp = r.get("comparison", {}).get("taylor", {})
-        errors = [cmp.get(k, {}).get("error_percent", float("nan")) for k in keys]
+        errors = [cmp.get(k, {}).get("error_percent") for k in keys]
+        errors = [float("nan") if e is None else e for e in errors]
         r["mean_abs_error_percent"] = float(np.mean(np.abs(errors)))
         print(f"  {'x' + str(r['factor']):>5s} {r['n_elements_initial']:9d} {r['cycles']:7d} "
               f"{r['process_wall_s']:9.2f} " + " ".join(f"{e:+7.2f}%" for e in errors)

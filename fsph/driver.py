@@ -36,14 +36,22 @@ def _format_metrics(comparison, metrics):
     lines = []
     for group, values in metrics.items():
         for key, val in values.items():
-            if not isinstance(val, float):
-                continue
             cmp = comparison.get(group, {}).get(key)
-            text = f"  {group}.{key:<14s} {val:10.4g}"
+            if not isinstance(val, float) and not cmp:
+                continue
+            text = f"  {group}.{key:<14s} " + (f"{val:10.4g}" if val is not None else f"{'none':>10s}")
             if cmp:
-                text += f"   reference {cmp['reference']:.4g}   error {cmp['error_percent']:+.1f} %"
+                text += _reference_text(cmp)
             lines.append(text)
     return lines
+
+
+def _reference_text(cmp):
+    """'   reference R   error E %' of a comparison entry, or 'not measured'
+    where the run has no value (metrics.compare)."""
+    if cmp["error_percent"] is None:
+        return f"   reference {cmp['reference']:.4g}   not measured"
+    return f"   reference {cmp['reference']:.4g}   error {cmp['error_percent']:+.1f} %"
 
 
 #: The debris quantities printed one to a line, with the reference where
@@ -75,7 +83,7 @@ def _format_debris(metrics, comparison):
         text = f"  debris.{key:<24s} " + (f"{value:10.4g}" if value is not None else f"{'none':>10s}")
         cmp = comparison.get("debris", {}).get(key)
         if cmp:
-            text += f"   reference {cmp['reference']:.4g}   error {cmp['error_percent']:+.1f} %"
+            text += _reference_text(cmp)
         lines.append(text)
     lines.append(f"  cloud mass [g] / axial momentum [kg m/s]: {rec['flyer']} "
                  f"{1e3 * rec['flyer_cloud_mass_kg']:.4g} / {rec['flyer_cloud_momentum_z']:.4g}, "

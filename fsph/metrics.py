@@ -436,13 +436,23 @@ def case_metrics(snap, deck, series_record=None):
 
 
 def compare(metrics, reference):
-    """Relative errors [%] of each metric that has a reference value."""
+    """Relative errors [%] of each metric that has a reference value. A
+    metric the run did not measure (None: the group it measures is empty,
+    e.g. no copper touching the aluminium for the intersection radius) is
+    kept with computed and error_percent None, so that the printed
+    summary, `fsph report` (outside any bar) and the pictures show the
+    reference and that it was not met."""
     out = {}
     for group, values in metrics.items():
         ref = reference.get(group, {})
         for key, val in values.items():
-            if key in ref and isinstance(val, float):
+            if key not in ref:
+                continue
+            if isinstance(val, float):
                 out.setdefault(group, {})[key] = {
                     "computed": val, "reference": ref[key],
                     "error_percent": 100.0 * (val - ref[key]) / ref[key]}
+            elif val is None:
+                out.setdefault(group, {})[key] = {"computed": None, "reference": ref[key],
+                                                  "error_percent": None}
     return out

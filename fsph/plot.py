@@ -357,8 +357,8 @@ def _debris_table(ax, rec, experiment):
     for label, key in rows:
         value = rec.get(key)
         ref = experiment.get(key)
-        lines.append(f"{label:15s}{value if value is not None else float('nan'):7.3g}"
-                     f"{ref if ref is not None else float('nan'):7.3g}")
+        lines.append(f"{label:15s}" + "".join(f"{v:7.3g}" if v is not None else f"{'—':>7s}"
+                                             for v in (value, ref)))
     ax.text(0.02, 0.02, "\n".join(lines), transform=ax.transAxes, family="monospace",
             fontsize=6.5, va="bottom", ha="left",
             bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"})
@@ -446,8 +446,10 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
                                label="hole")]
         fig.suptitle(textwrap.fill(summary.get("title") or summary.get("case", ""),
                                    width=int(12 * panel_inches * len(chosen))), fontsize=10)
-        fig.legend(handles=handles, loc="lower center", ncol=3, frameon=False, fontsize=8)
-        fig.tight_layout(rect=(0, 0.08, 1, 0.96))
+        # one panel is too narrow for three columns of labels
+        ncol = 3 if len(chosen) > 1 else 2
+        fig.legend(handles=handles, loc="lower center", ncol=ncol, frameon=False, fontsize=8)
+        fig.tight_layout(rect=(0, 0.04 * -(-len(handles) // ncol), 1, 0.96))
         _save(fig, output, dpi)
     return output
 

@@ -102,8 +102,10 @@ def _bar_text(kind_value, key):
 
 def within(kind_value, comparison):
     """Whether a comparison entry (computed, reference, error_percent)
-    meets the bar."""
+    meets the bar (a metric the run did not measure does not)."""
     kind, value = kind_value
+    if comparison["computed"] is None:
+        return False
     if kind == "percent":
         return abs(comparison["error_percent"]) <= value
     return abs(comparison["computed"] - comparison["reference"]) <= value
@@ -171,17 +173,19 @@ def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
                          f"{e_text} | {summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |")
         for group, key, c in rows:
             kind_value = bar(block, key, deck)
-            error = f"{c['error_percent']:+.2f} %"
+            measured = c["computed"] is not None
+            error = f"{c['error_percent']:+.2f} %" if measured else "not measured"
             result = {"case": name, "metric": f"{group}.{key}", "error": error, "bar": None,
                       "within": None}
             if kind_value is not None:
                 result.update(bar=_bar_text(kind_value, key), within=within(kind_value, c))
-                if kind_value[0] == "absolute":        # the difference in the bar's unit
+                if kind_value[0] == "absolute" and measured:    # the difference in the bar's unit
                     error += f" ({c['computed'] - c['reference']:+.3g} {_unit(key)})".replace(" )", ")")
                     result["error"] = error
             results.append(result)
             verdict = "–" if result["within"] is None else ("yes" if result["within"] else "NO")
-            table.append(f"| {name} | {summary['mode']} | {group}.{key} | {c['computed']:.4g} | "
+            computed = f"{c['computed']:.4g}" if measured else "none"
+            table.append(f"| {name} | {summary['mode']} | {group}.{key} | {computed} | "
                          f"{c['reference']:.4g} | {error} | {result['bar'] or 'none'} | {verdict} | "
                          f"{e_text} | {summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |")
         if "taylor" in summary.get("metrics", {}):

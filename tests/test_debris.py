@@ -560,6 +560,7 @@ def _within_bar(summary, case, key):
     assert summary["status"] == "completed"
     assert summary["reference"]["applies"]
     error = summary["reference"]["comparison"]["debris"][key]["error_percent"]
+    assert error is not None, f"{key}: not measured (the group it measures is empty)"
     bar = reference(case)["acceptance"][key.removesuffix("_mm") + "_percent"]
     assert abs(error) <= bar, f"{key}: {error:+.1f} % against a bar of {bar} %"
 

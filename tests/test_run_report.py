@@ -423,3 +423,25 @@ def test_bad_cases_folder_or_deck_is_one_line_and_exit_2(tmp_path, args, message
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("fsph: error: ") and message in lines[0], lines
     assert (tmp_path / "rep").exists() != checked_first
+
+
+def test_a_reference_the_run_did_not_measure_is_reported_not_met():
+    """A metric with a reference value that the run could not measure
+    (None: the group it measures is empty, e.g. no copper touching the
+    aluminium for the intersection radius) stays in the comparison with
+    the reference, is printed as not measured and is outside any bar of
+    `fsph report` (before, it was left out of all three, and a report
+    counted the bars of the metrics left as all met)."""
+    from fsph.driver import _reference_text
+    from fsph.report import within
+    got = metrics.compare({"debris": {"intersection_radius_mm": None, "hole_diameter_mm": 22.0,
+                                      "flyer": "copper"}},
+                          {"debris": {"intersection_radius_mm": 27.9, "hole_diameter_mm": 20.0}})
+    missing = got["debris"]["intersection_radius_mm"]
+    assert missing == {"computed": None, "reference": 27.9, "error_percent": None}
+    assert got["debris"]["hole_diameter_mm"]["error_percent"] == pytest.approx(10.0)
+    assert "flyer" not in got["debris"]
+    assert "not measured" in _reference_text(missing) and "27.9" in _reference_text(missing)
+    assert not within(("percent", 1e9), missing)
+    assert not within(("absolute", 1e9), missing)
+    assert within(("percent", 10.0 + 1e-9), got["debris"]["hole_diameter_mm"])
