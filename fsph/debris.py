@@ -87,32 +87,56 @@ class Points:
                       self.reach[keep], self.radius[keep], self.radius0[keep])
 
 
+def _no_points():
+    empty = np.zeros((0, 2))
+    return Points(empty, empty, empty, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))
+
+
+def _node_points(snap, body_index):
+    """The nodes of a body's elements, as Points."""
+    if "conn" not in snap or not len(snap["conn"]):
+        return _no_points()
+    conn = snap["conn"][snap["body"] == body_index]
+    if not len(conn):
+        return _no_points()
+    ids = np.unique(conn)
+    index = np.full(len(snap["x"]), -1)
+    index[ids] = np.arange(len(ids))
+    edges = index[np.vstack([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]])]
+    zero = np.zeros(len(ids))
+    return Points(snap["x"][ids], snap["x0"][ids], snap["velocity"][ids], snap["node_mass"][ids],
+                  node_radii(snap["x"][ids], edges), zero, zero)
+
+
+def _particle_points(snap, body_index):
+    """A body's particles, as Points."""
+    if "particles" not in snap:
+        return _no_points()
+    part = snap["particles"]
+    keep = part["body"] == body_index
+    return Points(part["x"][keep], part["x0"][keep], part["velocity"][keep], part["mass"][keep],
+                  part["h"][keep], part["radius"][keep], part["radius0"][keep])
+
+
 def body_points(snap, body_index):
     """The nodes of a body's elements and its particles, as Points."""
-    parts = []
-    if "conn" in snap and len(snap["conn"]):
-        conn = snap["conn"][snap["body"] == body_index]
-        if len(conn):
-            ids = np.unique(conn)
-            index = np.full(len(snap["x"]), -1)
-            index[ids] = np.arange(len(ids))
-            edges = index[np.vstack([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]])]
-            zero = np.zeros(len(ids))
-            parts.append(Points(snap["x"][ids], snap["x0"][ids], snap["velocity"][ids],
-                                snap["node_mass"][ids], node_radii(snap["x"][ids], edges),
-                                zero, zero))
-    if "particles" in snap:
-        part = snap["particles"]
-        keep = part["body"] == body_index
-        if keep.any():
-            parts.append(Points(part["x"][keep], part["x0"][keep], part["velocity"][keep],
-                                part["mass"][keep], part["h"][keep], part["radius"][keep],
-                                part["radius0"][keep]))
+    parts = [p for p in (_node_points(snap, body_index), _particle_points(snap, body_index)) if len(p)]
     if not parts:
-        empty = np.zeros((0, 2))
-        return Points(empty, empty, empty, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))
+        return _no_points()
     return Points(*[np.concatenate([getattr(p, name) for p in parts])
                     for name in ("x", "x0", "v", "mass", "reach", "radius", "radius0")])
+
+
+def body_spacing(snap, body_index):
+    """The initial spacing [m] of the points a body started as
+    (initial_spacing): its elements' nodes while it has elements, its
+    particles otherwise. The particles converted from elements stand at
+    the elements' initial centroids, between the nodes, and were not
+    points of the mesh: counted in, they made an adaptive plate's spacing
+    a third of its mesh's and its rings too narrow to hold a column of
+    nodes that the plate's outward flow had moved by half a column."""
+    nodes = _node_points(snap, body_index)
+    return initial_spacing((nodes if len(nodes) >= 2 else _particle_points(snap, body_index)).x0)
 
 
 @dataclass(frozen=True)
@@ -353,7 +377,7 @@ class DebrisCase:
                           self.flyer_dimensions(flyer)[1], frame.thickness)
 
 
-def _interface(snap, case, frame, flyer, target, match):
+def _interface(snap, case, frame, flyer, match):
     """The four interface entries of a record: each body's probe pressure
     [GPa] and velocity [m/s] while the plate's shock has not reached the
     plate's rear face (None outside that window)."""
@@ -363,11 +387,11 @@ def _interface(snap, case, frame, flyer, target, match):
     if match is None or not 0.0 < t <= match["target_transit_s"]:
         return out
     flyer_radius = case.flyer_dimensions(flyer)[0]
-    for name, index, points, speed, flyer_side in (
-            ("flyer", case.flyer, flyer, match["flyer_shock_speed_m_s"], True),
-            ("target", case.target, target, match["target_shock_speed_m_s"], False)):
+    for name, index, speed, flyer_side in (
+            ("flyer", case.flyer, match["flyer_shock_speed_m_s"], True),
+            ("target", case.target, match["target_shock_speed_m_s"], False)):
         pressure, velocity = interface_probe(snap, index, frame, flyer_radius, speed * t,
-                                             initial_spacing(points.x0), flyer_side)
+                                             body_spacing(snap, index), flyer_side)
         out[f"{name}_interface_pressure_GPa"] = None if pressure is None else pressure / 1e9
         out[f"{name}_interface_velocity_m_s"] = velocity
     return out
@@ -390,7 +414,7 @@ def debris(snap, case):
     None where the group they measure is empty)."""
     flyer, target = body_points(snap, case.flyer), body_points(snap, case.target)
     frame = case.frame(target)
-    ring_width = RING_SPACINGS * initial_spacing(target.x0)
+    ring_width = RING_SPACINGS * body_spacing(snap, case.target)
     intact, hole_radius = intact_plate(target, frame, case.intact_fraction, ring_width)
     beyond = frame.thickness
     flyer_cloud = flyer.take(frame.along(flyer.x[:, 1]) > beyond)
@@ -425,7 +449,7 @@ def debris(snap, case):
         state = state_masses(snap, index)
         record[f"{body}_failed_mass_kg"] = state["failed_mass_kg"]
         record[f"{body}_melted_mass_kg"] = state["melted_mass_kg"]
-    record.update(_interface(snap, case, frame, flyer, target, case.impedance(flyer, frame)))
+    record.update(_interface(snap, case, frame, flyer, case.impedance(flyer, frame)))
     return record
 
 

@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 from fsph import deck as deck_module
-from fsph.debris import (FRONT_FRACTIONS, UNITS, DebrisCase, Frame, body_points, debris,
-                         fraction_tag, interface_probe, intact_plate, touching, upper_quantile)
+from fsph.debris import (FRONT_FRACTIONS, UNITS, DebrisCase, Frame, body_points, body_spacing,
+                         debris, fraction_tag, initial_spacing, interface_probe, intact_plate,
+                         touching, upper_quantile)
 from fsph.driver import run
 from fsph.hugoniot import ShockMaterial, front_time, impedance_match
 from conftest import CASES, reference
@@ -277,6 +278,68 @@ def test_graded_rim_columns_that_drift_stay_intact():
     target = body_points(snap, 1)
     intact, hole = intact_plate(target, Frame.of_plate(-THICKNESS, 0.0, -1.0), 0.5, 2 * DX)
     assert intact.all() and hole == pytest.approx(0.0, abs=1e-15)
+
+
+def _adaptive_plate(cell=0.2e-3, n_cells=40, n_layers=4, hole_cells=25, shift=0.12e-3):
+    """An adaptive plate (body 1) of crossed-quadrilateral T3 cells
+    (corner nodes of mass 2, centre nodes of mass 1) whose inner
+    `hole_cells` columns of cells have converted: their particles (mass
+    1, initial positions the elements' centroids) are 20 mm downrange,
+    and the remaining elements' nodes have flowed outward by `shift` [m]."""
+    corner = {(i, j): k for k, (i, j) in enumerate(
+        (i, j) for i in range(n_cells + 1) for j in range(n_layers + 1))}
+    x0 = [(i * cell, -j * cell) for (i, j) in corner]
+    mass = [2.0] * len(x0)
+    tris, column = [], []
+    for i in range(n_cells):
+        for j in range(n_layers):
+            centre = len(x0)
+            x0.append(((i + 0.5) * cell, -(j + 0.5) * cell))
+            mass.append(1.0)
+            ring = [corner[(i, j)], corner[(i + 1, j)], corner[(i + 1, j + 1)], corner[(i, j + 1)]]
+            for a, b in zip(ring, ring[1:] + ring[:1]):
+                tris.append((a, b, centre))
+                column.append(i)
+    x0, tris, converted = np.array(x0), np.array(tris), np.array(column) < hole_cells
+    used = np.unique(tris[~converted])
+    renumber = np.full(len(x0), -1)
+    renumber[used] = np.arange(len(used))
+    px0 = x0[tris[converted]].mean(axis=1)
+    n_p = len(px0)
+    return {"time": 1e-6, "x": x0[used] + [shift, 0.0], "x0": x0[used],
+            "velocity": np.zeros((len(used), 2)), "node_mass": np.array(mass)[used],
+            "conn": renumber[tris[~converted]], "body": np.ones(int((~converted).sum()), int),
+            "element_mass": np.ones(int((~converted).sum())),
+            "particles": {"x": np.column_stack([px0[:, 0], np.full(n_p, -20e-3)]), "x0": px0,
+                          "velocity": np.tile([0.0, -7000.0], (n_p, 1)), "mass": np.ones(n_p),
+                          "body": np.ones(n_p, int), "h": np.full(n_p, 0.3e-3),
+                          "radius": np.full(n_p, 0.1e-3), "radius0": np.full(n_p, 0.1e-3),
+                          "pressure": np.zeros(n_p)}}
+
+
+def test_an_adaptive_plate_keeps_the_rings_of_its_mesh():
+    """The rings of a plate of elements are twice its mesh's spacing wide
+    (the nodes' nearest-neighbour distance, 0.141 mm here), not its
+    points': the particles converted from its elements stand at their
+    centroids, a third of a cell from the nodes (0.067 mm), and rings
+    that narrow lost a column of nodes that the plate's outward flow
+    (0.12 mm) had moved out of them, so that the intact plate began at
+    7.7 mm (the adaptive case 1 reported a hole of 39.7 mm in a plate whose
+    picture showed 22 mm). With the mesh's rings the hole is where the
+    remaining nodes begin (5.12 mm) within a ring."""
+    snap = _adaptive_plate()
+    target = body_points(snap, 1)
+    assert initial_spacing(target.x0) == pytest.approx(0.2e-3 / 3, rel=1e-9)
+    assert body_spacing(snap, 1) == pytest.approx(0.2e-3 / np.sqrt(2.0), rel=1e-9)
+    frame = Frame.of_plate(-0.8e-3, 0.0, -1.0)
+    _, narrow = intact_plate(target, frame, 0.5, 2 * initial_spacing(target.x0))
+    assert 2e3 * narrow > 15.0
+    ring = 2 * body_spacing(snap, 1)
+    _, hole = intact_plate(target, frame, 0.5, ring)
+    assert abs(hole - 5.12e-3) <= ring
+    case = DebrisCase(0, 1, "flyer", "plate", "copper", "al", None, None, 5000.0, -1.0,
+                      0.01, 0.5, (5e-3, 3e-3), (-0.8e-3, 0.0))
+    assert debris(snap, case)["hole_diameter_mm"] == pytest.approx(2e3 * hole, rel=1e-12)
 
 
 def test_interface_probe_reads_the_shocked_layers_only():
