@@ -83,9 +83,11 @@ def shares_text(phases, total):
 
 
 # ---- sections --------------------------------------------------------------
-def best_of(repeat, name, params, threads, key):
-    """The run of `repeat` with the smallest `key`."""
-    return min((run_workload(name, params, threads) for _ in range(repeat)), key=lambda r: r[key])
+def best_of(repeat, name, params, threads, key, cpu=None):
+    """The run of `repeat` with the smallest `key` (each on processor `cpu`
+    alone if given)."""
+    return min((run_workload(name, params, threads, cpu=cpu) for _ in range(repeat)),
+               key=lambda r: r[key])
 
 
 def section_block(kind, n_radial, n_axial, cycles, repeat):
@@ -110,11 +112,11 @@ def section_block(kind, n_radial, n_axial, cycles, repeat):
     return {"rows": rows, "speedup_2": rows[0]["advance_s"] / rows[1]["advance_s"]}
 
 
-def section_run(label, deck, outroot, threads=THREADS, repeat=1):
+def section_run(label, deck, outroot, threads=THREADS, repeat=1, cpu=None):
     rows = []
     for t in threads:
         r = best_of(repeat, "run", {"deck": str(deck), "outdir": str(outroot / f"{Path(deck).stem}_t{t}")}, t,
-                    "process_wall_s")
+                    "process_wall_s", cpu)
         rows.append(r)
         total = sum(r["phases_s"].values())
         print(f"  {label} {t} thread(s): {r['process_wall_s']:7.2f} s wall from launch "
@@ -229,14 +231,9 @@ def section_refinement(outroot, quick, threads, repeat, clock=True):
     with (ReferenceClock(decks[1], outroot / "clock", 1) if clock else contextlib.nullcontext()) as ref:
         for f in factors:
             # the short runs are repeated (the best counts); the x4 run, minutes long, once
-            runs = [run_workload("run", {"deck": str(decks[f]), "outdir": str(outroot / f"x{f}")}, threads,
-                                 cpu=0 if clock else None) for _ in range(repeat if f < 4 else 1)]
-            r = min(runs, key=lambda r: r["process_wall_s"])
-            print(f"  x{f} {threads} thread(s): {r['process_wall_s']:7.2f} s wall from launch "
-                  f"({r['solver_wall_s']:.2f} s in fsph.driver.run), {r['cycles']} cycles, "
-                  f"{r['n_elements_initial']} elements at t = 0, {r['n_particles_end']} particles at the end; "
-                  f"peak memory {r['peak_rss_mb']:.0f} MB")
-            rows.append({"factor": f, **r})
+            rows.append({"factor": f, **section_run(f"x{f}", decks[f], outroot / f"x{f}", threads=(threads,),
+                                                    repeat=repeat if f < 4 else 1,
+                                                    cpu=0 if clock else None)["rows"][0]})
     if clock:
         # the clock's runs overlapping each window, once all have ended
         for r in rows:
