@@ -118,16 +118,21 @@ def _particle_points(snap, body_index):
                   part["h"][keep], part["radius"][keep], part["radius0"][keep])
 
 
-def body_points(snap, body_index):
-    """The nodes of a body's elements and its particles, as Points."""
-    parts = [p for p in (_node_points(snap, body_index), _particle_points(snap, body_index)) if len(p)]
+def _body_parts(snap, body_index):
+    """A body's (nodes, particles), each as Points."""
+    return _node_points(snap, body_index), _particle_points(snap, body_index)
+
+
+def _joined(parts):
+    """The Points of a body's parts together, nodes first."""
+    parts = [p for p in parts if len(p)]
     if not parts:
         return _no_points()
     return Points(*[np.concatenate([getattr(p, name) for p in parts])
                     for name in ("x", "x0", "v", "mass", "reach", "radius", "radius0")])
 
 
-def body_spacing(snap, body_index):
+def _parts_spacing(parts):
     """The initial spacing [m] of the points a body started as
     (initial_spacing): its elements' nodes while it has elements, its
     particles otherwise. The particles converted from elements stand at
@@ -135,8 +140,18 @@ def body_spacing(snap, body_index):
     points of the mesh: counted in, they made an adaptive plate's spacing
     a third of its mesh's and its rings too narrow to hold a column of
     nodes that the plate's outward flow had moved by half a column."""
-    nodes = _node_points(snap, body_index)
-    return initial_spacing((nodes if len(nodes) >= 2 else _particle_points(snap, body_index)).x0)
+    nodes, particles = parts
+    return initial_spacing((nodes if len(nodes) >= 2 else particles).x0)
+
+
+def body_points(snap, body_index):
+    """The nodes of a body's elements and its particles, as Points."""
+    return _joined(_body_parts(snap, body_index))
+
+
+def body_spacing(snap, body_index):
+    """_parts_spacing of a body of the snapshot [m]."""
+    return _parts_spacing(_body_parts(snap, body_index))
 
 
 @dataclass(frozen=True)
@@ -377,10 +392,11 @@ class DebrisCase:
                           self.flyer_dimensions(flyer)[1], frame.thickness)
 
 
-def _interface(snap, case, frame, flyer, match):
+def _interface(snap, case, frame, flyer, match, parts):
     """The four interface entries of a record: each body's probe pressure
     [GPa] and velocity [m/s] while the plate's shock has not reached the
-    plate's rear face (None outside that window)."""
+    plate's rear face (None outside that window); parts: each body's
+    (nodes, particles) by its index."""
     out = {f"{b}_interface_{q}": None for b in ("flyer", "target")
            for q in ("pressure_GPa", "velocity_m_s")}
     t = snap["time"]
@@ -391,7 +407,7 @@ def _interface(snap, case, frame, flyer, match):
             ("flyer", case.flyer, match["flyer_shock_speed_m_s"], True),
             ("target", case.target, match["target_shock_speed_m_s"], False)):
         pressure, velocity = interface_probe(snap, index, frame, flyer_radius, speed * t,
-                                             body_spacing(snap, index), flyer_side)
+                                             _parts_spacing(parts[index]), flyer_side)
         out[f"{name}_interface_pressure_GPa"] = None if pressure is None else pressure / 1e9
         out[f"{name}_interface_velocity_m_s"] = velocity
     return out
@@ -412,9 +428,10 @@ def debris(snap, case):
     """The per-snapshot debris record of `snap` (keys: UNITS; lengths [mm]
     along the flight direction from the plate's front face before impact,
     None where the group they measure is empty)."""
-    flyer, target = body_points(snap, case.flyer), body_points(snap, case.target)
+    parts = {index: _body_parts(snap, index) for index in (case.flyer, case.target)}
+    flyer, target = _joined(parts[case.flyer]), _joined(parts[case.target])
     frame = case.frame(target)
-    ring_width = RING_SPACINGS * body_spacing(snap, case.target)
+    ring_width = RING_SPACINGS * _parts_spacing(parts[case.target])
     intact, hole_radius = intact_plate(target, frame, case.intact_fraction, ring_width)
     beyond = frame.thickness
     flyer_cloud = flyer.take(frame.along(flyer.x[:, 1]) > beyond)
@@ -449,7 +466,7 @@ def debris(snap, case):
         state = state_masses(snap, index)
         record[f"{body}_failed_mass_kg"] = state["failed_mass_kg"]
         record[f"{body}_melted_mass_kg"] = state["melted_mass_kg"]
-    record.update(_interface(snap, case, frame, flyer, case.impedance(flyer, frame)))
+    record.update(_interface(snap, case, frame, flyer, case.impedance(flyer, frame), parts))
     return record
 
 
