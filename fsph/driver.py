@@ -39,11 +39,16 @@ def _format_metrics(comparison, metrics):
             cmp = comparison.get(group, {}).get(key)
             if not isinstance(val, float) and not cmp:
                 continue
-            text = f"  {group}.{key:<14s} " + (f"{val:10.4g}" if val is not None else f"{'none':>10s}")
+            text = f"  {group}.{key:<14s} " + _value_text(val)
             if cmp:
                 text += _reference_text(cmp)
             lines.append(text)
     return lines
+
+
+def _value_text(value):
+    """A metric's value in 10 columns, 'none' where the run has none."""
+    return f"{value:10.4g}" if value is not None else f"{'none':>10s}"
 
 
 def _reference_text(cmp):
@@ -80,7 +85,7 @@ def _format_debris(metrics, comparison):
                      f"{mm(rec[f'target_front_{tag}_mm'])}")
     for key in _DEBRIS_LINES:
         value = rec[key]
-        text = f"  debris.{key:<24s} " + (f"{value:10.4g}" if value is not None else f"{'none':>10s}")
+        text = f"  debris.{key:<24s} " + _value_text(value)
         cmp = comparison.get("debris", {}).get(key)
         if cmp:
             text += _reference_text(cmp)
