@@ -35,20 +35,22 @@ def documented_layers():
     return layers
 
 
-def module_uses():
-    """{module: set of fsph_ modules it uses} over src_f90/*.f90 and the
-    templates *.f90.in."""
-    uses = {}
+def module_sources():
+    """{module: (set of fsph_ modules it uses, its code without comments)}
+    over src_f90/*.f90 and the templates *.f90.in."""
+    sources = {}
     for path in sorted((ROOT / "src_f90").glob("*.f90*")):
         source = path.read_text()
-        used = set(re.findall(r"^\s*use\s+(fsph_\w+)", source, re.M | re.I))
+        used = {u.lower() for u in re.findall(r"^\s*use\s+(fsph_\w+)", source, re.M | re.I)}
+        code = "\n".join(line.split("!", 1)[0] for line in source.splitlines())
         for name in re.findall(r"^\s*module\s+(fsph_\w+)\s*$", source, re.M | re.I):
-            uses[name.lower()] = {u.lower() for u in used}
-    return uses
+            sources[name.lower()] = (used, code)
+    return sources
 
 
 LAYERS = documented_layers()
-USES = module_uses()
+SOURCES = module_sources()
+USES = {module: used for module, (used, _) in SOURCES.items()}
 
 
 def test_the_table_is_read():
@@ -72,16 +74,10 @@ def test_module_uses_only_its_layer_or_below(module):
                                        f"(layer {LAYERS[used]})")
 
 
-def _code_without_comments(path):
-    return "\n".join(line.split("!", 1)[0] for line in path.read_text().splitlines())
-
-
 @pytest.mark.parametrize("module", sorted(m for m in USES if m != "fsph_state" and LAYERS.get(m, 0) < 3))
 def test_only_the_run_and_the_api_see_the_whole_state(module):
     """docs/method.md, "Parts, not the whole": below layer 3 a routine
     receives the parts of the state it touches, never simulation_t
     (fsph_state, which declares it, aside)."""
-    path = next(p for p in (ROOT / "src_f90").glob("*.f90*")
-                if re.search(rf"^\s*module\s+{module}\s*$", p.read_text(), re.M | re.I))
-    assert not re.search(r"\bsimulation_t\b", _code_without_comments(path), re.I), \
+    assert not re.search(r"\bsimulation_t\b", SOURCES[module][1], re.I), \
         f"{module} (layer {LAYERS.get(module)}) uses simulation_t"
