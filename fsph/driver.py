@@ -668,6 +668,11 @@ def _summary(setup, books, t_wall0):
         "material_state": {b["name"]: state_masses(books.last_good, ib)
                            for ib, b in enumerate(deck["body"])},
         "warnings": warnings,
+        # SHA-256 of the whole state at the end (fsph.checkpoint.state_digest;
+        # None in the running summaries): the same deck on the same build and
+        # kind of host ends with the same digest, whatever the thread count,
+        # the outputs or a restart
+        "state_digest": checkpoint_module.state_digest(sim) if books.ended else None,
     }
     if reference:
         summary["reference"] = {"source": reference.get("source", ""), "applies": not why,

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fsph.driver import run
-from conftest import CASES, reference
+from conftest import CASES, REFERENCE_DIGESTS, reference
 
 
 def run_case(name, tmp_path_factory):
@@ -96,6 +96,12 @@ def test_1058_fem_erosion_residual_velocity(fem_1058):
     check_perforation(fem_1058, "concrete_1058", 3.0)
     er = fem_1058["erosion"]
     assert er["n_eroded"] > 0 and er["element_mass_kg"] > 0.0
+
+
+def test_1058_adaptive_run_ends_in_the_stored_state(adaptive_1058):
+    """The reference run of the slab (tests/conftest.py REFERENCE_DIGESTS):
+    the summary's digest of the final state is the stored one."""
+    assert adaptive_1058["state_digest"] in REFERENCE_DIGESTS["concrete_1058"]
 
 
 def test_1058_adaptive_residual_velocity(adaptive_1058):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fsph.driver import run
-from conftest import CASES
+from conftest import CASES, REFERENCE_DIGESTS
 
 
 @pytest.fixture(scope="module")
@@ -36,6 +36,12 @@ def test_adaptive_perforates_and_converts(adaptive):
     perf = adaptive["metrics"]["perforation"]
     assert perf["penetration_mm"] > 26.3 + 20.0
     assert 12.9 * 0.9 < perf["hole_diameter_mm"] < 12.9 * 1.3
+
+
+def test_adaptive_run_ends_in_the_stored_state(adaptive):
+    """The reference run of the plate (tests/conftest.py REFERENCE_DIGESTS):
+    the summary's digest of the final state is the stored one."""
+    assert adaptive["state_digest"] in REFERENCE_DIGESTS["al_plate_508"]
 
 
 def test_adaptive_residual_velocity_is_steady(adaptive):

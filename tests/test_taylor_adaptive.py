@@ -7,7 +7,7 @@ below 2 %."""
 import pytest
 
 from fsph.driver import run
-from conftest import CASES, reference
+from conftest import CASES, REFERENCE_DIGESTS, reference
 
 REF = reference("taylor_armco")
 BANDS = REF["acceptance"]
@@ -25,6 +25,13 @@ def test_adaptive_reaches_end_and_converts(adaptive):
     assert adaptive["n_elements_initial"] == 2680
     assert adaptive["n_converted"] > 0
     assert adaptive["n_elements"] + adaptive["n_particles"] == 2680
+
+
+def test_adaptive_run_ends_in_the_stored_state(adaptive):
+    """Through the driver, with its outputs at every snapshot, the run ends
+    in the state the one-call advance of tests/test_runs.py ends in: the
+    summary's digest is the stored one."""
+    assert adaptive["state_digest"] in REFERENCE_DIGESTS["taylor_armco"]
 
 
 W_BELOW_BAR = pytest.mark.xfail(
