@@ -10,6 +10,10 @@ VPY := $(VENV)/bin/python
 STAMP := $(VENV)/.fsph-installed
 SOURCES := $(wildcard src_f90/*.f90 src_f90/.f2py_f2cmap fsph/*.py) meson.build meson.options pyproject.toml
 DECK ?= cases/taylor_armco.nml
+# test processes (pytest-xdist); each test file runs whole in one of them, so
+# a file's module fixtures (the validation runs) run once; each process's runs
+# take the threads the adaptive thread policy finds free
+TEST_WORKERS ?= 2
 OUT ?= out/$(basename $(notdir $(DECK)))
 
 .PHONY: run test test-slow bench docs toolchain clean
@@ -31,10 +35,10 @@ run: toolchain $(STAMP)
 	$(VENV)/bin/fsph run $(DECK) -o $(OUT)
 
 test: toolchain $(STAMP)
-	$(VENV)/bin/pytest -m "not slow"
+	$(VENV)/bin/pytest -m "not slow" -n $(TEST_WORKERS) --dist loadfile
 
 test-slow: toolchain $(STAMP)
-	$(VENV)/bin/pytest -m slow
+	$(VENV)/bin/pytest -m slow -n $(TEST_WORKERS) --dist loadfile
 
 # the benchmark suite (docs/performance.md); BENCH_ARGS=--quick for a short run
 bench: toolchain $(STAMP)
