@@ -11,7 +11,6 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
-import meshio
 import numpy as np
 
 from . import layouts
@@ -60,6 +59,14 @@ def _points3(xy):
 VTU_PARTS = ("elements", "particles")
 
 
+def _meshio():
+    """meshio, imported at its first use: with it come the readers and
+    writers of all its formats (about 0.1 s), which `import fsph` in a
+    script or a command that writes no VTU file need not pay."""
+    import meshio
+    return meshio
+
+
 def _element_mesh(snap):
     """The meshio mesh of a snapshot's elements."""
     cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
@@ -68,7 +75,7 @@ def _element_mesh(snap):
     cell_data["mises"] = [von_mises(snap["stress"])]
     point_data = {"velocity": _points3(snap["velocity"]),
                   "displacement": _points3(snap["x"] - snap["x0"])}
-    return meshio.Mesh(_points3(snap["x"]), [("triangle", snap["conn"])], point_data=point_data,
+    return _meshio().Mesh(_points3(snap["x"]), [("triangle", snap["conn"])], point_data=point_data,
                        cell_data=cell_data)
 
 
@@ -82,7 +89,7 @@ def _particle_mesh(part):
     for j, comp in enumerate(STRESS_COMPONENTS):
         point_data[f"stress_{comp}"] = part["stress"][:, j]
     point_data["mises"] = von_mises(part["stress"])
-    return meshio.Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
+    return _meshio().Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
                        point_data=point_data)
 
 
@@ -546,7 +553,7 @@ class RunWriter:
         # uncompressed binary: double-precision fields hardly compress, and
         # zlib was the largest output cost of a short run
         with writing_errors(self.outdir / name):
-            meshio.write(self.outdir / name, _with_units(mesh), binary=True, compression=None)
+            _meshio().write(self.outdir / name, _with_units(mesh), binary=True, compression=None)
             written = (self.outdir / name).stat().st_size
         entries.append((time, VTU_PARTS.index(kind.removesuffix("_3d")), name))
         return written
@@ -635,8 +642,8 @@ def _revolved(mesh, segments, angle_deg):
         b = ((np.arange(steps) + 1) % k)[:, None, None] * n
         wedges = np.concatenate([block.data[None] + a, block.data[None] + b], axis=2).reshape(-1, 6)
         cell_data = {name: [np.tile(v[0], steps)] for name, v in mesh.cell_data.items()}
-        return meshio.Mesh(points, [("wedge", wedges)], point_data=point_data, cell_data=cell_data)
-    return meshio.Mesh(points, [("vertex", np.arange(len(points)).reshape(-1, 1))], point_data=point_data)
+        return _meshio().Mesh(points, [("wedge", wedges)], point_data=point_data, cell_data=cell_data)
+    return _meshio().Mesh(points, [("vertex", np.arange(len(points)).reshape(-1, 1))], point_data=point_data)
 
 
 def _with_units(mesh):
@@ -645,7 +652,7 @@ def _with_units(mesh):
     into ParaView, whatever reads the file."""
     def named(data):
         return {(k if _vtu_unit(k) == "-" else f"{k} [{_vtu_unit(k)}]"): v for k, v in data.items()}
-    return meshio.Mesh(mesh.points, mesh.cells, point_data=named(mesh.point_data),
+    return _meshio().Mesh(mesh.points, mesh.cells, point_data=named(mesh.point_data),
                        cell_data=named(mesh.cell_data))
 
 

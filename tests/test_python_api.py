@@ -66,3 +66,16 @@ def test_advance_refuses_bad_times(t):
     with pytest.raises(FsphError, match="advance: expected a"):
         sim.advance(t)
     assert sim.cycle == 0
+
+
+def test_import_leaves_meshio_and_scipy_to_their_first_use(tmp_path):
+    """`import fsph` loads neither meshio (the VTU files) nor SciPy (the
+    metrics, the materials' integrals): a script or a command that does
+    not use them does not pay for them."""
+    import subprocess
+    import sys
+    code = "import sys, fsph; print(sorted(m for m in ('meshio', 'scipy') if m in sys.modules))"
+    # run outside the checkout, so that the installed package is imported
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=tmp_path)
+    assert out.stdout.strip() == "[]"
