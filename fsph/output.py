@@ -76,7 +76,7 @@ def _element_mesh(snap):
     point_data = {"velocity": _points3(snap["velocity"]),
                   "displacement": _points3(snap["x"] - snap["x0"])}
     return _meshio().Mesh(_points3(snap["x"]), [("triangle", snap["conn"])], point_data=point_data,
-                       cell_data=cell_data)
+                          cell_data=cell_data)
 
 
 def _particle_mesh(part):
@@ -90,7 +90,7 @@ def _particle_mesh(part):
         point_data[f"stress_{comp}"] = part["stress"][:, j]
     point_data["mises"] = von_mises(part["stress"])
     return _meshio().Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
-                       point_data=point_data)
+                          point_data=point_data)
 
 
 @contextmanager
@@ -653,7 +653,7 @@ def _with_units(mesh):
     def named(data):
         return {(k if _vtu_unit(k) == "-" else f"{k} [{_vtu_unit(k)}]"): v for k, v in data.items()}
     return _meshio().Mesh(mesh.points, mesh.cells, point_data=named(mesh.point_data),
-                       cell_data=named(mesh.cell_data))
+                          cell_data=named(mesh.cell_data))
 
 
 def _put_field(group, name, values, field):

@@ -5,13 +5,12 @@ digests)."""
 
 import gc
 
-import pytest
-
 import fsph
 from fsph import deck as deck_module
 from fsph.checkpoint import state_digest
 
 from conftest import CASES, REFERENCE_DIGESTS, rod_deck
+
 
 def test_reference_run_ends_in_the_stored_state():
     """The default case advanced to its end in one call ends in the stored
