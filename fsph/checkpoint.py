@@ -15,6 +15,7 @@ import numpy as np
 from . import deck as deck_module
 from . import layouts
 from .errors import DeckError, FsphError
+from .hdf5_writes import write_attribute, write_dataset
 from .output import writing_errors
 from .simulation import STATUS_OK, _api
 
@@ -139,21 +140,21 @@ def save(sim, path, books=None):
     # a failed write (full disk) leaves the previous checkpoint as it was
     try:
         with writing_errors(path), h5py.File(tmp, "w") as h5:
-            h5.attrs["format"] = FORMAT
-            h5.attrs["deck"] = json.dumps(_restart_identity(sim.deck))
-            h5.attrs["counts0"] = np.array([sim.n_nodes0, sim.n_elements0, sim.n_particles0])
-            h5.attrs["books"] = json.dumps(books or {})
-            h5.attrs["initial_energy"] = sim.initial_energy
-            h5["particle_radius0"] = sim.particle_radius0
+            write_attribute(h5, "format", FORMAT)
+            write_attribute(h5, "deck", json.dumps(_restart_identity(sim.deck)))
+            write_attribute(h5, "counts0", np.array([sim.n_nodes0, sim.n_elements0, sim.n_particles0]))
+            write_attribute(h5, "books", json.dumps(books or {}))
+            write_attribute(h5, "initial_energy", sim.initial_energy)
+            write_dataset(h5, "particle_radius0", sim.particle_radius0)
             scalars = h5.create_group("scalars")
             for names, values in ((layouts.CHECKPOINT_REAL_SCALARS, r),
                                   (layouts.CHECKPOINT_INT_SCALARS, i)):
                 for name, value in zip(names, values):
-                    scalars.attrs[name] = value
-            h5.attrs["sizes"] = np.array(sizes)     # nodes, elements, particles, capacity, edges
+                    write_attribute(scalars, name, value)
+            write_attribute(h5, "sizes", np.array(sizes))     # nodes, elements, particles, capacity, edges
             state = h5.create_group("state")
             for name, values in _state_arrays(sim):
-                state[name] = values
+                write_dataset(state, name, values)
         with writing_errors(path):
             os.replace(tmp, path)
     finally:

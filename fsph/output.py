@@ -15,6 +15,7 @@ import numpy as np
 
 from . import layouts
 from .errors import InputError, OutputError
+from .hdf5_writes import append_rows, write_attribute, write_dataset
 from .points import von_mises
 
 #: columns of the time history (fsph.layouts), the energy total included
@@ -447,18 +448,15 @@ class RunWriter:
         records = np.concatenate(self._history)
         hist = h5["history"]
         n0 = hist["time"].shape[0]
-        n1 = n0 + len(records)
         for j, name in enumerate(HISTORY_FIELDS + (PLANE_FORCE[0],)):
-            hist[name].resize((n1,))
-            hist[name][n0:n1] = records[:, j]
+            append_rows(hist, name, n0, records[:, j])
         self._history = []
         if self._bodies:
             rows = np.concatenate(self._bodies)
             for b, body in enumerate(self.body_names):
                 group = h5[f"body_history/{body}"]
                 for j, name in enumerate(BODY_FIELDS + (BODY_FORCE[0],)):
-                    group[name].resize((n1,))
-                    group[name][n0:n1] = rows[:, b, j]
+                    append_rows(group, name, n0, rows[:, b, j])
             self._bodies = []
         if self._gauges:
             rows = np.concatenate(self._gauges)
@@ -468,8 +466,7 @@ class RunWriter:
                 for key in ("switch_time", "lost_time"):
                     group.attrs[key] = np.nan if state.get(key) is None else state[key]
                 for j, name in enumerate(GAUGE_FIELDS):
-                    group[name].resize((n1,))
-                    group[name][n0:n1] = rows[:, g, j]
+                    append_rows(group, name, n0, rows[:, g, j])
             self._gauges = []
 
     def _name_ids(self, g):
@@ -502,8 +499,8 @@ class RunWriter:
             if PARTIAL_SNAPSHOT in snapshots:
                 del snapshots[PARTIAL_SNAPSHOT]
             g = snapshots.create_group(PARTIAL_SNAPSHOT)
-            g.attrs["time"] = snap["time"]
-            g.attrs["cycle"] = snap["cycle"]
+            write_attribute(g, "time", snap["time"])
+            write_attribute(g, "cycle", snap["cycle"])
             if "conn" in snap:
                 for name, field in (("nodes", "x"), ("nodes_initial", "x0"), ("velocity", "velocity"),
                                     ("connectivity", "conn")):
@@ -662,12 +659,12 @@ def _put_field(group, name, values, field):
     listed there) and, for the stress, its `components`. Set on the new
     dataset at once: reopening each dataset by name afterwards cost as
     much as writing it."""
-    data = group.create_dataset(name, data=values)
+    data = write_dataset(group, name, values)
     unit = SNAPSHOT_UNITS.get(field)
     if unit is not None:
-        data.attrs["units"] = unit
+        write_attribute(data, "units", unit)
     if name == "stress":
-        data.attrs["components"] = ",".join(STRESS_COMPONENTS)
+        write_attribute(data, "components", ",".join(STRESS_COMPONENTS))
 
 
 def _append_metrics(h5, kind, record, units):
@@ -680,9 +677,7 @@ def _append_metrics(h5, kind, record, units):
             group.create_dataset(key, shape=(0,), maxshape=(None,), dtype="f8", chunks=(256,))
             group[key].attrs["units"] = unit
         value = record.get(key)
-        data = group[key]
-        data.resize((data.shape[0] + 1,))
-        data[-1] = np.nan if value is None else value
+        append_rows(group, key, None, [np.nan if value is None else value])
 
 
 def write_summary(outdir, summary):
