@@ -244,3 +244,51 @@ def test_failed_write_stops_the_run_and_keeps_what_was_written(tmp_path, monkeyp
     times = complete_snapshots(out / "fsph.h5")
     assert len(times) == 3          # the third's vtu failed after its fsph.h5 group
     assert summary["metrics_time_s"] == times[1]
+
+
+def test_low_level_writes_make_what_the_high_level_interface_makes(tmp_path):
+    """fsph.hdf5_writes (the snapshot, history and checkpoint writers)
+    against h5py's high-level interface: every dataset and attribute the
+    same type, shape, layout and values, rows appended the same way."""
+    from fsph.hdf5_writes import append_rows, write_attribute, write_dataset
+    arrays = {"x": np.arange(12.0).reshape(3, 4), "flags": np.array([True, False, True]),
+              "conn": np.arange(6, dtype=np.int32).reshape(2, 3), "ids": np.arange(4, dtype=np.int64)[::-1],
+              "empty": np.zeros(0), "nodes/x": np.ones((2, 5)), "transposed": np.arange(6.0).reshape(2, 3).T}
+    attributes = {"units": "m/s", "time": 1.5e-6, "cycle": 42, "counts": np.array([3, 4, 5]),
+                  "names": ["rod", "anvil"]}
+    rows = [np.array([1.0, 2.0]), np.array([3.0]), np.array([4.0, 5.0, 6.0])]
+    for name, low in (("high.h5", False), ("low.h5", True)):
+        with h5py.File(tmp_path / name, "w") as h5:
+            group = h5.create_group("g")
+            for key, values in arrays.items():
+                if low:
+                    data = write_dataset(group, key, values)
+                else:
+                    group[key] = values
+                    data = group[key]
+                for attr, value in attributes.items():
+                    if low:
+                        write_attribute(data, attr, value)
+                    else:
+                        group[key].attrs[attr] = value
+            series = h5.create_dataset("series", shape=(0,), maxshape=(None,), dtype="f8", chunks=(4,))
+            n0 = 0
+            for chunk in rows:
+                if low:
+                    append_rows(h5, "series", None if n0 else 0, chunk)
+                else:
+                    series.resize((n0 + len(chunk),))
+                    series[n0:] = chunk
+                n0 += len(chunk)
+    with h5py.File(tmp_path / "high.h5") as a, h5py.File(tmp_path / "low.h5") as b:
+        for key, values in arrays.items():
+            da, db = a["g"][key], b["g"][key]
+            assert da.id.get_type().equal(db.id.get_type()) and da.shape == db.shape == values.shape
+            assert da.id.get_create_plist().get_layout() == db.id.get_create_plist().get_layout()
+            np.testing.assert_array_equal(db[...], values)
+            for attr in attributes:
+                assert da.attrs.get_id(attr).get_type().equal(db.attrs.get_id(attr).get_type())
+                np.testing.assert_array_equal(da.attrs[attr], db.attrs[attr])
+        assert type(b["g/x"].attrs["units"]) is str
+        np.testing.assert_array_equal(b["series"][...], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+        np.testing.assert_array_equal(a["series"][...], b["series"][...])
