@@ -1,12 +1,11 @@
-"""New HDF5 datasets and string attributes written through h5py's
-low-level interface: the same objects as h5py's `group[name] = values`
-and `obj.attrs[key] = value`, and rows appended to an extendable dataset
-(a contiguous dataset of the array's type
-and shape; a scalar variable-length UTF-8 string, a scalar or an array
-of the number's type), without the checks and
-conversions of the high-level calls, which cost more than the writes
-themselves for the small arrays of a checkpoint or a snapshot
-(docs/performance.md, "Snapshot and checkpoint writes")."""
+"""HDF5 datasets, attributes and appended rows written through h5py's
+low-level interface. They are the objects h5py's `group[name] = values`,
+`obj.attrs[key] = value` and `dset.resize(...); dset[n0:n1] = rows` make
+(a contiguous dataset of the array's type and shape; a scalar
+variable-length UTF-8 string, or a number or array of numbers of its
+type), without the high-level calls' checks and conversions, which cost
+more than the writes themselves for the small arrays of a snapshot or a
+checkpoint (docs/performance.md, "Snapshot and checkpoint writes")."""
 
 import h5py
 import numpy as np
@@ -52,9 +51,9 @@ def append_rows(group, name, n0, values):
 
 def write_attribute(obj, key, value):
     """Create the attribute `key` of the open dataset or group `obj` (or
-    its identifier) holding `value`: a string (a scalar variable-length UTF-8 string), a
-    number or an array of numbers; anything else through the high-level
-    interface."""
+    its identifier) holding `value`: a string (a scalar variable-length
+    UTF-8 string), a number or an array of numbers; anything else through
+    the high-level interface."""
     oid = obj.id if isinstance(obj, (h5py.Group, h5py.Dataset)) else obj
     if isinstance(value, str):
         tid, data = _TEXT_TYPE, np.array(value, dtype=_TEXT)
