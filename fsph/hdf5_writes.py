@@ -22,7 +22,9 @@ def write_dataset(group, name, values):
     """Create the dataset `name` in the open `group` holding `values` (an
     array of numbers or booleans; anything else through the high-level
     interface) and return its identifier (h5py.h5d.DatasetID)."""
-    data = np.ascontiguousarray(values)
+    data = np.asarray(values)
+    if not data.flags.c_contiguous:
+        data = np.ascontiguousarray(data)    # (which would make a 0-d array 1-d)
     if data.dtype.kind not in "biuf":
         group[name] = data
         return group[name].id

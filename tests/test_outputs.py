@@ -253,7 +253,8 @@ def test_low_level_writes_make_what_the_high_level_interface_makes(tmp_path):
     from fsph.hdf5_writes import append_rows, write_attribute, write_dataset
     arrays = {"x": np.arange(12.0).reshape(3, 4), "flags": np.array([True, False, True]),
               "conn": np.arange(6, dtype=np.int32).reshape(2, 3), "ids": np.arange(4, dtype=np.int64)[::-1],
-              "empty": np.zeros(0), "nodes/x": np.ones((2, 5)), "transposed": np.arange(6.0).reshape(2, 3).T}
+              "empty": np.zeros(0), "nodes/x": np.ones((2, 5)), "transposed": np.arange(6.0).reshape(2, 3).T,
+              "scalar": np.float64(2.5)}
     attributes = {"units": "m/s", "time": 1.5e-6, "cycle": 42, "counts": np.array([3, 4, 5]),
                   "names": ["rod", "anvil"]}
     rows = [np.array([1.0, 2.0]), np.array([3.0]), np.array([4.0, 5.0, 6.0])]
