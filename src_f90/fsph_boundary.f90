@@ -6,7 +6,7 @@ module fsph_boundary
   implicit none
   private
 
-  public :: apply_axis, apply_rigid_plane
+  public :: apply_axis, apply_rigid_plane, wall_normal_velocity
 
 contains
 
@@ -60,8 +60,7 @@ contains
       if (present(offset)) gap = gap - offset(a)
       vn = dot_product(v(:, a), normal)
       if (gap + dt*vn < 0.0_wp) then
-        vn_new = max(-gap/dt, 0.0_wp)
-        if (gap < 0.0_wp) vn_new = max(vn, 0.0_wp)
+        vn_new = wall_normal_velocity(gap, vn, dt)
         v(:, a) = v(:, a) + (vn_new - vn)*normal
         w = w + mass(a)*(vn_new - vn)*0.5_wp*(dot_product(v_start(:, a), normal) + vn_new)
         dp = dp + mass(a)*(vn_new - vn)
@@ -70,5 +69,20 @@ contains
     work = work + w
     impulse = impulse + dp*normal
   end subroutine apply_rigid_plane
+
+  !> The rule of apply_rigid_plane for one point: its normal velocity
+  !> [m/s] after a fixed wall at distance gap [m] (less any offset; negative
+  !> when the point is already closer) has acted on its normal velocity vn
+  !> [m/s] over the step dt [s]: unchanged when x + dt v stays clear of the
+  !> wall; else the velocity that brings it onto the wall, and for a point
+  !> already inside, only no approach. Contact predictions use it so that
+  !> they see the positions the boundary conditions will allow.
+  pure real(wp) function wall_normal_velocity(gap, vn, dt) result(vn_new)
+    real(wp), intent(in) :: gap, vn, dt
+    vn_new = vn
+    if (.not. (gap + dt*vn < 0.0_wp)) return
+    vn_new = max(-gap/dt, 0.0_wp)
+    if (gap < 0.0_wp) vn_new = max(vn, 0.0_wp)
+  end function wall_normal_velocity
 
 end module fsph_boundary
