@@ -254,6 +254,11 @@ MATERIAL_HISTORY = (
     ("contact_work", "J/kg", "energy received through contact per unit mass: the work of the slide-line "
      "corrections on the point (an element: its share of its nodes') and of the particle contact's forces "
      "with the heat it gives"),
+    ("contact_allowance", "m", "particles: the overlap of the particle's contact thickness with another body's "
+     "surface that it was made with, kept while it lasts (fsph_contact; -1 until first measured; 0 in "
+     "elements)"),
+    ("contact_corrected", "-", "particles: 1 when the contact corrected the particle's velocity in the last "
+     "cycle (its pairs then carry no hourglass force in the next; fsph_sph), else 0; 0 in elements"),
 )
 STRENGTH_MODELS = (
     ("elastic", "elastic"),

@@ -35,7 +35,8 @@ module fsph_contact
   use fsph_kinds, only: wp
   use fsph_state, only: contact_t, contact_grid_t, node_set_t, element_set_t, particle_set_t
   use fsph_arrays, only: reserve
-  use fsph_layouts, only: hist_contact_work
+  use fsph_layouts, only: hist_contact_work, hist_contact_allowance, hist_contact_corrected
+  use fsph_boundary, only: wall_normal_velocity
   use fsph_topology, only: elements_with_edge
   use fsph_element, only: element_step
   implicit none
@@ -54,6 +55,10 @@ module fsph_contact
   !> above the rounding of the distances the test stands for, so that it
   !> passes over only segments the search would have passed over.
   real(wp), parameter :: reach_margin = 1.0e-6_wp, coordinate_margin = 1.0e-12_wp
+
+  !> Largest growth of a particle's contact thickness within one step
+  !> (predicted_thickness) [-].
+  real(wp), parameter :: growth_max = 1.01_wp
 
   !> Slave kinds.
   integer, parameter :: slave_node = 1, slave_particle = 2
@@ -132,17 +137,24 @@ contains
     ct%snode_cont = cont_of_node(ct%snode)
   end subroutine contact_rebuild_surface
 
-  !> Predicted position x + dt v of node a [m].
+  !> Predicted position x + dt v of node a [m], as the boundary conditions
+  !> that act after the contact will let it move: a node on the axis keeps
+  !> r = 0 (fsph_boundary apply_axis).
   pure function node_predicted(nd, a, dt) result(p)
     type(node_set_t), intent(in) :: nd
     integer, intent(in) :: a
     real(wp), intent(in) :: dt
     real(wp) :: p(2)
     p = nd%x(:, a) + dt*nd%v(:, a)
+    if (nd%on_axis(a)) p(1) = nd%x(1, a)
   end function node_predicted
 
   !> Predicted position of particle i [m]; a tied particle moves with the
-  !> tie point of its edge.
+  !> tie point of its edge; a free one as the axis wall will let it move
+  !> (it keeps its radius from r = 0: fsph_boundary wall_normal_velocity,
+  !> the rule fsph_solver apply_boundaries applies after the contact).
+  !> Without the wall in the prediction, a particle driven towards the
+  !> axis was corrected against a segment for a motion it would not make.
   pure function particle_predicted(pt, nd, i, dt) result(p)
     type(particle_set_t), intent(in) :: pt
     type(node_set_t), intent(in) :: nd
@@ -153,9 +165,31 @@ contains
       xi = pt%tie_xi(i)
       p = pt%x(:, i) + dt*((1.0_wp - xi)*nd%v(:, pt%tie_a(i)) + xi*nd%v(:, pt%tie_b(i)))
     else
-      p = pt%x(:, i) + dt*pt%v(:, i)
+      p(1) = pt%x(1, i) + dt*wall_normal_velocity(pt%x(1, i) - pt%radius(i), pt%v(1, i), dt)
+      p(2) = pt%x(2, i) + dt*pt%v(2, i)
     end if
   end function particle_predicted
+
+  !> Contact thickness [m] of particle i at its predicted position p: its
+  !> radius 1/2 sqrt(A) with the planar area A = m/(2 pi r rho) of its ring
+  !> at the predicted radius (fsph_sph particle_radius), so a particle
+  !> moving towards the axis thickens within the step it moves. At most 1 %
+  !> thicker than now in one step, and r taken no smaller than the radius
+  !> (the axis wall's distance), so that no step near the axis makes it jump.
+  pure real(wp) function predicted_thickness(pt, i, p) result(tau)
+    type(particle_set_t), intent(in) :: pt
+    integer, intent(in) :: i
+    real(wp), intent(in) :: p(2)
+    tau = pt%radius(i)*min(sqrt(max(abs(pt%x(1, i)), pt%radius(i))/max(abs(p(1)), pt%radius(i))), growth_max)
+  end function predicted_thickness
+
+  !> The birth allowance of particle i [m] (hist_contact_allowance; 0 until
+  !> measured).
+  pure real(wp) function allowance_of(pt, i) result(allowance)
+    type(particle_set_t), intent(in) :: pt
+    integer, intent(in) :: i
+    allowance = max(pt%hist(hist_contact_allowance, i), 0.0_wp)
+  end function allowance_of
 
   !> Bucket the segments: each is registered in every cell that its reach
   !> (its predicted end points, widened by its capture depth and the
@@ -173,7 +207,7 @@ contains
     real(wp) :: lo(2), hi(2), l_sum, r_max, xa(2), xb(2), seg_lo(2), seg_hi(2), reach
     integer :: k, ic, n_cells, n_items, ir, iz, c_lo(2), c_hi(2), pass
     r_max = 0.0_wp
-    if (pt%n > 0) r_max = maxval(pt%radius(1:pt%n))
+    if (pt%n > 0) r_max = growth_max*maxval(pt%radius(1:pt%n))
     lo = huge(1.0_wp)
     hi = -huge(1.0_wp)
     l_sum = 0.0_wp
@@ -253,23 +287,25 @@ contains
   end function cell_coords
 
   !> Deepest contact of point p (predicted; p_now its current position)
-  !> with thickness tau [m] among the segments registered in its cell.
-  !> Segments of continuum `own` are skipped unless own_allowed; segments
-  !> holding node `self` are skipped. The penetration to remove is the
-  !> predicted one less any overlap that already exists (a particle made
-  !> by conversion inside another body's thickness, a point that came in
-  !> deeper than the capture depth): an existing overlap only stops
-  !> growing, it is not pushed out in one step, which would put energy in.
-  !> With `whole` the whole penetration is returned (measurement).
-  subroutine find_contact(ct, nd, p, p_now, tau, own, own_allowed, self, dt, best, whole)
+  !> with thickness tau [m] (tau_now now) among the segments registered in
+  !> its cell. Against other continua the thickness is less the point's
+  !> allowance [m] (a particle's birth overlap, contact_correct). Segments
+  !> of continuum `own` are skipped unless own_allowed (then with zero
+  !> thickness); segments holding node `self` are skipped. The penetration
+  !> to remove is the predicted one less any overlap that already exists (a
+  !> point that came in deeper than the capture depth): an existing
+  !> overlap only stops growing, it is not pushed out in one step, which
+  !> would put energy in. With `whole` the whole penetration is returned
+  !> (measurement).
+  subroutine find_contact(ct, nd, p, p_now, tau, tau_now, allowance, own, own_allowed, self, dt, best, whole)
     type(contact_t), intent(in) :: ct
     type(node_set_t), intent(in) :: nd
-    real(wp), intent(in) :: p(2), p_now(2), tau, dt
+    real(wp), intent(in) :: p(2), p_now(2), tau, tau_now, allowance, dt
     integer, intent(in) :: own, self
     logical, intent(in) :: own_allowed
     type(contact_pair_t), intent(out) :: best
     logical, intent(in), optional :: whole
-    real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, d, e(2), overlap, reach
+    real(wp) :: xa(2), xb(2), t(2), nrm(2), l, s, g, delta, thick, thick_now, d, e(2), overlap, reach
     integer :: ir, iz, ic, m, k, a, b
     if (.not. ct%grid%ok) return
     if (.not. (abs(p(1)) <= huge(1.0_wp) .and. abs(p(2)) <= huge(1.0_wp))) return
@@ -283,10 +319,12 @@ contains
       a = ct%seg(1, k)
       b = ct%seg(2, k)
       if (a == self .or. b == self) cycle
-      thick = tau
+      thick = tau - allowance
+      thick_now = tau_now - allowance
       if (ct%seg_cont(k) == own) then
         if (.not. own_allowed) cycle
         thick = 0.0_wp
+        thick_now = 0.0_wp
       end if
       xa = node_predicted(nd, a, dt)
       xb = node_predicted(nd, b, dt)
@@ -311,7 +349,7 @@ contains
         ! case (a): onto the segment
         delta = thick - g
         if (delta <= 0.0_wp .or. g <= -capture_depth*l) cycle
-        overlap = thick - gap_now(p_now, nd%x(:, a), nd%x(:, b))
+        overlap = thick_now - gap_now(p_now, nd%x(:, a), nd%x(:, b))
         if (present(whole)) overlap = 0.0_wp
         delta = delta - max(overlap, 0.0_wp)
         if (delta <= 0.0_wp) cycle
@@ -327,7 +365,7 @@ contains
         d = norm2(p - e)
         delta = thick - d
         if (delta <= 0.0_wp .or. .not. (d > 0.0_wp)) cycle
-        overlap = thick - norm2(p_now - nd%x(:, merge(a, b, s < 0.0_wp)))
+        overlap = thick_now - norm2(p_now - nd%x(:, merge(a, b, s < 0.0_wp)))
         if (present(whole)) overlap = 0.0_wp
         delta = delta - max(overlap, 0.0_wp)
         if (delta <= 0.0_wp) cycle
@@ -360,20 +398,23 @@ contains
     type(element_set_t), intent(inout) :: el !< its material history takes the books of its nodes' corrections
     real(wp), intent(in) :: dt, dt_v
     integer :: pass, j, a, i, n_pairs
+    real(wp) :: p(2)
     type(contact_pair_t) :: pair
     ct%n_active = 0
+    if (pt%n > 0) pt%hist(hist_contact_corrected, 1:pt%n) = 0.0_wp
     if (.not. ct%enabled .or. ct%n_seg == 0) return
     ! one body's surface and no particle: nothing can touch anything
     if (.not. ct%several_continua .and. pt%n == 0) return
     call keep_start_velocities(ct, nd, pt)
+    call update_allowances(ct, nd, pt)
     call build_buckets(ct, nd, pt, dt)
     do pass = 1, ct%n_passes
       n_pairs = 0
       ! slide lines: surface nodes on the other continua's segments
       do j = 1, ct%n_snode
         a = ct%snode(j)
-        call find_contact(ct, nd, node_predicted(nd, a, dt), nd%x(:, a), 0.0_wp, ct%snode_cont(j), .false., &
-                          a, dt, pair)
+        call find_contact(ct, nd, node_predicted(nd, a, dt), nd%x(:, a), 0.0_wp, 0.0_wp, 0.0_wp, &
+                          ct%snode_cont(j), .false., a, dt, pair)
         if (.not. pair%found) cycle
         call apply_pair(ct, nd, pt, pair, dt, slave_node, a)
         n_pairs = n_pairs + 1
@@ -381,8 +422,9 @@ contains
       ! particles on segments: other continua with thickness r_p; their
       ! own continuum's surface (untied particles) with zero thickness
       do i = 1, pt%n
-        call find_contact(ct, nd, particle_predicted(pt, nd, i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                          ct%own_particles .and. pt%tie_a(i) == 0, 0, dt, pair)
+        p = particle_predicted(pt, nd, i, dt)
+        call find_contact(ct, nd, p, pt%x(:, i), predicted_thickness(pt, i, p), pt%radius(i), allowance_of(pt, i), &
+                          pt%continuum(i), ct%own_particles .and. pt%tie_a(i) == 0, 0, dt, pair)
         if (.not. pair%found) cycle
         call apply_pair(ct, nd, pt, pair, dt, slave_particle, i)
         n_pairs = n_pairs + 1
@@ -417,7 +459,7 @@ contains
     integer, intent(out) :: icontrol
     type(contact_pair_t) :: pair
     integer :: j, i, n_node, ie, ie_min
-    real(wp) :: v_s(2), dte, dte_min
+    real(wp) :: v_s(2), dte, dte_min, p(2)
     dt_min = huge(1.0_wp)
     icontrol = 0
     if (.not. ct%enabled .or. ct%n_seg == 0 .or. .not. (dt > 0.0_wp)) return
@@ -434,20 +476,21 @@ contains
     ! the same way: the least pair does not depend on the order, so the
     ! result does not depend on the thread count
     !$omp parallel default(none) shared(ct, nd, pt, el, dt, c_q, c_l, n_node, dt_min, icontrol) &
-    !$omp private(j, i, pair, v_s, ie, dte, dte_min, ie_min)
+    !$omp private(j, i, pair, v_s, ie, dte, dte_min, ie_min, p)
     dte_min = huge(1.0_wp)
     ie_min = 0
     !$omp do schedule(dynamic, 64)
     do j = 1, n_node + pt%n
       if (j <= n_node) then
-        call find_contact(ct, nd, node_predicted(nd, ct%snode(j), dt), nd%x(:, ct%snode(j)), 0.0_wp, &
-                          ct%snode_cont(j), .false., ct%snode(j), dt, pair)
+        call find_contact(ct, nd, node_predicted(nd, ct%snode(j), dt), nd%x(:, ct%snode(j)), 0.0_wp, 0.0_wp, &
+                          0.0_wp, ct%snode_cont(j), .false., ct%snode(j), dt, pair)
         if (.not. pair%found) cycle
         v_s = nd%v(:, ct%snode(j))
       else
         i = j - n_node
-        call find_contact(ct, nd, particle_predicted(pt, nd, i, dt), pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                          .false., 0, dt, pair)
+        p = particle_predicted(pt, nd, i, dt)
+        call find_contact(ct, nd, p, pt%x(:, i), predicted_thickness(pt, i, p), pt%radius(i), allowance_of(pt, i), &
+                          pt%continuum(i), .false., 0, dt, pair)
         if (.not. pair%found) cycle
         if (pt%tie_a(i) > 0) then
           v_s = (1.0_wp - pt%tie_xi(i))*nd%v(:, pt%tie_a(i)) + pt%tie_xi(i)*nd%v(:, pt%tie_b(i))
@@ -499,6 +542,43 @@ contains
       icontrol = ie
     end if
   end subroutine keep_least
+
+  !> Birth allowances (hist_contact_allowance) [m]. A particle made by
+  !> conversion stands at its element's ring centroid with the radius
+  !> 1/2 sqrt(A) of a square cell; an element flattened against another
+  !> body's surface (the plate under a flat rod tip) makes a particle whose
+  !> cell overlaps that surface by up to half its radius although all its
+  !> material lay on its own side. That overlap is measured in the first
+  !> contact after the particle is made (allowance -1 until then) and
+  !> taken off its thickness against the other continua, so the contact
+  !> neither pushes it out (energy in) nor counts it as penetration; each
+  !> cycle the allowance becomes the least of itself and the particle's
+  !> whole overlap now (0 once it is clear), so it only ever shrinks. A
+  !> particle with no allowance is not searched. The search grid is built
+  !> for the current positions (and rebuilt for the step by the caller).
+  subroutine update_allowances(ct, nd, pt)
+    type(contact_t), intent(inout) :: ct
+    type(node_set_t), intent(in) :: nd
+    type(particle_set_t), intent(inout) :: pt
+    type(contact_pair_t) :: pair
+    integer :: i
+    real(wp) :: overlap
+    if (pt%n == 0) return
+    if (all(pt%hist(hist_contact_allowance, 1:pt%n) == 0.0_wp)) return
+    call build_buckets(ct, nd, pt, 0.0_wp)
+    do i = 1, pt%n
+      if (pt%hist(hist_contact_allowance, i) == 0.0_wp) cycle
+      call find_contact(ct, nd, pt%x(:, i), pt%x(:, i), pt%radius(i), pt%radius(i), 0.0_wp, pt%continuum(i), &
+                        .false., 0, 0.0_wp, pair, whole=.true.)
+      overlap = 0.0_wp
+      if (pair%found) overlap = pair%delta
+      if (pt%hist(hist_contact_allowance, i) < 0.0_wp) then
+        pt%hist(hist_contact_allowance, i) = overlap
+      else
+        pt%hist(hist_contact_allowance, i) = min(pt%hist(hist_contact_allowance, i), overlap)
+      end if
+    end do
+  end subroutine update_allowances
 
   !> Velocities of nodes and free particles before the corrections.
   subroutine keep_start_velocities(ct, nd, pt)
@@ -579,6 +659,7 @@ contains
       m_s = 1.0_wp/(w_s(1)**2/nd%mass_total(ta) + w_s(2)**2/nd%mass_total(tb))
     else
       m_s = pt%mass(is)
+      pt%hist(hist_contact_corrected, is) = 1.0_wp
     end if
     m_1 = nd%mass_total(pair%master(1))
     m_2 = 1.0_wp
@@ -642,9 +723,12 @@ contains
 
   !> Deepest interpenetration at the current positions: the largest
   !> penetration [m] of a surface node or particle (with the thickness the
-  !> contact uses), and the same relative to the length of the segment
-  !> penetrated [-] (the local element size). Reads the contact state only:
-  !> the search grid for the current positions is built in a copy.
+  !> contact uses: a particle's radius less its birth allowance), and the
+  !> same relative to the length of the segment penetrated [-] (the local
+  !> element size). A particle made in the last cycle, whose allowance is
+  !> measured at the next contact, has none by definition. Reads the
+  !> contact state only: the search grid for the current positions is
+  !> built in a copy.
   subroutine contact_penetration(ct, nd, pt, depth, relative)
     type(contact_t), intent(in) :: ct
     type(node_set_t), intent(in) :: nd
@@ -659,13 +743,14 @@ contains
     probe = ct
     call build_buckets(probe, nd, pt, 0.0_wp)
     do j = 1, probe%n_snode
-      call find_contact(probe, nd, nd%x(:, probe%snode(j)), nd%x(:, probe%snode(j)), 0.0_wp, &
+      call find_contact(probe, nd, nd%x(:, probe%snode(j)), nd%x(:, probe%snode(j)), 0.0_wp, 0.0_wp, 0.0_wp, &
                         probe%snode_cont(j), .false., probe%snode(j), 0.0_wp, pair, whole=.true.)
       if (pair%found) call keep_deepest(pair)
     end do
     do i = 1, pt%n
-      call find_contact(probe, nd, pt%x(:, i), pt%x(:, i), pt%radius(i), pt%continuum(i), &
-                        probe%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair, whole=.true.)
+      if (pt%hist(hist_contact_allowance, i) < 0.0_wp) cycle
+      call find_contact(probe, nd, pt%x(:, i), pt%x(:, i), pt%radius(i), pt%radius(i), allowance_of(pt, i), &
+                        pt%continuum(i), probe%own_particles .and. pt%tie_a(i) == 0, 0, 0.0_wp, pair, whole=.true.)
       if (pair%found) call keep_deepest(pair)
     end do
   contains

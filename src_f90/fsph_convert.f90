@@ -8,7 +8,7 @@ module fsph_convert
   use fsph_kinds, only: wp, pi
   use fsph_state, only: node_set_t, element_set_t, particle_set_t, coupling_t, conversion_t, contact_t
   use fsph_arrays, only: reserve
-  use fsph_layouts, only: criterion_plastic_strain, criterion_equivalent_stress
+  use fsph_layouts, only: criterion_plastic_strain, criterion_equivalent_stress, hist_contact_allowance, hist_contact_corrected
   use fsph_material, only: equivalent_stress
   use fsph_coupling, only: coupled_body, update_tie_masses, element_mean, element_smoothing_length, &
                            associate_particles, tie_new_particles, association_reach
@@ -284,6 +284,10 @@ contains
       pt%p(i) = el%p(ie)
       pt%eps_p(i) = el%eps_p(ie)
       pt%hist(:, i) = el%hist(:, ie)
+      ! its overlap with other bodies is measured at the next contact
+      ! (fsph_contact, the birth allowance)
+      pt%hist(hist_contact_allowance, i) = -1.0_wp
+      pt%hist(hist_contact_corrected, i) = 0.0_wp
       pt%e(i) = el%e(ie) + dke/el%mass(ie)
       pt%temp(i) = el%temp(ie)
       pt%c(i) = el%c(ie)

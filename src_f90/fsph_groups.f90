@@ -6,13 +6,14 @@
 !> lies in the same or adjacent cells; the groups are merged by union-find
 !> with the smaller index as the root, so a point's label is the smallest
 !> index of its group whatever the order of the merges. Serial: called
-!> once per snapshot, not in the cycle.
+!> once per snapshot, not in the cycle. Its root also serves the
+!> union-find of the fragments of fsph_sph axis_resultant, in the cycle.
 module fsph_groups
   use fsph_kinds, only: wp
   implicit none
   private
 
-  public :: connected_groups
+  public :: connected_groups, root
 
 contains
 

@@ -14,7 +14,7 @@ module fsph_solver
                           hcol_dt, hcol_plane_impulse_z, energy_first, body_columns, bcol_kinetic, &
                           bcol_internal, bcol_momentum_z, bcol_plastic_work, hist_plastic_work, gauge_columns, &
                           bcol_viscous_work, bcol_hourglass_work, bcol_contact_work, hist_viscous_work, &
-                          hist_hourglass_work, hist_contact_work, &
+                          hist_hourglass_work, hist_contact_work, hist_contact_corrected, &
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
@@ -458,7 +458,8 @@ contains
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
         call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
         call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
-                               pt%grad_v, pt%switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, &
+                               pt%grad_v, pt%switch, pt%hist(hist_contact_corrected, 1:n), pt%mirror_of, pt%nbr_ptr, &
+                               pt%nbr_list, pt%low_ptr, &
                                pt%low_pair, pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, &
                                pt%acc_axis)
@@ -489,9 +490,9 @@ contains
                                               dt_step, sim%control%contact_penalty, sim%control%contact_touch, &
                                               sim%control%contact_slope, pt%contact_excess, pt%acc)
         end if
-        ! the axis carries no axial load: each continuum's resultant of the
+        ! the axis carries no axial load: each fragment's resultant of the
         ! images' axial stress forces is removed
-        call axis_resultant(n, size(sim%continuum_of_body), pt%continuum, pt%mass, pt%acc_axis, pt%acc)
+        call axis_resultant(n, pt%continuum, pt%mass, pt%nbr_ptr, pt%nbr_list, pt%pair_in, pt%acc_axis, pt%acc)
         call timer_stop(sim%timers, phase_particle_contact)
         if (el%n > 0) then
           call timer_start(sim%timers, phase_coupling)

@@ -29,6 +29,7 @@ contains
     use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch, &
                         axis_resultant
     use fsph_solver, only: prepare_particle_sums
+    use fsph_layouts, only: hist_contact_corrected
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: np
@@ -49,7 +50,8 @@ contains
       grad_v = 0.0_wp
       switch = 0.0_wp
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
-                             grad_v, switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             grad_v, switch, pt%hist(hist_contact_corrected, 1:np), pt%mirror_of, pt%nbr_ptr, &
+                             pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
                              pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
       call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
@@ -57,10 +59,11 @@ contains
                      drho, d, spin, grad_v)
       call compression_switch(np, d, pt%c, pt%h, switch)
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
-                             grad_v, switch, pt%mirror_of, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                             grad_v, switch, pt%hist(hist_contact_corrected, 1:np), pt%mirror_of, pt%nbr_ptr, &
+                             pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
                              sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
                              pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
-      call axis_resultant(np, size(sim%continuum_of_body), pt%continuum, pt%mass, pt%acc_axis, acc)
+      call axis_resultant(np, pt%continuum, pt%mass, pt%nbr_ptr, pt%nbr_list, pt%pair_in, pt%acc_axis, acc)
       ! the energy equation with the stress, viscosity and velocities of this state
       call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, &
                            pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &

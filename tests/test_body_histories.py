@@ -15,8 +15,10 @@ from conftest import CASES
 
 def plate_books(tmp_path_factory, deck_name, end_time):
     """Run a 508 m/s plate deck (its end time 200 us) to end_time [s] and
-    read its summary, history, each body's books and their units, as a
-    user would (h5py)."""
+    read its summary, history, each body's books and their units, and for
+    each body the times of the last snapshot before it has particles (-inf:
+    none) and of the first in which it has (inf: none), as a user would
+    (h5py)."""
     folder = tmp_path_factory.mktemp(deck_name)
     deck = folder / "plate.nml"
     text = (CASES / f"{deck_name}.nml").read_text()
@@ -28,7 +30,17 @@ def plate_books(tmp_path_factory, deck_name, end_time):
         hist = {k: h5["history"][k][...] for k in h5["history"]}
         bodies = {b: {k: g[k][...] for k in g} for b, g in h5["body_history"].items()}
         units = {k: g.attrs["units"] for k, g in h5["body_history/projectile"].items()}
-    return summary, hist, bodies, units
+        names = list(summary["bodies"])                # in the deck's order, as the snapshots' ids
+        with_particles = {name: [] for name in names}
+        for snap in h5["snapshots"].values():
+            has = np.unique(snap["particles/body"][...]) if "particles" in snap else []
+            for b, name in enumerate(names):
+                with_particles[name].append((snap.attrs["time"], b in has))
+    particle_times = {}
+    for name, rows in with_particles.items():
+        first = min((t for t, has in rows if has), default=np.inf)
+        particle_times[name] = (max((t for t, _ in rows if t < first), default=-np.inf), first)
+    return summary, hist, bodies, units, particle_times
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +53,7 @@ def plate_run(tmp_path_factory):
 def test_bodies_add_up_to_the_whole(plate_run):
     """The bodies' kinetic and internal energies sum to the run's at every
     record (to round-off), with their units."""
-    summary, hist, bodies, units = plate_run
+    summary, hist, bodies, units, _ = plate_run
     assert sorted(bodies) == ["plate", "projectile"]
     assert units == {"kinetic": "J", "internal": "J", "momentum_z": "N s", "plastic_work": "J",
                      "viscous_work": "J", "hourglass_work": "J", "contact_work": "J", "force_z": "N"}
@@ -56,7 +68,7 @@ def test_contact_forces_are_equal_and_opposite(plate_run):
     plate gains the axial momentum the projectile loses, within 0.5 % of
     it, and the projectile's force (its deceleration force, positive
     against the -z flight) integrates to its momentum change."""
-    summary, hist, bodies, _ = plate_run
+    summary, hist, bodies, _, _ = plate_run
     rod, plate = bodies["projectile"], bodies["plate"]
     lost = rod["momentum_z"][-1] - rod["momentum_z"][0]
     gained = plate["momentum_z"][-1] - plate["momentum_z"][0]
@@ -96,10 +108,10 @@ def test_contact_work_is_each_bodys_energy_change(plate_run):
     """The energy each body received through contact: summed over the
     bodies it is minus the kinetic energy the slide lines' corrections
     removed (the history's contact column) to round-off; the projectile
-    (elements only, nothing else acts on it) changes its kinetic and
+    (nothing but the plate acts on it) changes its kinetic and
     internal energy by its contact work within 0.1 % of it, the plate
     within 1 % (its particles' share of the run's energy error)."""
-    _, hist, bodies, _ = plate_run
+    _, hist, bodies, _, _ = plate_run
     work = {b: books["contact_work"] for b, books in bodies.items()}
     transferred = np.abs(work["projectile"]).max()
     assert transferred > 100.0                        # joules: the plate is being perforated
@@ -115,13 +127,17 @@ def test_viscous_and_hourglass_books(plate_run):
     charges the mean of the q before and after it, so a step that expands
     right after a compression may give a little back) is positive and never
     falls below zero; the hourglass viscosity exists only in particles, so the
-    projectile (elements) books none and the plate (converted particles)
-    some; each part is below the body's internal energy."""
-    _, _, bodies, _ = plate_run
+    projectile books none until its tip's first elements convert (about
+    18 us) and the plate (converted particles from 2 us) some; each part
+    is below the body's internal energy."""
+    _, hist, bodies, _, particle_times = plate_run
     projectile, plate = bodies["projectile"], bodies["plate"]
     assert projectile["viscous_work"][-1] > 0.0
     assert projectile["viscous_work"].min() >= -1e-12 * projectile["viscous_work"][-1]
-    assert np.all(projectile["hourglass_work"] == 0.0)
+    elements_only = hist["time"] <= particle_times["projectile"][0]
+    assert elements_only.sum() > 10
+    assert np.all(projectile["hourglass_work"][elements_only] == 0.0)
+    assert particle_times["plate"][1] < 5e-6
     assert plate["hourglass_work"][-1] != 0.0
     for books in (projectile, plate):
         for key in ("plastic_work", "viscous_work", "hourglass_work"):
@@ -132,7 +148,7 @@ def test_viscous_and_hourglass_books(plate_run):
 def sph_plate_run(tmp_path_factory):
     """The pure SPH 508 m/s plate to 20 us: the bodies touch only through
     the Riemann particle contact."""
-    _, hist, bodies, _ = plate_books(tmp_path_factory, "al_plate_508_sph", 20.0e-6)
+    _, hist, bodies, _, _ = plate_books(tmp_path_factory, "al_plate_508_sph", 20.0e-6)
     return hist, bodies
 
 
