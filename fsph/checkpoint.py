@@ -183,9 +183,14 @@ def _restore_arrays(sim, h5, path):
         if name not in known:
             raise DeckError(path, None, None, "state arrays of fsph.layouts (written by another "
                             "fsph version?)", name)
-        if not _write_state_array(sim, name, h5["state"][name][...]):
-            raise DeckError(path, None, None, f"a state array '{name}' that fits this deck",
-                            "another shape")
+        data = h5["state"][name][...]
+        if not _write_state_array(sim, name, data):
+            got = f"shape {data.shape}"
+            rows = len(layouts.MATERIAL_HISTORY)
+            if name.endswith("/hist") and data.ndim == 2 and data.shape[0] != rows:
+                got += (f": {data.shape[0]} material history rows where this version has {rows} "
+                        "(written by another fsph version)")
+            raise DeckError(path, None, None, f"a state array '{name}' that fits this deck", got)
 
 
 def restore(sim, path):

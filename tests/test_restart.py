@@ -270,3 +270,23 @@ def test_state_arrays_by_name():
         checkpoint.set_state_array(sim, "nodes/v", v[:, :-1])
     with pytest.raises(FsphError, match="unknown state array 'nodes/speed'"):
         checkpoint.state_array(sim, "nodes/speed")
+
+
+def test_checkpoint_of_another_material_history_is_refused(tmp_path):
+    """A checkpoint whose material history has another number of rows
+    (written by a version before the history grew) is refused with the
+    rows it has and the rows this version has, not restored."""
+    import h5py
+    from fsph import layouts
+    deck = CASES / "taylor_armco.nml"
+    sim = fsph.Simulation.from_deck(deck)
+    path = checkpoint.save(sim, tmp_path / "ckpt.h5")
+    rows = len(layouts.MATERIAL_HISTORY)
+    with h5py.File(path, "r+") as h5:
+        hist = h5["state/elements/hist"][...]
+        del h5["state/elements/hist"]
+        h5["state/elements/hist"] = hist[:rows - 2]
+    with pytest.raises(FsphError, match=rf"'elements/hist' that fits this deck, got 'shape \({rows - 2}, "
+                                        rf"{sim.n_elements}\): {rows - 2} material history rows where "
+                                        rf"this version has {rows}"):
+        checkpoint.restore(fsph.Simulation.from_deck(deck), path)
