@@ -1,5 +1,5 @@
 """Run outputs: HDF5 time history and snapshots (h5py), a ParaView series
-(.pvd + .vtu through meshio) and summary.json."""
+(.pvd + .vtu, fsph.vtu) and summary.json."""
 
 import json
 import os
@@ -13,7 +13,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import layouts
+from . import layouts, vtu
 from .errors import InputError, OutputError
 from .hdf5_writes import append_rows, write_attribute, write_dataset
 from .points import von_mises
@@ -60,28 +60,20 @@ def _points3(xy):
 VTU_PARTS = ("elements", "particles")
 
 
-def _meshio():
-    """meshio, imported at its first use: with it come the readers and
-    writers of all its formats (about 0.1 s), which `import fsph` in a
-    script or a command that writes no VTU file need not pay."""
-    import meshio
-    return meshio
-
-
 def _element_mesh(snap):
-    """The meshio mesh of a snapshot's elements."""
+    """The VTU mesh (fsph.vtu) of a snapshot's elements."""
     cell_data = {k: [snap[k]] for k in SNAPSHOT_CELL_FIELDS if k != "stress"}
     for j, comp in enumerate(STRESS_COMPONENTS):
         cell_data[f"stress_{comp}"] = [snap["stress"][:, j]]
     cell_data["mises"] = [von_mises(snap["stress"])]
     point_data = {"velocity": _points3(snap["velocity"]),
                   "displacement": _points3(snap["x"] - snap["x0"])}
-    return _meshio().Mesh(_points3(snap["x"]), [("triangle", snap["conn"])], point_data=point_data,
+    return vtu.Mesh(_points3(snap["x"]), [("triangle", snap["conn"])], point_data=point_data,
                           cell_data=cell_data)
 
 
 def _particle_mesh(part):
-    """The meshio mesh of a snapshot's particles, as vertices."""
+    """The VTU mesh (fsph.vtu) of a snapshot's particles, as vertices."""
     n = len(part["x"])
     point_data = {k: v for k, v in part.items()
                   if k not in ("x", "x0", "velocity", "stress") and np.ndim(v) == 1}
@@ -90,7 +82,7 @@ def _particle_mesh(part):
     for j, comp in enumerate(STRESS_COMPONENTS):
         point_data[f"stress_{comp}"] = part["stress"][:, j]
     point_data["mises"] = von_mises(part["stress"])
-    return _meshio().Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
+    return vtu.Mesh(_points3(part["x"]), [("vertex", np.arange(n).reshape(-1, 1))],
                           point_data=point_data)
 
 
@@ -550,8 +542,7 @@ class RunWriter:
         # uncompressed binary: double-precision fields hardly compress, and
         # zlib was the largest output cost of a short run
         with writing_errors(self.outdir / name):
-            _meshio().write(self.outdir / name, _with_units(mesh), binary=True, compression=None)
-            written = (self.outdir / name).stat().st_size
+            written = vtu.write(self.outdir / name, _with_units(mesh))
         entries.append((time, VTU_PARTS.index(kind.removesuffix("_3d")), name))
         return written
 
@@ -616,7 +607,7 @@ def _revolved(mesh, segments, angle_deg):
     angle_deg in `segments` steps, for viewing: triangles become wedges,
     vertices rings of vertices; point arrays repeat on every copy of a
     point (vectors (v_r, v_z, 0) turned with it), cell arrays on every copy
-    of a cell. Returns a meshio mesh in (x, y, z) [m]."""
+    of a cell. Returns a VTU mesh (fsph.vtu) in (x, y, z) [m]."""
     theta = np.radians(np.linspace(0.0, angle_deg, segments + 1))
     if angle_deg >= 360.0:
         theta = theta[:-1]                      # the last copy is the first
@@ -637,10 +628,14 @@ def _revolved(mesh, segments, angle_deg):
         steps = segments if angle_deg < 360.0 else k
         a = np.arange(steps)[:, None, None] * n
         b = ((np.arange(steps) + 1) % k)[:, None, None] * n
-        wedges = np.concatenate([block.data[None] + a, block.data[None] + b], axis=2).reshape(-1, 6)
+        # VTK's wedge: the triangle's nodes in the order 0, 2, 1 on both
+        # faces (VTK's node order; gmsh's prism, which meshio took, has the
+        # other orientation)
+        face = block.data[:, [0, 2, 1]]
+        wedges = np.concatenate([face[None] + a, face[None] + b], axis=2).reshape(-1, 6)
         cell_data = {name: [np.tile(v[0], steps)] for name, v in mesh.cell_data.items()}
-        return _meshio().Mesh(points, [("wedge", wedges)], point_data=point_data, cell_data=cell_data)
-    return _meshio().Mesh(points, [("vertex", np.arange(len(points)).reshape(-1, 1))], point_data=point_data)
+        return vtu.Mesh(points, [("wedge", wedges)], point_data=point_data, cell_data=cell_data)
+    return vtu.Mesh(points, [("vertex", np.arange(len(points)).reshape(-1, 1))], point_data=point_data)
 
 
 def _with_units(mesh):
@@ -649,7 +644,7 @@ def _with_units(mesh):
     into ParaView, whatever reads the file."""
     def named(data):
         return {(k if _vtu_unit(k) == "-" else f"{k} [{_vtu_unit(k)}]"): v for k, v in data.items()}
-    return _meshio().Mesh(mesh.points, mesh.cells, point_data=named(mesh.point_data),
+    return vtu.Mesh(mesh.points, mesh.cells, point_data=named(mesh.point_data),
                           cell_data=named(mesh.cell_data))
 
 

@@ -219,10 +219,9 @@ def test_failed_write_stops_the_run_and_keeps_what_was_written(tmp_path, monkeyp
     """A write that fails however much room there seemed to be (here the
     third .vtu file, ENOSPC) stops the run: exit 3, the failure named on
     one line, the snapshots written before complete."""
-    import meshio
-    from fsph import cli, layouts
+    from fsph import cli, layouts, vtu
     calls = {"n": 0}
-    real_write = meshio.write
+    real_write = vtu.write
 
     def write(path, *args, **kwargs):
         calls["n"] += 1
@@ -230,7 +229,7 @@ def test_failed_write_stops_the_run_and_keeps_what_was_written(tmp_path, monkeyp
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
         return real_write(path, *args, **kwargs)
 
-    monkeypatch.setattr(meshio, "write", write)   # fsph.output writes through the module
+    monkeypatch.setattr(vtu, "write", write)   # fsph.output writes through the module
     deck = tmp_path / "rod.nml"
     deck.write_text(rod_deck(output="n_snapshots = 4"))
     out = tmp_path / "out"
