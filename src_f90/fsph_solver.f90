@@ -492,7 +492,7 @@ contains
         end if
         ! the axis carries no axial load: each fragment's resultant of the
         ! images' axial stress forces is removed
-        call axis_resultant(n, pt%continuum, pt%mass, pt%nbr_ptr, pt%nbr_list, pt%pair_in, pt%acc_axis, pt%acc)
+        call axis_resultant(n, pt%mass, pt%nbr_ptr, pt%half_end, pt%nbr_list, pt%pair_in, pt%acc_axis, pt%acc)
         call timer_stop(sim%timers, phase_particle_contact)
         if (el%n > 0) then
           call timer_start(sim%timers, phase_coupling)

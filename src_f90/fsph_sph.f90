@@ -668,48 +668,56 @@ contains
   !> images' forces and the correction then do work only on the motion
   !> relative to each fragment's mean axial velocity, which does not
   !> depend on the frame; the ghosts' heat stays as it was (ghost_work).
-  !> The fragments are found by union-find over the entries (the
-  !> partition does not depend on the order); the sums run serially in
-  !> index order, so they do not depend on the thread count.
-  subroutine axis_resultant(n, continuum, mass, nbr_ptr, nbr_list, pair_in, acc_axis, acc)
+  !> The fragments are found by union-find over the pairs of the half rows
+  !> (the partition does not depend on the order); the sums run serially
+  !> in index order, so they do not depend on the thread count.
+  subroutine axis_resultant(n, mass, nbr_ptr, half_end, nbr_list, pair_in, acc_axis, acc)
     integer, intent(in) :: n
-    integer, intent(in) :: continuum(n)
     real(wp), intent(in) :: mass(n)         !< ring masses [kg]
-    integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*)
+    !> the rows of fsph_neighbours: entries nbr_ptr(i) .. half_end(i) - 1
+    !> are i's pairs with the particles j > i of its continuum
+    integer, intent(in) :: nbr_ptr(n + 1), half_end(n), nbr_list(*)
     logical, intent(in) :: pair_in(*)       !< the entries within the support this cycle
     real(wp), intent(in) :: acc_axis(n)     !< [m/s^2]
     real(wp), intent(inout) :: acc(2, n)    !< [m/s^2]
-    integer, allocatable :: fragment(:)
+    integer, allocatable :: fragment(:), members(:)
     real(wp), allocatable :: force(:), total(:)
     integer :: i, j, k, ri, rj
     if (n == 0) return
     if (all(acc_axis(1:n) == 0.0_wp)) return
-    allocate (fragment(n), force(n), total(n))
+    allocate (fragment(n), members(n), force(n), total(n))
     do i = 1, n
       fragment(i) = i
     end do
-    ! union-find (fsph_groups root): the lower root becomes the root; i's
-    ! root is followed along its row rather than looked up at every entry
+    members = 1
+    ! union-find (fsph_groups root) over the pairs of the continuum, each
+    ! once, in its lower particle's half row (a ghost entry links two
+    ! particles whose own pair is then within the support too: no link of
+    ! its own); the smaller tree goes under the larger one's root, which
+    ! keeps the trees shallow. Which particle is a fragment's root does not
+    ! matter: its sums below run in index order
     do i = 1, n
       ri = root(fragment, i)
-      do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
-        j = abs(nbr_list(k))
-        if (j > n) cycle
+      do k = nbr_ptr(i), half_end(i) - 1
         if (.not. pair_in(k)) cycle
-        if (continuum(j) /= continuum(i)) cycle
+        j = nbr_list(k)
+        if (fragment(j) == ri) cycle     ! j hangs from i's root itself
         rj = root(fragment, j)
-        if (rj < ri) then
+        if (rj == ri) cycle
+        if (members(rj) > members(ri)) then
           fragment(ri) = rj
+          members(rj) = members(rj) + members(ri)
           ri = rj
-        else if (ri < rj) then
+        else
           fragment(rj) = ri
+          members(ri) = members(ri) + members(rj)
         end if
       end do
     end do
     force = 0.0_wp
     total = 0.0_wp
     do i = 1, n
-      fragment(i) = root(fragment, i)    ! the fragment's lowest particle
+      fragment(i) = root(fragment, i)    ! the fragment's root
       force(fragment(i)) = force(fragment(i)) + mass(i)*acc_axis(i)
       total(fragment(i)) = total(fragment(i)) + mass(i)
     end do
