@@ -82,21 +82,22 @@ class _Appended:
         return xml
 
 
+def _joined(per_block, dtype):
+    """The arrays of the cell blocks end to end, of type dtype (empty
+    without blocks)."""
+    return np.concatenate([np.zeros(0, dtype)] + per_block).astype(dtype)
+
+
 def write(path, mesh):
     """Write mesh (a Mesh) to path as a .vtu file; returns its size [B]."""
     appended = _Appended()
-    n_points = len(mesh.points)
-    n_cells = sum(len(block.data) for block in mesh.cells)
-    connectivity = np.concatenate([block.data.reshape(-1) for block in mesh.cells]).astype(np.int64) \
-        if mesh.cells else np.zeros(0, np.int64)
-    sizes = np.concatenate([np.full(len(block.data), block.data.shape[1], np.int64) for block in mesh.cells]) \
-        if mesh.cells else np.zeros(0, np.int64)
-    types = np.concatenate([np.full(len(block.data), CELL_TYPES[block.type], np.uint8) for block in mesh.cells]) \
-        if mesh.cells else np.zeros(0, np.uint8)
+    connectivity = _joined([block.data.reshape(-1) for block in mesh.cells], np.int64)
+    sizes = _joined([np.full(len(block.data), block.data.shape[1]) for block in mesh.cells], np.int64)
+    types = _joined([np.full(len(block.data), CELL_TYPES[block.type]) for block in mesh.cells], np.uint8)
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
              "<UnstructuredGrid>",
-             f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n_cells}">',
+             f'<Piece NumberOfPoints="{len(mesh.points)}" NumberOfCells="{len(types)}">',
              "<Points>", appended.array("Points", mesh.points), "</Points>",
              "<Cells>",
              appended.array("connectivity", connectivity),

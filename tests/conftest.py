@@ -75,6 +75,16 @@ def reference(name):
     return json.loads((CASES / "references" / f"{name}.json").read_text())
 
 
+def read_vtu(path):
+    """The unstructured grid of a .vtu file as ParaView reads it (VTK's
+    XML reader; the calling test module skips itself without vtk)."""
+    import vtk
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    return reader.GetOutput()
+
+
 def rod_deck(control="", material=None, body="", boundary=True, output="", metrics=""):
     """Text of a small deck: an elastic steel rod falling on a rigid plane."""
     material = material if material is not None else (

@@ -11,7 +11,7 @@ import pytest
 
 from fsph.driver import run
 
-from conftest import rod_deck
+from conftest import read_vtu, rod_deck
 
 vtk = pytest.importorskip("vtk")
 
@@ -34,13 +34,6 @@ def revolved_rod(tmp_path_factory):
     return folder / "out"
 
 
-def read(path):
-    reader = vtk.vtkXMLUnstructuredGridReader()
-    reader.SetFileName(str(path))
-    reader.Update()
-    return reader.GetOutput()
-
-
 def collection(path):
     return [(float(t), int(p), f) for t, p, f in
             re.findall(r'timestep="([^"]+)" group="" part="(\d)" file="([^"]+)"', path.read_text())]
@@ -52,7 +45,7 @@ def test_series_opens_with_fields_at_the_snapshot_times(revolved_rod):
     entries = collection(revolved_rod / "fsph.pvd")
     assert sorted({t for t, _, _ in entries}) == pytest.approx(times, rel=1e-8)
     for t, part, name in entries:
-        grid = read(revolved_rod / name)
+        grid = read_vtu(revolved_rod / name)
         data = grid.GetCellData() if part == 0 else grid.GetPointData()
         names = {data.GetArrayName(i) for i in range(data.GetNumberOfArrays())}
         assert {"mises [Pa]", "pressure [Pa]", "plastic_strain", "damage", "id",
@@ -70,7 +63,7 @@ def test_revolved_elements_have_the_bodys_volume(revolved_rod):
     entries = collection(revolved_rod / "fsph_3d.pvd")
     assert [(t, p) for t, p, _ in entries] == [(t, p) for t, p, _ in collection(revolved_rod / "fsph.pvd")]
     t, _, name = [e for e in entries if e[1] == 0][-1]
-    grid = read(revolved_rod / name)
+    grid = read_vtu(revolved_rod / name)
     assert grid.GetCellType(0) == vtk.VTK_WEDGE
     sizes = vtk.vtkCellSizeFilter()
     sizes.SetInputData(grid)

@@ -8,15 +8,10 @@ import pytest
 
 from fsph import vtu
 
-vtk = pytest.importorskip("vtk")
+from conftest import read_vtu
+
+pytest.importorskip("vtk")
 from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
-
-
-def read_with_vtk(path):
-    reader = vtk.vtkXMLUnstructuredGridReader()
-    reader.SetFileName(str(path))
-    reader.Update()
-    return reader.GetOutput()
 
 
 def arrays(data):
@@ -41,7 +36,7 @@ def test_vtk_reads_what_was_written(tmp_path):
     path = tmp_path / "sample.vtu"
     size = vtu.write(path, mesh)
     assert size == path.stat().st_size
-    grid = read_with_vtk(path)
+    grid = read_vtu(path)
     assert np.array_equal(vtk_to_numpy(grid.GetPoints().GetData()), mesh.points)
     assert [grid.GetCellType(i) for i in range(grid.GetNumberOfCells())] == [5, 5, 13]
     assert [[grid.GetCell(i).GetPointId(k) for k in range(grid.GetCell(i).GetNumberOfPoints())]
