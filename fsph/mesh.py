@@ -13,6 +13,7 @@ single-grid "fan"), plate (graded disc). read_gmsh imports triangles drawn in gm
 ring_volume and mesh_quality measure a mesh.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -404,9 +405,12 @@ class OgiveProfile:
         return self._a + np.sqrt(self.ogive_radius ** 2 - x * x)
 
     def _nose_volume(self, x):
+        # the scalar arcsine of the C library (math.asin), not numpy's,
+        # whose vector paths round differently on hosts with AVX-512 and
+        # made the set-up's geometry, and so the run, depend on the host
         S, a = self.ogive_radius, self._a
         return np.pi * ((S * S + a * a) * x - x ** 3 / 3.0
-                        + a * (x * np.sqrt(max(S * S - x * x, 0.0)) + S * S * np.arcsin(x / S)))
+                        + a * (x * np.sqrt(max(S * S - x * x, 0.0)) + S * S * math.asin(x / S)))
 
     @property
     def ideal_volume(self):
@@ -544,7 +548,7 @@ def _ogive_cap_blocks(prof, n_radial, n_axial_nose, radial_grading):
     S, R0, zs, rm = prof.ogive_radius, prof.radius, prof.meplat_x, prof.meplat_radius
     # outline: flat (one cell) then the ogive from its edge E to the shoulder,
     # its first a - 1 cells (in the tip block) CAP_TIP_GRADING times longer
-    phi_e = np.arcsin(min(zs / S, 1.0))
+    phi_e = math.asin(min(zs / S, 1.0))    # not np.arcsin: see OgiveProfile._nose_volume
     phi = phi_e * (1.0 - _weighted_unit(a - 1 + c, a - 1, CAP_TIP_GRADING))
     ogive = np.column_stack([prof._a + S * np.cos(phi), zs - S * np.sin(phi)])
     ogive[0], ogive[-1] = (rm, 0.0), (R0, zs)
