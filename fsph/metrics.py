@@ -403,10 +403,10 @@ def series_units(deck):
 
 
 def case_metrics(snap, deck, series_record=None):
-    """Metrics named by the deck's &metrics kind ({} for 'none'). A debris
-    case starts from series_record, the snapshot's own record of
-    snapshot_series where the caller holds it (the same numbers, not
-    computed twice)."""
+    """Metrics named by the deck's &metrics kind ({} for 'none'). A
+    perforation or debris case starts from series_record, the snapshot's
+    own record of snapshot_series where the caller holds it (the same
+    numbers, not computed twice)."""
     met = deck["metrics"]
     names = [b["name"] for b in deck["body"]]
     ib = names.index(met["body"]) if met["body"] else 0
@@ -415,7 +415,8 @@ def case_metrics(snap, deck, series_record=None):
         return {"taylor": taylor(_merge_bodies(snap, joined), deck["body"][ib], joined[0],
                                  met["w_height"])}
     if met["kind"] == "perforation":
-        return {"perforation": perforation(snap, *_projectile_and_target(deck))}
+        return {"perforation": dict(series_record) if series_record is not None
+                else perforation(snap, *_projectile_and_target(deck))}
     if met["kind"] == "debris":
         from . import debris
         case = debris.DebrisCase.from_deck(deck)
