@@ -2,6 +2,7 @@
 take snapshots. The Fortran side is reached only through ``fsph._core``."""
 
 import math
+import numbers
 import os
 
 import numpy as np
@@ -362,13 +363,17 @@ class Simulation:
         (outputs then do not alter the trajectory). With partial=True at most
         max_cycles cycles are run and reaching that number is not an error
         (the deck's max_cycles still is). A t at or before the current time
-        does nothing; a t that is not a finite number >= 0 is refused."""
+        does nothing; a t that is not a finite number >= 0, or a max_cycles
+        that is not an integer >= 0, is refused."""
         try:
             t = float(t)
         except (TypeError, ValueError):
             raise FsphError(f"advance: expected a time in seconds, got {t!r}") from None
         if not (math.isfinite(t) and t >= 0.0):
             raise FsphError(f"advance: expected a finite time >= 0 s, got {t!r}")
+        if max_cycles is not None and not (isinstance(max_cycles, numbers.Integral)
+                                           and not isinstance(max_cycles, bool) and max_cycles >= 0):
+            raise FsphError(f"advance: expected max_cycles an integer >= 0 (or None), got {max_cycles!r}")
         limit = self.control["max_cycles"] - self.cycle
         if max_cycles is None or not partial:
             max_cycles = limit if max_cycles is None else max_cycles

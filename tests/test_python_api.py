@@ -68,6 +68,16 @@ def test_advance_refuses_bad_times(t):
     assert sim.cycle == 0
 
 
+@pytest.mark.parametrize("max_cycles", [-3, 2.5, "10", True])
+def test_advance_refuses_bad_cycle_limits(max_cycles):
+    """A cycle limit that is not a whole number >= 0 is refused, not
+    clamped or truncated."""
+    sim = fsph.Simulation.from_dict(ROD)
+    with pytest.raises(FsphError, match="advance: expected max_cycles an integer >= 0"):
+        sim.advance(1.0e-6, max_cycles=max_cycles, partial=True)
+    assert sim.cycle == 0
+
+
 def test_import_leaves_meshio_and_scipy_to_their_first_use(tmp_path):
     """`import fsph` loads neither meshio (the VTU files) nor SciPy (the
     metrics, the materials' integrals): a script or a command that does
