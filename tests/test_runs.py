@@ -32,8 +32,8 @@ def test_reference_run_ends_in_the_stored_state():
 #: (the Mie-Grueneisen isentrope tables, a graded plate of particles).
 SET_UP_CASES = tuple(REFERENCE_DIGESTS) + ("debris_cu_al_1",)
 
-#: The initial state's digest of each reference deck, printed as JSON by a
-#: child interpreter.
+#: The initial state's digest of each deck of SET_UP_CASES, printed as JSON
+#: by a child interpreter.
 SET_UP_DIGESTS = f"""
 import json
 import fsph
@@ -47,9 +47,9 @@ print(json.dumps({{name: state_digest(fsph.Simulation(deck_module.load({str(CASE
 def test_set_up_does_not_depend_on_numpy_vector_paths(tmp_path):
     """The reference decks and a debris deck start in the same state when
     numpy is held to its baseline instruction set (NPY_ENABLE_CPU_FEATURES)
-    as with the host's vector units: numpy's vector paths of some functions round
-    differently from the C library's (np.arcsin on a host with AVX-512
-    changed the ogive's outline in its last bits, and with it the
+    as with the host's vector units: numpy's vector paths of some functions
+    round differently from the C library's (np.arcsin on a host with
+    AVX-512 changed the ogive's outline in its last bits, and with it the
     concrete run's final state: a digest of its own on such hosts). A
     host whose numpy has no other paths passes trivially."""
     try:
