@@ -324,7 +324,8 @@ def _impedance(flyer_shock, target_shock, impact_speed, flyer_length, plate_thic
 class DebrisCase:
     """What the debris diagnostics need from the deck: the flyer's and the
     target's body indices, names and materials (ShockMaterial, None for an
-    EOS without a linear Us-up Hugoniot), the flyer's speed relative to
+    EOS without a linear Us-up Hugoniot; the flyer's also for a sphere,
+    whose shock is not the 1D state), the flyer's speed relative to
     the target [m/s] and its direction along z (+1, -1), the thresholds,
     and the generated bodies' dimensions [m]: the flyer's (radius,
     length) and the plate's (lower face, upper face), None for a body
@@ -359,11 +360,15 @@ class DebrisCase:
             material = materials[body["material"]]
             return ShockMaterial.from_deck(material) if material["eos"] == "mie_gruneisen" else None
 
+        def planar(body):
+            # a sphere strikes with a point, not a face: its shock is not the 1D state
+            return body["geometry"] != "sphere"
+
         def generated(body):
             return body["geometry"] != "gmsh"
         fb, tb = bodies[flyer], bodies[target]
         return cls(flyer, target, names[flyer], names[target], fb["material"], tb["material"],
-                   shock(fb), shock(tb), abs(relative), 1.0 if relative > 0.0 else -1.0,
+                   shock(fb) if planar(fb) else None, shock(tb), abs(relative), 1.0 if relative > 0.0 else -1.0,
                    met["front_fraction"], met["intact_fraction"],
                    (fb["radius"], fb["length"]) if generated(fb) else None,
                    (tb["z_base"], tb["z_base"] + tb["length"]) if generated(tb) else None)

@@ -326,13 +326,16 @@ SCHEMA = {
         "z_base, n_radial cells across, n_axial along the shank and n_nose along the nose; "
         "plate, a disc 0 <= r <= radius, z_base <= z <= z_base + length (the thickness) with "
         "n_axial cells through the thickness, n_radial uniform cells out to fine_radius and "
-        "n_coarse cells growing geometrically to the rim; gmsh, the triangles of a 2D gmsh "
-        "file (mesh_file, coordinates (r, z) times mesh_scale).",
+        "n_coarse cells growing geometrically to the rim; sphere, a ball of radius `radius` "
+        "whose lowest point is at z_base, n_radial cells along its equatorial radius (a "
+        "four-block butterfly: a core and three blocks of layers out to the outline; no "
+        "length or n_axial); gmsh, the triangles of a 2D gmsh file (mesh_file, coordinates "
+        "(r, z) times mesh_scale).",
         {
             "name": Key("str", REQUIRED, "-", "Body name."),
             "material": Key("str", REQUIRED, "-", "Name of a &material."),
             "geometry": Key("str", "rod", "-", "Geometry generator.",
-                            choices=("rod", "ogive", "plate", "gmsh")),
+                            choices=("rod", "ogive", "plate", "sphere", "gmsh")),
             "discretisation": Key("str", None, "-",
                                   "elements or particles. Unset: particles in mode sph, elements "
                                   "otherwise; mode fem takes only elements, mode sph only "
@@ -358,20 +361,25 @@ SCHEMA = {
                              "fixed and adaptive): element and particle parts are coupled through "
                              "imaginary particles and interface tractions; no contact between "
                              "them."),
-            "radius": _pos("Outer radius (rod, ogive shank, plate). Required except for gmsh.",
+            "radius": _pos("Outer radius (rod, ogive shank, plate, sphere). Required except for "
+                           "gmsh.",
                            "m", None),
             "inner_radius": Key("float", 0.0, "m",
                                 "rod: inner radius, 0 for a solid rod, > 0 for a tube.", lower=0.0),
             "length": _pos("rod: length; ogive: ideal length, sharp tip to base; plate: "
-                           "thickness. Required except for gmsh.", "m", None),
+                           "thickness. Required except for sphere (its diameter; leave unset) "
+                           "and gmsh.", "m", None),
             "z_base": Key("float", 0.0, "m",
-                          "Axial position of the lower end face (ogive: of the tip)."),
+                          "Axial position of the lower end face (ogive: of the tip; sphere: "
+                          "of its lowest point)."),
             "n_radial": Key("int", None, "-",
-                            "Cells across the radius (plate: uniform cells out to fine_radius). "
-                            "Required except for gmsh.", lower=1),
+                            "Cells across the radius (plate: uniform cells out to fine_radius; "
+                            "sphere: along the equatorial radius, >= 2). Required except for gmsh.",
+                            lower=1),
             "n_axial": Key("int", None, "-",
                            "Cells along the length (ogive: along the shank; plate: through the "
-                           "thickness). Required except for gmsh.", lower=1),
+                           "thickness). Required except for sphere (leave unset) and gmsh.",
+                           lower=1),
             "crh": Key("float", 3.0, "-",
                        "ogive: caliber radius head psi (ogive radius / diameter), >= 0.5.",
                        lower=0.5),
@@ -700,7 +708,8 @@ SCHEMA = {
                         "lengths along the flight direction from the plate's front face "
                         "before impact, at every snapshot (summary.json and /metrics/debris "
                         "in fsph.h5), with the 1D impedance match of the two Hugoniots "
-                        "against the interface state measured in the run.",
+                        "against the interface state measured in the run (not for a sphere "
+                        "flyer, whose shock is not 1D).",
                         choices=("none", "taylor", "bar_wave", "perforation", "debris")),
             "body": Key("str", None, "-", "Body measured (default: the first body; "
                         "perforation: the projectile; debris: the flyer)."),
@@ -1278,6 +1287,7 @@ GEOMETRY_KEYS = {
     "rod": ("radius", "length", "n_radial", "n_axial"),
     "ogive": ("radius", "length", "n_radial", "n_axial"),
     "plate": ("radius", "length", "n_radial", "n_axial", "fine_radius"),
+    "sphere": ("radius", "n_radial"),
     "gmsh": ("mesh_file",),
 }
 
@@ -1298,6 +1308,16 @@ def _check_geometry(path, where, b):
         if not mesh_path.is_file():
             raise DeckError(path, where, "mesh_file", "an existing gmsh file", str(mesh_path))
         b["mesh_file"] = str(mesh_path)
+    if geometry == "sphere":
+        for key, why in (("length", "the sphere's axial extent is its diameter"),
+                         ("n_axial", "the sphere's cells follow from n_radial")):
+            if b[key] is not None:
+                raise DeckError(path, where, key, f"no value for geometry 'sphere' ({why})",
+                                b[key])
+        if b["n_radial"] < 2:
+            raise DeckError(path, where, "n_radial", "at least 2 for geometry 'sphere'",
+                            b["n_radial"])
+        b["length"] = 2.0 * b["radius"]          # the axial extent, as a rod's length
     if geometry == "ogive":
         nose = b["radius"] * math.sqrt(4.0 * b["crh"] - 1.0)     # (D/2) sqrt(4 psi - 1)
         if not b["length"] > nose:
@@ -1321,6 +1341,8 @@ def _cell_estimate(b):
         return (b["n_radial"] + b["n_coarse"]) * b["n_axial"]
     if b["geometry"] == "ogive":
         return b["n_radial"] * (b["n_axial"] + (b["n_nose"] or 8 * b["n_radial"]))
+    if b["geometry"] == "sphere":                # 2 nc^2 + 4 nc m (nc = 0.6 n_radial): about 1.7 n^2
+        return 2 * b["n_radial"] * b["n_radial"]
     return b["n_radial"] * b["n_axial"]
 
 
@@ -1482,6 +1504,10 @@ def _cross_check(path, deck):
         raise DeckError(path, "convert", "sigma_c",
                         "a value (needed by criterion 'equivalent_stress')", "missing key")
     for i, b in enumerate(deck["body"]):
+        if b["geometry"] != "rod" and b["inner_radius"] != 0.0:
+            raise DeckError(path, f"body #{i + 1}", "inner_radius",
+                            f"0 for geometry '{b['geometry']}' (only a rod can be a tube)",
+                            b["inner_radius"])
         if b["geometry"] == "rod" and not b["inner_radius"] < b["radius"]:
             raise DeckError(path, f"body #{i + 1}", "inner_radius",
                             f"a value below radius = {b['radius']} m", b["inner_radius"])

@@ -22,6 +22,10 @@ def fsph_cli(args, cwd):
                           capture_output=True, text=True, timeout=300)
 
 
+#: the rod deck's body as a sphere of radius 1 mm, 3 cells along its radius
+SPHERE = rod_deck(body="geometry = 'sphere'").replace(" length = 4.0e-3\n", "").replace(
+    " n_axial = 12\n", "")
+
 BAD_DECKS = {
     "unknown_group": (rod_deck() + "&nonsense x = 1 /\n", ["&nonsense", "unknown group"]),
     "unknown_key": (rod_deck(body="colour = 'red'"), ["&body #1", "'colour'", "unknown key"]),
@@ -118,6 +122,14 @@ BAD_DECKS = {
                          ["&gauge #2", "'name'", "not used by another &gauge"]),
     "gauge_behind_axis": (rod_deck() + "&gauge name = 'g' point = -0.5e-3, 1.0e-3 kind = 'fixed' /\n",
                           ["&gauge #1", "'point'", "r >= 0"]),
+    "sphere_with_length": (rod_deck(body="geometry = 'sphere'"),
+                           ["&body #1", "'length'", "no value for geometry 'sphere'", "diameter"]),
+    "sphere_with_n_axial": (SPHERE.replace(" radius = 1.0e-3\n", " radius = 1.0e-3\n n_axial = 12\n"),
+                            ["&body #1", "'n_axial'", "no value for geometry 'sphere'"]),
+    "sphere_of_one_cell": (SPHERE.replace(" n_radial = 3\n", " n_radial = 1\n"),
+                           ["&body #1", "'n_radial'", "at least 2 for geometry 'sphere'"]),
+    "tube_of_a_sphere": (SPHERE.replace(" radius = 1.0e-3\n", " radius = 1.0e-3\n inner_radius = 0.5e-3\n"),
+                         ["&body #1", "'inner_radius'", "only a rod can be a tube"]),
 }
 
 

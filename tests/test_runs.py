@@ -28,9 +28,10 @@ def test_reference_run_ends_in_the_stored_state():
     assert state_digest(sim) in REFERENCE_DIGESTS["taylor_armco"]
 
 
-#: The reference decks, and a debris deck for the set-up they do not have
-#: (the Mie-Grueneisen isentrope tables, a graded plate of particles).
-SET_UP_CASES = tuple(REFERENCE_DIGESTS) + ("debris_cu_al_1",)
+#: The reference decks, and a debris deck and the sphere deck for the
+#: set-up they do not have (the Mie-Grueneisen isentrope tables, a graded
+#: plate of particles, the sphere's arcs and graded layers).
+SET_UP_CASES = tuple(REFERENCE_DIGESTS) + ("debris_cu_al_1", "sphere_al_bumper")
 
 #: The initial state's digest of each deck of SET_UP_CASES, printed as JSON
 #: by a child interpreter.
@@ -45,9 +46,10 @@ print(json.dumps({{name: state_digest(fsph.Simulation(deck_module.load({str(CASE
 
 
 def test_set_up_does_not_depend_on_numpy_vector_paths(tmp_path):
-    """The reference decks and a debris deck start in the same state when
-    numpy is held to its baseline instruction set (NPY_ENABLE_CPU_FEATURES)
-    as with the host's vector units: numpy's vector paths of some functions
+    """The reference decks, a debris deck and the sphere deck start in the
+    same state when numpy is held to its baseline instruction set
+    (NPY_ENABLE_CPU_FEATURES) as with the host's vector units: numpy's
+    vector paths of some functions
     round differently from the C library's (np.arcsin on a host with
     AVX-512 changed the ogive's outline in its last bits, and with it the
     concrete run's final state: a digest of its own on such hosts). A
