@@ -299,31 +299,34 @@ OTHER_COLOUR = "#888888"
 MARK_COLOUR = "k"
 
 
-def _material_colours(materials, rec):
-    """Colour of each material index (0-based, in deck order: `materials`
-    the material names) for the debris picture."""
-    return [FLYER_COLOUR if name == rec["flyer_material"] else
-            TARGET_COLOUR if name == rec["target_material"] else OTHER_COLOUR
-            for name in materials]
+def _debris_colours(body_names, rec):
+    """Colour of each body index (0-based, in deck order: `body_names`)
+    for the debris picture: the flyer's, the target's, grey for any
+    other. By body, not by material: a flyer and a plate of the same
+    material (a Whipple shield's aluminium sphere and bumper) keep
+    colours of their own, and with two materials it is the same picture."""
+    return [FLYER_COLOUR if name == rec["flyer"] else
+            TARGET_COLOUR if name == rec["target"] else OTHER_COLOUR
+            for name in body_names]
 
 
-def _draw_materials(ax, g, colours, points_per_mm):
+def _draw_bodies(ax, g, colours, points_per_mm):
     """Elements (filled triangles) and particles (discs of their radius,
     at points_per_mm [pt/mm], at least a fraction of a point) of snapshot
-    g, coloured by material and mirrored about the axis [mm]."""
+    g, coloured by body and mirrored about the axis [mm]."""
     from matplotlib.collections import PolyCollection
 
     for side in (1.0, -1.0):
         if "connectivity" in g:
             tri = g["nodes"][...][g["connectivity"][...]] * 1e3
             tri[..., 0] *= side
-            ax.add_collection(PolyCollection(tri, facecolors=np.take(colours, g["material"][...]),
+            ax.add_collection(PolyCollection(tri, facecolors=np.take(colours, g["body"][...]),
                                              edgecolors="none"))
         if "particles" in g:
             xp = g["particles/x"][...] * 1e3
             size = np.maximum(2e3 * g["particles/radius"][...] * points_per_mm, 0.5) ** 2
             ax.scatter(side * xp[:, 0], xp[:, 1], s=size, linewidths=0,
-                       c=np.take(colours, g["particles/material"][...]))
+                       c=np.take(colours, g["particles/body"][...]))
 
 
 def _experiment_marks(ax, experiment, z_face, direction, half_width):
@@ -347,8 +350,10 @@ def _experiment_marks(ax, experiment, z_face, direction, half_width):
     ax.set_xlim(-half_width, half_width)
 
 
-def _debris_table(ax, rec, experiment):
-    """A box of the run's values beside the experiment's [mm]."""
+def _debris_table(ax, rec, experiment, direction):
+    """A box of the run's values beside the experiment's [mm], in the
+    panel's uprange corner (behind the plate, where only the ejecta are:
+    the cloud fills the downrange half)."""
     rows = [(f"{rec['target']} front", "target_front_mm"),
             (f"{rec['flyer']} front", "flyer_front_mm"),
             ("ratio", "front_ratio"), ("ejecta", "ejecta_height_mm"),
@@ -359,8 +364,9 @@ def _debris_table(ax, rec, experiment):
         ref = experiment.get(key)
         lines.append(f"{label:15s}" + "".join(f"{v:7.3g}" if v is not None else f"{'—':>7s}"
                                              for v in (value, ref)))
-    ax.text(0.02, 0.02, "\n".join(lines), transform=ax.transAxes, family="monospace",
-            fontsize=6.5, va="bottom", ha="left",
+    uprange_top = direction < 0.0                 # flight towards -z: uprange is the top
+    ax.text(0.02, 0.98 if uprange_top else 0.02, "\n".join(lines), transform=ax.transAxes,
+            family="monospace", fontsize=6.5, va="top" if uprange_top else "bottom", ha="left",
             bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"})
 
 
@@ -385,11 +391,12 @@ def _debris_extent(series, index, experiment, z_face, direction):
 def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
     """Write a PNG of a debris run (&metrics kind 'debris'): the cloud at
     the requested times (the nearest snapshots, each once; default the
-    snapshot of the metrics), coloured by material and mirrored about the
-    axis, each panel titled with its snapshot's exact time; the panel of
-    the metrics' snapshot carries the experiment's fronts, ejecta height,
-    hole and intersection radius (where the reference applies) and a box
-    of the run's values beside them. Returns the PNG path."""
+    snapshot of the metrics), coloured by body (flyer, target; their
+    materials in the legend) and mirrored about the axis, each panel
+    titled with its snapshot's exact time; the panel of the metrics'
+    snapshot carries the experiment's fronts, ejecta height, hole and
+    intersection radius (where the reference applies) and a box of the
+    run's values beside them. Returns the PNG path."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -406,7 +413,7 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
     z_face, direction = rec["plate_front_face_z_mm"], rec["flight_direction"]
     with h5py.File(run_dir / "fsph.h5", "r") as h5:
         snaps = _snapshots(h5)
-        colours = _material_colours(rec["materials"], rec)
+        colours = _debris_colours([str(n) for n in h5.attrs["body_names"]], rec)
         if times_us is None:
             times_us = [summary["metrics_time_s"] * 1e6]
         chosen = [(time, g) for _, time, g in choose_snapshots(snaps, times_us)]
@@ -422,11 +429,11 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
             marks = experiment if at_metrics else {}
             half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction)
             # about four fifths of the panel's width is the axes' [pt/mm]
-            _draw_materials(ax, g, colours, 72.0 * 0.8 * panel_inches / (2.0 * half_width))
+            _draw_bodies(ax, g, colours, 72.0 * 0.8 * panel_inches / (2.0 * half_width))
             if marks:
                 _experiment_marks(ax, marks, z_face, direction, half_width)
             if at_metrics:
-                _debris_table(ax, rec, marks)
+                _debris_table(ax, rec, marks, direction)
             ax.set_xlim(-half_width, half_width)
             ax.set_ylim(z_low, z_high)
             ax.set_aspect("equal")

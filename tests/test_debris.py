@@ -498,7 +498,7 @@ def test_spall_failure_breaks_the_copper_and_stops_its_spall_zone_heating(tmp_pa
 
 
 def test_plot_of_a_debris_run(coarse, tmp_path):
-    """`fsph plot` of a debris run draws the cloud coloured by material at
+    """`fsph plot` of a debris run draws the cloud coloured by body at
     the snapshots asked for (each once)."""
     out = coarse[0]
     res = subprocess.run([sys.executable, "-m", "fsph", "plot", str(out), "--times", "0.5,1.5,9",
