@@ -278,10 +278,41 @@ def _base_value(items, p):
     return group[p.index].get(p.key) if p.index < len(group) else None
 
 
+def _sweep_folder(output):
+    """Create the sweep folder output (and its parents); InputError if a
+    file stands in its place or on its path, or it cannot be created."""
+    output = Path(output)
+    for path in (output, *output.parents):
+        if path.exists():
+            if not path.is_dir():
+                raise InputError(f"{path}: expected a folder for the sweep's outputs (-o "
+                                 f"{output}), got a file of that name (give another -o)")
+            break
+    try:
+        output.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"{output}: cannot create the sweep folder: "
+                         f"{err.strerror or err}") from None
+
+
+def _write_deck(v):
+    """Create variant v's folder and write its deck (when its text
+    changed); InputError naming the path if that fails."""
+    try:
+        v.folder.mkdir(exist_ok=True)
+        if not v.deck_path.is_file() or v.deck_path.read_text() != v.deck_text:
+            v.deck_path.write_text(v.deck_text)
+    except OSError as err:
+        raise InputError(f"{err.filename or v.folder}: cannot write the variant's deck: "
+                         f"{err.strerror or err}") from None
+
+
 def plan(deck, sets, output):
     """Parameters and variants of a sweep; writes each variant's deck (when
     its text changed) and validates it. Variants whose deck is invalid get
-    status 'invalid' and the message; a bad --set raises DeckError."""
+    status 'invalid' and the message; a bad --set raises DeckError and an
+    output folder that cannot be made InputError, before anything is
+    written."""
     deck = Path(deck)
     base, nml, items = _raw_groups(deck)
     params = [parse_parameter(deck, spec, values, items)
@@ -293,6 +324,7 @@ def plan(deck, sets, output):
         raise DeckError(deck, None, None, "each key set once", ", ".join(columns))
     reference = references.load(base)
     unconditional = reference is not None and "conditions" not in reference
+    _sweep_folder(output)
     variants = []
     for i, combo in enumerate(itertools.product(*(p.values for p in params))):
         values = dict(zip(columns, combo))
@@ -301,9 +333,7 @@ def plan(deck, sets, output):
         v = Variant(i, folder.name, values, folder,
                     _variant_text(nml, deck.resolve().parent, params, values,
                                   drop_reference=unconditional and changed))
-        folder.mkdir(parents=True, exist_ok=True)
-        if not v.deck_path.is_file() or v.deck_path.read_text() != v.deck_text:
-            v.deck_path.write_text(v.deck_text)
+        _write_deck(v)
         try:
             deck_module.load(v.deck_path)
         except DeckError as err:
@@ -583,7 +613,8 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
     Dask scheduler; default a LocalCluster of `workers` workers (default
     cores // threads). threads: OpenMP threads of each run. free_p: fit the
     Recht-Ipson exponent too (else p = 2). rerun: run completed variants
-    again. Raises DeckError for a bad deck or --set before anything runs."""
+    again. Raises DeckError for a bad deck or --set, and InputError for an
+    output folder that cannot be made, before anything runs."""
     stream = stream or sys.stdout
 
     def say(text):

@@ -386,3 +386,38 @@ def test_ctrl_c_stops_a_sweep_and_its_runs(tmp_path):
     assert json.loads((first / "summary.json").read_text())["status"] == "interrupted"
     assert not (second / "fsph.h5").exists()
     assert not (out / "sweep.stopping").exists()
+
+
+# ------------------------------------------------------------ misuse, through the command line
+def _sweep_cli(args, cwd):
+    """`python -m fsph sweep ARGS` in cwd with one OpenMP thread."""
+    import os
+    import subprocess
+    import sys
+    return subprocess.run([sys.executable, "-m", "fsph", "sweep", *args], capture_output=True,
+                          text=True, cwd=cwd, env=dict(os.environ, OMP_NUM_THREADS="1"),
+                          timeout=300)
+
+
+def _one_line_error(res, *expected):
+    """res ended with exit 2 and one stderr line holding each of expected,
+    no traceback."""
+    assert res.returncode == EXIT_DECK, res.stdout + res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert "Traceback" not in res.stdout + res.stderr and len(lines) == 1, res.stderr
+    assert lines[0].startswith("fsph: error: ")
+    for text in expected:
+        assert text in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("output", ["afile", "afile/x"])
+def test_output_that_is_a_file_is_a_one_line_error(tmp_path, output):
+    """-o naming a file, or a folder under a file: exit 2, one line naming
+    the file, nothing written."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    (tmp_path / "afile").write_text("not a folder\n")
+    res = _sweep_cli([str(deck), "--set", "control.end_time=1e-7,2e-7", "-o", output], tmp_path)
+    _one_line_error(res, f"{tmp_path / 'afile'}: expected a folder for the sweep's outputs",
+                    "got a file of that name")
+    assert (tmp_path / "afile").read_text() == "not a folder\n"
