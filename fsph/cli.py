@@ -60,6 +60,9 @@ def _parser():
     sw.add_argument("--free-p", action="store_true",
                     help="fit the Recht-Ipson exponent p too (default p = 2)")
     sw.add_argument("--rerun", action="store_true", help="run completed variants again")
+    sw.add_argument("--max-variants", type=int, default=None, metavar="N",
+                    help="refuse a sweep of more than N variants before writing anything "
+                         "(default 10000)")
     sw.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     pl = sub.add_parser("plot", help="PNGs of a run: deformed body at chosen times "
                                      "(shapes.png), energy and time-step histories "
@@ -222,14 +225,16 @@ def main(argv=None):
         if args.command == "check":
             return _check(args.deck)
         if args.command == "sweep":
-            from .sweep import sweep
-            if args.threads < 1 or (args.workers is not None and args.workers < 1):
-                print("fsph: error: --threads and --workers: expected integers >= 1",
-                      file=sys.stderr)
+            from .sweep import MAX_VARIANTS, sweep
+            max_variants = MAX_VARIANTS if args.max_variants is None else args.max_variants
+            if args.threads < 1 or (args.workers is not None and args.workers < 1) \
+                    or max_variants < 1:
+                print("fsph: error: --threads, --workers and --max-variants: expected integers "
+                      ">= 1", file=sys.stderr)
                 return EXIT_DECK
             frame = sweep(args.deck, args.sets, args.output, scheduler=args.scheduler,
                           workers=args.workers, threads=args.threads, free_p=args.free_p,
-                          rerun=args.rerun, quiet=args.quiet)
+                          rerun=args.rerun, quiet=args.quiet, max_variants=max_variants)
             if (frame["status"] == "interrupted").any():
                 return EXIT_INTERRUPTED
             return EXIT_OK if (frame["status"] == "completed").all() else EXIT_RUN_FAILED

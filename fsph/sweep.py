@@ -60,6 +60,9 @@ SUMMARY_SCALARS = ("status", "cycles", "end_time_s", "n_elements", "n_nodes", "n
 INVALID = "invalid"
 #: Status of a variant the sweep's interruption stopped or kept from running.
 INTERRUPTED = "interrupted"
+#: Most variants a sweep makes unless told otherwise (--max-variants): a
+#: range or product beyond it is refused before anything is written.
+MAX_VARIANTS = 10_000
 #: How long to wait for a --scheduler to answer [s].
 SCHEDULER_TIMEOUT_S = 10
 #: How long an interrupted sweep waits for its runs to write their checkpoints [s].
@@ -135,11 +138,12 @@ def _coerce(value, kind):
     return value
 
 
-def expand_values(text, kind="float"):
+def expand_values(text, kind="float", max_count=MAX_VARIANTS):
     """Values of one --set: 'a:b:n' (n evenly spaced from a to b
     inclusive), 'log:a:b:n' (evenly spaced in log; a and b of one sign) or
     'v1,v2,...'. kind is the deck key's type (float, int, str, bool); int
-    ranges must land on integers (log ranges are rounded to them). Raises
+    ranges must land on integers (log ranges are rounded to them); a range
+    has at most max_count values (checked before they are made). Raises
     ValueError saying what was expected."""
     if kind not in ("float", "int", "str", "bool"):
         raise ValueError(f"a key of one value (a {kind} key cannot be swept)")
@@ -153,6 +157,9 @@ def expand_values(text, kind="float"):
         n = _number(parts[2].strip(), "int")
         if n < 2:
             raise ValueError("n >= 2 values in a range (a single value: just the value)")
+        if n > max_count:
+            raise ValueError(f"n <= {max_count} values in a range (the most variants of a "
+                             f"sweep; --max-variants raises it)")
         if is_log:
             if a == 0.0 or b == 0.0 or (a < 0.0) != (b < 0.0):
                 raise ValueError("log:a:b:n with a and b non-zero and of one sign")
@@ -187,10 +194,10 @@ def _suggest(word, choices):
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-def parse_parameter(path, spec, values, items_by_group):
+def parse_parameter(path, spec, values, items_by_group, max_count=MAX_VARIANTS):
     """A Parameter from the key part of a --set (spec) and its values (the
-    text after '=', or a sequence of values); DeckError names the deck, the
-    group, the key and what was expected."""
+    text after '=', or a sequence of values; a range of at most max_count);
+    DeckError names the deck, the group, the key and what was expected."""
     m = deck_module.KEY_SPEC.match(spec)
     if not m:
         raise DeckError(path, None, None, f"--set {SET_SYNTAX}", f"{spec}={values}")
@@ -208,7 +215,7 @@ def parse_parameter(path, spec, values, items_by_group):
     kind = keys[key].kind
     try:
         if isinstance(values, str):
-            expanded = expand_values(values, kind)
+            expanded = expand_values(values, kind, max_count)
         else:
             expanded = tuple(_coerce(v, kind) for v in values)
             if not expanded or len(set(expanded)) != len(expanded):
@@ -278,6 +285,16 @@ def _base_value(items, p):
     return group[p.index].get(p.key) if p.index < len(group) else None
 
 
+def _check_count(deck, params, max_variants):
+    """DeckError if the Cartesian product of the parameters' values has
+    more than max_variants variants."""
+    count = math.prod(len(p.values) for p in params)
+    if count > max_variants:
+        sizes = " x ".join(f"{len(p.values)} ({p.column})" for p in params)
+        raise DeckError(deck, None, None, f"at most {max_variants} variants in a sweep "
+                        f"(--max-variants raises the limit)", f"{sizes} = {count} variants")
+
+
 def _sweep_folder(output):
     """Create the sweep folder output (and its parents); InputError if a
     file stands in its place or on its path, or it cannot be created."""
@@ -307,21 +324,22 @@ def _write_deck(v):
                          f"{err.strerror or err}") from None
 
 
-def plan(deck, sets, output):
+def plan(deck, sets, output, max_variants=MAX_VARIANTS):
     """Parameters and variants of a sweep; writes each variant's deck (when
     its text changed) and validates it. Variants whose deck is invalid get
-    status 'invalid' and the message; a bad --set raises DeckError and an
-    output folder that cannot be made InputError, before anything is
-    written."""
+    status 'invalid' and the message; a bad --set, or more than
+    max_variants variants, raises DeckError and an output folder that
+    cannot be made InputError, before anything is written."""
     deck = Path(deck)
     base, nml, items = _raw_groups(deck)
-    params = [parse_parameter(deck, spec, values, items)
+    params = [parse_parameter(deck, spec, values, items, max_variants)
               for spec, values in _split_sets(deck, sets)]
     if not params:
         raise DeckError(deck, None, None, f"at least one --set {SET_SYNTAX}", "none")
     columns = [p.column for p in params]
     if len(set(columns)) != len(columns):
         raise DeckError(deck, None, None, "each key set once", ", ".join(columns))
+    _check_count(deck, params, max_variants)
     reference = references.load(base)
     unconditional = reference is not None and "conditions" not in reference
     _sweep_folder(output)
@@ -603,7 +621,7 @@ def _client(scheduler, workers):
 
 
 def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free_p=False,
-          rerun=False, quiet=False, stream=None):
+          rerun=False, quiet=False, stream=None, max_variants=MAX_VARIANTS):
     """Run the variants of `deck` given by `sets` and return their table
     (a pandas DataFrame; the Recht-Ipson fits in its attrs['recht_ipson']).
 
@@ -613,8 +631,10 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
     Dask scheduler; default a LocalCluster of `workers` workers (default
     cores // threads). threads: OpenMP threads of each run. free_p: fit the
     Recht-Ipson exponent too (else p = 2). rerun: run completed variants
-    again. Raises DeckError for a bad deck or --set, and InputError for an
-    output folder that cannot be made, before anything runs."""
+    again. max_variants: the most variants the sets may make (a sweep of
+    more is refused). Raises DeckError for a bad deck or --set, and
+    InputError for an output folder that cannot be made, before anything
+    runs."""
     stream = stream or sys.stdout
 
     def say(text):
@@ -623,10 +643,12 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
 
     if threads < 1:
         raise FsphError(f"sweep: threads: expected an integer >= 1, got {threads!r}")
+    if max_variants < 1:
+        raise FsphError(f"sweep: max_variants: expected an integer >= 1, got {max_variants!r}")
     deck = Path(deck)
     # absolute: the runs start in their own folders, maybe on other hosts
     output = (Path(output) if output else Path("out") / f"{deck.stem}_sweep").resolve()
-    params, variants = plan(deck, sets, output)
+    params, variants = plan(deck, sets, output, max_variants)
     (output / STOP_MARK).unlink(missing_ok=True)      # an earlier sweep's, interrupted
     todo = [v for v in variants if v.status is None and (rerun or not _reuse(v))]
     workers = workers or max(1, cores() // threads)

@@ -45,6 +45,7 @@ def test_linear_log_and_list_ranges():
     ("2:5:3", "int", "not whole"),
     ("a,b", "float", "a real number in place of 'a'"),
     ("1,1", "float", "distinct"),
+    ("1:2:1000000000", "float", r"n <= 10000 values in a range"),
     ("yes", "bool", ".true. or .false."),
     ("1", "float2", "cannot be swept"),
 ])
@@ -421,3 +422,23 @@ def test_output_that_is_a_file_is_a_one_line_error(tmp_path, output):
     _one_line_error(res, f"{tmp_path / 'afile'}: expected a folder for the sweep's outputs",
                     "got a file of that name")
     assert (tmp_path / "afile").read_text() == "not a folder\n"
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--set", "control.end_time=1e-7:2e-7:1000000000"],
+     "&control key 'end_time': expected values for --set: n <= 10000 values in a range"),
+    (["--set", "control.end_time=1e-7:2e-7:200", "--set", "body.velocity_z=-10:-60:51"],
+     "expected at most 10000 variants in a sweep (--max-variants raises the limit), "
+     "got '200 (control.end_time) x 51 (body.velocity_z) = 10200 variants'"),
+    (["--set", "control.end_time=1e-7,2e-7,3e-7", "--max-variants", "2"],
+     "expected at most 2 variants in a sweep"),
+])
+def test_too_many_variants_are_refused_before_anything_is_written(tmp_path, args, expected):
+    """A range of a billion values, or a product beyond the limit (10 000
+    by default, --max-variants): exit 2 at once, one line with the count,
+    no folder made (and no memory spent on the values)."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    res = _sweep_cli([str(deck), *args, "-o", "sweep"], tmp_path)
+    _one_line_error(res, f"{deck}: ", expected)
+    assert not (tmp_path / "sweep").exists()
