@@ -141,10 +141,10 @@ def _coerce(value, kind):
 def expand_values(text, kind="float", max_count=MAX_VARIANTS):
     """Values of one --set: 'a:b:n' (n evenly spaced from a to b
     inclusive), 'log:a:b:n' (evenly spaced in log; a and b of one sign) or
-    'v1,v2,...'. kind is the deck key's type (float, int, str, bool); int
-    ranges must land on integers (log ranges are rounded to them); a range
-    has at most max_count values (checked before they are made). Raises
-    ValueError saying what was expected."""
+    'v1,v2,...' (no empty item). kind is the deck key's type (float, int,
+    str, bool); int ranges must land on integers (log ranges are rounded to
+    them); a range has at most max_count values (checked before they are
+    made). Raises ValueError saying what was expected."""
     if kind not in ("float", "int", "str", "bool"):
         raise ValueError(f"a key of one value (a {kind} key cannot be swept)")
     text = str(text).strip()
@@ -172,7 +172,10 @@ def expand_values(text, kind="float", max_count=MAX_VARIANTS):
             raise ValueError(f"integers: (b - a)/(n - 1) = {(b - a) / (n - 1):g} is not whole")
         values = [_coerce(v, kind) for v in values]
     else:
-        values = [_coerce(t, kind) for t in text.split(",") if t.strip()]
+        items = text.split(",")
+        if len(items) > 1 and not all(t.strip() for t in items):
+            raise ValueError("a list v1,v2,... without empty items (a ',' too many)")
+        values = [_coerce(t, kind) for t in items if t.strip()]
     if not values:
         raise ValueError("at least one value")
     if len(set(values)) != len(values):

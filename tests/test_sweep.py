@@ -46,6 +46,7 @@ def test_linear_log_and_list_ranges():
     ("a,b", "float", "a real number in place of 'a'"),
     ("1,1", "float", "distinct"),
     ("1:2:1000000000", "float", r"n <= 10000 values in a range"),
+    ("1,,2", "float", "without empty items"),
     ("yes", "bool", ".true. or .false."),
     ("1", "float2", "cannot be swept"),
 ])
@@ -441,4 +442,17 @@ def test_too_many_variants_are_refused_before_anything_is_written(tmp_path, args
     deck.write_text(rod_deck())
     res = _sweep_cli([str(deck), *args, "-o", "sweep"], tmp_path)
     _one_line_error(res, f"{deck}: ", expected)
+    assert not (tmp_path / "sweep").exists()
+
+
+@pytest.mark.parametrize("values", ["1e-7,,2e-7", "1e-7,2e-7,", ",1e-7"])
+def test_a_list_with_an_empty_item_is_refused(tmp_path, values):
+    """An empty item in a list is a mistake, not a value to drop: exit 2,
+    one line naming the key and the --set's values, nothing written."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck())
+    res = _sweep_cli([str(deck), "--set", f"control.end_time={values}", "-o", "sweep"],
+                     tmp_path)
+    _one_line_error(res, f"{deck}: &control key 'end_time': expected values for --set: a list "
+                         f"v1,v2,... without empty items", repr(values))
     assert not (tmp_path / "sweep").exists()
