@@ -448,15 +448,34 @@ def summary_row(summary):
     return row
 
 
+def warning_kinds(summary):
+    """The kinds of a run's warnings (summary['warnings']: energy_error,
+    output, deck), each once in order of first appearance, and how many
+    warnings there are: ([], 0) without a summary or warnings."""
+    kinds = [w.get("kind", "warning") for w in (summary or {}).get("warnings", [])]
+    return list(dict.fromkeys(kinds)), len(kinds)
+
+
+def _status_text(v):
+    """Variant v's status, with its warnings' count and kinds if it has
+    any: 'completed with 1 warning: energy_error'."""
+    kinds, n = warning_kinds(v.summary)
+    if not n:
+        return v.status
+    return f"{v.status} with {n} warning{'s' if n > 1 else ''}: {', '.join(kinds)}"
+
+
 def table(variants):
     """pandas DataFrame, one row per variant: index, folder, the swept
-    values, status, error, wall time [s] of its process, whether an earlier
-    run was reused, and summary_row of its summary."""
+    values, status, error, warnings (the kinds of the run's warnings,
+    ';'-joined, '' when none), wall time [s] of its process, whether an
+    earlier run was reused, and summary_row of its summary."""
     import pandas as pd
     rows = []
     for v in variants:
         row = {"variant": v.index, "folder": v.name, **v.values, "status": v.status,
-               "error": v.error, "wall_time_s": v.wall_time_s, "reused": v.reused}
+               "error": v.error, "warnings": ";".join(warning_kinds(v.summary)[0]),
+               "wall_time_s": v.wall_time_s, "reused": v.reused}
         if v.summary:
             row.update({k: x for k, x in summary_row(v.summary).items() if k != "status"})
         rows.append(row)
@@ -543,6 +562,13 @@ def write_h5(path, frame, meta):
         h5.attrs["sweep"] = json.dumps(meta)
 
 
+def _warned(frame):
+    """{folder: warning kinds} of the rows with warnings (none if the
+    table has no 'warnings' column)."""
+    kinds = frame.get("warnings", [""] * len(frame))
+    return {f: w for f, w in zip(frame["folder"], kinds) if isinstance(w, str) and w}
+
+
 def write_outputs(output, deck, params, frame, free_p=False):
     """sweep.csv, sweep.h5, sweep.json (the sweep, fits and failures) and,
     for a velocity sweep of perforation runs, sweep.png (the runs that
@@ -556,7 +582,8 @@ def write_outputs(output, deck, params, frame, free_p=False):
             "counts": frame["status"].value_counts().to_dict(),
             "recht_ipson": fits,
             "failed": {r.folder: f"{r.status}: {r.error}"
-                       for r in frame.itertuples() if r.status != "completed"}}
+                       for r in frame.itertuples() if r.status != "completed"},
+            "warnings": _warned(frame)}
     frame.to_csv(output / "sweep.csv", index=False)
     write_h5(output / "sweep.h5", frame, meta)
     (output / "sweep.json").write_text(json.dumps(meta, indent=2) + "\n")
@@ -667,17 +694,31 @@ def sweep(deck, sets, output=None, scheduler=None, workers=None, threads=1, free
         _run_all(todo, scheduler, workers, threads, say)
     frame = table(variants)
     frame.attrs["recht_ipson"] = write_outputs(output, deck, params, frame, free_p)
+    for v in variants:
+        for warning in (v.summary or {}).get("warnings", []):
+            say(f"fsph sweep: warning: {v.name}: {warning.get('message', '')}")
     for line in unsettled(frame):
         say(f"fsph sweep: warning: {line}")
     for fit in frame.attrs["recht_ipson"]:
         say(f"fsph sweep: Recht-Ipson ({fit['n']} runs, rms {fit['rms_residual']:.1f} m/s): "
             f"{_fit_label(fit)}")
-    bad = frame[frame["status"] != "completed"]
-    say(f"fsph sweep: {len(frame) - len(bad)} of {len(frame)} completed"
-        + (": not completed " + ", ".join(f"{r.folder} ({r.status})" for r in bad.itertuples())
-           if len(bad) else "")
-        + f"; table in {output / 'sweep.csv'}")
+    say(f"fsph sweep: {_closing_counts(frame)}; table in {output / 'sweep.csv'}")
     return frame
+
+
+def _closing_counts(frame):
+    """'K of N completed', the variants that did not complete with their
+    status, then those that completed with warnings, with their kinds."""
+    bad = frame[frame["status"] != "completed"]
+    warned = frame[(frame["status"] == "completed") & (frame["warnings"] != "")]
+    text = f"{len(frame) - len(bad)} of {len(frame)} completed"
+    if len(bad):
+        text += ": not completed " + ", ".join(f"{r.folder} ({r.status})"
+                                               for r in bad.itertuples())
+    if len(warned):
+        text += "; completed with warnings " + ", ".join(f"{r.folder} ({r.warnings})"
+                                                         for r in warned.itertuples())
+    return text
 
 
 def _run_all(todo, scheduler, workers, threads, say):
@@ -754,7 +795,7 @@ def _record(v, future, count, say):
                   "wall_time_s": float("nan"), "summary": None}
     v.status, v.error = record["status"], record["error"]
     v.summary, v.wall_time_s = record["summary"], record["wall_time_s"]
-    say(f"fsph sweep: {count} {v.name}: {v.status} "
+    say(f"fsph sweep: {count} {v.name}: {_status_text(v)} "
         f"({v.wall_time_s:.1f} s)" + (f": {v.error}" if v.error else ""))
 
 

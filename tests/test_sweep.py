@@ -456,3 +456,31 @@ def test_a_list_with_an_empty_item_is_refused(tmp_path, values):
     _one_line_error(res, f"{deck}: &control key 'end_time': expected values for --set: a list "
                          f"v1,v2,... without empty items", repr(values))
     assert not (tmp_path / "sweep").exists()
+
+
+def test_a_variant_with_warnings_does_not_say_only_completed(tmp_path):
+    """A variant whose run completed with an energy error beyond its
+    energy_error_warning: its line says 'completed with 1 warning:
+    energy_error', the warning's message is printed, the closing line
+    names it, and sweep.csv, sweep.h5 and sweep.json carry the kinds
+    (empty for the variant without warnings); exit 0."""
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck(control="end_time = 0.3e-6"))
+    res = _sweep_cli([str(deck), "--set", "control.energy_error_warning=1e-9,0.5", "-o",
+                      "sweep"], tmp_path)
+    assert res.returncode == 0 and "Traceback" not in res.stderr, res.stdout + res.stderr
+    warned, clean = "v000_energy_error_warning=1e-09", "v001_energy_error_warning=0.5"
+    lines = res.stdout.splitlines()
+    assert any(line.startswith(f"fsph sweep: [") and f"] {warned}: completed with 1 warning: "
+               f"energy_error (" in line for line in lines), res.stdout
+    assert any(f"] {clean}: completed (" in line for line in lines), res.stdout
+    assert f"fsph sweep: warning: {warned}: energy error " in res.stdout
+    assert lines[-1].startswith(f"fsph sweep: 2 of 2 completed; completed with warnings "
+                                f"{warned} (energy_error); table in ")
+    out = tmp_path / "sweep"
+    t = pd.read_csv(out / "sweep.csv", keep_default_na=False)
+    assert list(t.columns[t.columns.get_loc("error"):][:2]) == ["error", "warnings"]
+    assert dict(zip(t["folder"], t["warnings"])) == {warned: "energy_error", clean: ""}
+    with h5py.File(out / "sweep.h5") as h5:
+        assert list(h5["table/warnings"].asstr()[()]) == ["energy_error", ""]
+        assert json.loads(h5.attrs["sweep"])["warnings"] == {warned: "energy_error"}
