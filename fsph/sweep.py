@@ -632,7 +632,10 @@ def cores():
 def _client(scheduler, workers):
     """A dask.distributed Client: on the scheduler at that address, or on a
     LocalCluster of `workers` thread-based workers with one task slot each
-    (closed afterwards)."""
+    (closed afterwards). The local scheduler has no dashboard, and its HTTP
+    server (which it starts all the same) listens on a free port of
+    127.0.0.1 rather than 8787, so that sweeps running side by side do not
+    warn of the port in use."""
     from distributed import Client, LocalCluster
     if scheduler:
         try:
@@ -645,7 +648,9 @@ def _client(scheduler, workers):
         return
     import logging
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=False,
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+                      dashboard_address=None, silence_logs=logging.ERROR,
+                      scheduler_kwargs={"dashboard": False,
+                                        "dashboard_address": "127.0.0.1:0"}) as cluster, \
             Client(cluster) as client:
         yield client
 

@@ -484,3 +484,19 @@ def test_a_variant_with_warnings_does_not_say_only_completed(tmp_path):
     with h5py.File(out / "sweep.h5") as h5:
         assert list(h5["table/warnings"].asstr()[()]) == ["energy_error", ""]
         assert json.loads(h5.attrs["sweep"])["warnings"] == {warned: "energy_error"}
+
+
+def test_a_sweep_beside_another_is_quiet(tmp_path):
+    """Port 8787 (the Dask dashboard's default) taken, as by a sweep
+    running beside this one: the sweep prints nothing on stderr (no 'Port
+    8787 is already in use' warning) and exits 0."""
+    import socket
+    deck = tmp_path / "rod.nml"
+    deck.write_text(rod_deck(control="end_time = 0.2e-6"))
+    with socket.socket() as taken:
+        with contextlib.suppress(OSError):     # in use already: as good
+            taken.bind(("", 8787))
+            taken.listen()
+        res = _sweep_cli([str(deck), "--set", "body.velocity_z=-40,-50", "-o", "sweep"],
+                         tmp_path)
+    assert res.returncode == 0 and res.stderr == "", res.stderr
