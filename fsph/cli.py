@@ -158,18 +158,33 @@ def _plot_fields(text, run_dir):
     return names
 
 
+def _plot_run_dir(run_dir):
+    """The run folder of `fsph plot` checked before anything is drawn:
+    a folder (not one of its files) with a readable summary.json and
+    fsph.h5 (fsph.plot.read_summary, check_run_file); InputError, one
+    line, otherwise."""
+    from .plot import check_run_file, read_summary
+    if run_dir.is_file():
+        raise InputError(f"{run_dir}: a file; expected the output folder of `fsph run` "
+                         f"(the folder that holds fsph.h5 and summary.json)")
+    for name in ("fsph.h5", "summary.json"):
+        if not (run_dir / name).is_file():
+            raise InputError(f"{run_dir}: expected the output folder of `fsph run` (no {name})")
+    read_summary(run_dir)
+    check_run_file(run_dir)
+
+
 def _plot(args):
     """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
-    from .plot import (body_energies, damage_map, deformed_shapes, field_map, gauge_histories, histories,
-                       nearest_note, perforation_histories, snapshot_choice)
+    from .plot import (body_energies, cannot_read, damage_map, deformed_shapes, field_map,
+                       gauge_histories, histories, nearest_note, perforation_histories,
+                       snapshot_choice)
     times = _plot_times(args.times) if args.times is not None else None
     if not PLOT_DPI[0] <= args.dpi <= PLOT_DPI[1]:
         raise InputError(f"--dpi: expected an integer from {PLOT_DPI[0]} to {PLOT_DPI[1]}, "
                          f"got {args.dpi}")
     run_dir = Path(args.run_dir)
-    for name in ("fsph.h5", "summary.json"):
-        if not (run_dir / name).is_file():
-            raise InputError(f"{run_dir}: expected the output folder of `fsph run` (no {name})")
+    _plot_run_dir(run_dir)
     if args.output:
         output = Path(args.output)
         if output.suffix.lower() not in PLOT_FORMATS:
@@ -204,9 +219,10 @@ def _plot(args):
                       body_energies(run_dir, dpi=args.dpi)):
             if extra:
                 print(extra)
-    except OSError as err:
-        raise InputError(f"{err.filename or run_dir}: cannot write the picture: "
-                         f"{err.strerror or err}") from None
+    except OSError as err:      # h5py's reading; a picture not written says so itself
+        if err.filename:
+            raise InputError(f"{err.filename}: {err.strerror or err}") from None
+        raise InputError(cannot_read(run_dir / "fsph.h5", err)) from None
     return EXIT_OK
 
 
