@@ -457,10 +457,37 @@ def _debris_table(ax, rec, experiment, direction):
             bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"})
 
 
-def _debris_extent(series, index, experiment, z_face, direction):
+def _body_points(g, index):
+    """The points of body `index` (0-based, deck order) in snapshot g
+    [mm]: the nodes of its elements and its particles' centres, (n, 2)."""
+    points = [np.zeros((0, 2))]
+    if "connectivity" in g:
+        conn = g["connectivity"][...][g["body"][...] == index]
+        points.append(g["nodes"][...][np.unique(conn)] * 1e3)
+    if "particles" in g:
+        points.append(g["particles/x"][...][g["particles/body"][...] == index] * 1e3)
+    return np.vstack(points)
+
+
+def _start_extent(first, names, rec):
+    """Where the flyer and the target start [mm]: (z_low, z_high) of
+    their points in the first snapshot, with a margin of a twentieth of
+    that span, and the flyer's radius (None when the snapshot lacks
+    them)."""
+    points = [_body_points(first, names.index(rec[role]))
+              for role in ("flyer", "target") if rec[role] in names]
+    if len(points) < 2 or not all(len(p) for p in points):
+        return None
+    z = np.concatenate([p[:, 1] for p in points])
+    pad = 0.05 * (z.max() - z.min())
+    return (z.min() - pad, z.max() + pad), float(points[0][:, 0].max())
+
+
+def _debris_extent(series, index, experiment, z_face, direction, start=None):
     """Half-width and (z_low, z_high) of a debris panel [mm]: the clouds'
-    2 %-fronts and radii, the ejecta and the experiment's marks, with a
-    margin."""
+    2 %-fronts and radii, the ejecta, the experiment's marks and where the
+    bodies start (start: _start_extent, so that a panel before the clouds
+    form shows the flyer and the plate), with a margin."""
     def get(key):
         value = series.get(key, [None] * (index + 1))[index]
         return value if value is not None else 0.0
@@ -471,8 +498,12 @@ def _debris_extent(series, index, experiment, z_face, direction):
                 experiment.get("intersection_radius_mm", 0.0),
                 0.75 * experiment.get("hole_diameter_mm", 0.0),
                 0.75 * (get("hole_diameter_mm")), 5.0)
-    ends = sorted([z_face + direction * 1.1 * ahead, z_face - direction * 1.5 * behind])
-    return 1.2 * width, ends
+    ends = [z_face + direction * 1.1 * ahead, z_face - direction * 1.5 * behind]
+    if start is not None:
+        (z_low, z_high), flyer_radius = start
+        ends += [z_low, z_high]
+        width = max(width, flyer_radius)
+    return 1.2 * width, [min(ends), max(ends)]
 
 
 def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
@@ -500,7 +531,9 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
     z_face, direction = rec["plate_front_face_z_mm"], rec["flight_direction"]
     with open_run_file(run_dir) as h5:
         snaps = _snapshots(h5)
-        colours = _debris_colours([str(n) for n in h5.attrs["body_names"]], rec)
+        names = [str(n) for n in h5.attrs["body_names"]]
+        colours = _debris_colours(names, rec)
+        start = _start_extent(snaps[0][1], names, rec)
         if times_us is None:
             times_us = [summary["metrics_time_s"] * 1e6]
         chosen = [(time, g) for _, time, g in choose_snapshots(snaps, times_us)]
@@ -514,7 +547,8 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
                 if series_times else 0
             at_metrics = abs(time - summary["metrics_time_s"]) <= 1e-12 * max(time, 1e-30)
             marks = experiment if at_metrics else {}
-            half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction)
+            half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction,
+                                                          start)
             # about four fifths of the panel's width is the axes' [pt/mm]
             _draw_bodies(ax, g, colours, 72.0 * 0.8 * panel_inches / (2.0 * half_width))
             if marks:

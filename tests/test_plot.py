@@ -648,3 +648,26 @@ def test_a_picture_that_cannot_be_written_says_so(elastic_run, tmp_path):
     (tmp_path / "shapes.png").mkdir()
     line = _plot_refused(out, tmp_path, "-o", str(tmp_path / "shapes.png"))
     assert f"{tmp_path / 'shapes.png'}: cannot write the picture" in line
+
+
+def test_debris_panel_before_the_clouds_shows_both_bodies(tmp_path, monkeypatch, capsys):
+    """Case 1 of the debris clouds, coarse, a 10 mm plate, 0.4 us: the
+    panel at 0 us frames the flyer and the plate where they start (it
+    framed the flyer only: no cloud, no fronts yet)."""
+    import f90nml
+    from conftest import CASES
+    nml = f90nml.read(CASES / "debris_cu_al_1.nml")
+    nml["output"].update({"n_snapshots": 2, "n_progress": 2, "vtu": False, "checkpoint": False})
+    del nml["output"]["reference"]
+    nml["control"]["end_time"] = 0.4e-6
+    nml["body"][0].update({"n_radial": 14, "n_axial": 9})
+    nml["body"][1].update({"radius": 10e-3, "fine_radius": 10e-3, "n_radial": 25, "n_coarse": 0,
+                           "n_axial": 7})
+    nml.write(tmp_path / "debris.nml", force=True)
+    run(tmp_path / "debris.nml", tmp_path / "out", quiet=True)
+    code, _, figures = plot_cli(monkeypatch, capsys, tmp_path / "out", "--times", "0")
+    assert code == 0
+    (ax,) = [ax for ax in figures["shapes.png"].axes if ax.get_title()]
+    z_low, z_high = ax.get_ylim()
+    assert z_low < -2.87 and z_high > 3.45          # the plate's rear face, the flyer's top
+    assert ax.get_xlim()[1] > 5.565                  # the flyer's radius
