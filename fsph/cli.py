@@ -99,7 +99,9 @@ def _parser():
                                     "with fsph)")
     rp.add_argument("-o", "--output", default="out/report", help="report folder")
     rp.add_argument("--decks", help="comma-separated deck names (default: the validation set)")
-    rp.add_argument("--rerun", action="store_true", help="run again even where outputs exist")
+    rp.add_argument("--rerun", action="store_true", help="run again even where the outputs of "
+                                                          "the deck and reference as they are "
+                                                          "now exist")
     d = sub.add_parser("decks-reference", help="print the deck reference (markdown)")
     d.add_argument("-o", "--output", help="write to this file instead")
     sub.add_parser("info", help="version and OpenMP threads")
@@ -263,7 +265,7 @@ def main(argv=None):
             for name in decks:
                 if not name or not (cases / f"{name}.nml").is_file():
                     raise InputError(f"{cases}: expected a deck {name}.nml (--decks)")
-            print(write_report(cases, args.output, decks, args.rerun))
+            print(write_report(cases, args.output, decks, args.rerun, say=print))
             return EXIT_OK
         if args.command == "decks-reference":
             from .deck import reference_markdown

@@ -47,12 +47,48 @@ def installed_cases():
     return package / "cases"
 
 
-def _summary(deck, outdir, rerun):
+def _inputs_now(deck_path):
+    """The digests of the deck and of its reference as they are now
+    (references.run_inputs, as a run stores them in summary.json)."""
+    deck = deck_module.load(deck_path)
+    return references.run_inputs(Path(deck_path).read_text(), references.load(deck))
+
+
+def stale_because(deck_path, summary):
+    """Why a stored summary is not a result of the deck as it is now ("" when
+    it is): a run that was killed ('running'), one that does not record
+    its inputs (from before they were recorded), or a deck or reference
+    changed since (their digests, summary.json inputs: as fsph.sweep
+    tells a changed variant deck by its text's digest)."""
+    if not isinstance(summary, dict) or "status" not in summary:
+        return "its summary.json is not a run's summary"
+    if summary["status"] == "running":
+        return "the run there did not finish"
+    stored = summary.get("inputs")
+    if not isinstance(stored, dict):
+        return "the run there does not record its deck"
+    now = _inputs_now(deck_path)
+    if stored.get("deck_sha256") != now["deck_sha256"]:
+        return f"{deck_path} changed since that run"
+    if stored.get("reference_sha256") != now["reference_sha256"]:
+        return f"the reference of {deck_path} changed since that run"
+    return ""
+
+
+def _summary(deck, outdir, rerun, say):
+    """The summary of the deck's run in outdir: the stored one where it is
+    a result of the deck as it is now (stale_because), else (or with
+    rerun) a new run's, saying why a stored run is not reused."""
     summary_path = outdir / "summary.json"
     if not rerun and summary_path.is_file():
-        summary = json.loads(summary_path.read_text())
-        if summary["status"] != "running":      # 'running': a run that was killed
+        try:
+            summary = json.loads(summary_path.read_text())
+        except (OSError, ValueError):
+            summary = None
+        why = stale_because(deck, summary)
+        if not why:
             return summary
+        say(f"fsph report: {outdir}: {why}; running it again")
     return run(deck, outdir, quiet=True)
 
 
@@ -141,9 +177,12 @@ def _summary_line(results, unfinished):
     return lines
 
 
-def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
-    """Run (or reuse) each deck's outputs under output_dir/runs/<deck> and
-    write output_dir/report.md; returns its path."""
+def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False, say=None):
+    """Run each deck into output_dir/runs/<deck>, or reuse the run there
+    where it is of the deck and reference as they are now (stale_because;
+    say(line) tells why one is run again), and write output_dir/report.md;
+    returns its path."""
+    say = say or (lambda line: None)
     cases_dir, output_dir = Path(cases_dir), Path(output_dir)
     try:
         output_dir.mkdir(parents=True, exist_ok=True)
@@ -157,7 +196,7 @@ def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
     for name in decks:
         deck = cases_dir / f"{name}.nml"
         outdir = output_dir / "runs" / name
-        summary = _summary(deck, outdir, rerun)
+        summary = _summary(deck, outdir, rerun, say)
         block = _acceptance_of(deck, summary["mode"])
         energy = summary["energy"]
         e_text = (f"{100 * energy['relative_error']:+.2f} % / "
