@@ -495,3 +495,25 @@ def test_report_runs_again_a_deck_or_reference_changed_since_its_run(tmp_path):
     values = fsph_cli(args, tmp_path)
     assert "the reference of cases/ok.nml changed since that run" in values.stdout
     assert "| 15 |" in (tmp_path / "rep" / "report.md").read_text()
+
+
+def test_report_lists_the_decks_it_could_not_compare(tmp_path):
+    """A deck without a reference, and one whose reference's conditions do
+    not hold (40 m/s, the reference's 50), ran but were in no row of the
+    report: each now has its measured metrics with the reason in the
+    reference column and a line of the summary."""
+    _short_cases(tmp_path, ok=None,
+                 noref=("  reference = 'references/elastic_bar.json'\n", ""),
+                 slower=("velocity_z = -50.0", "velocity_z = -40.0"))
+    proc = fsph_cli(["report", "--cases", "cases", "--decks", "ok,noref,slower", "-o", "rep"],
+                    tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    text = (tmp_path / "rep" / "report.md").read_text()
+    for case, why in (("noref", "no reference"), ("slower", "not compared")):
+        rows = {row[2]: row for row in _report_rows(text, case)}
+        assert {"bar_wave.plateau_GPa", "bar_wave.front_mm"} <= set(rows), case
+        assert rows["bar_wave.front_mm"][4:8] == [why, "–", "none", "–"], case
+    assert text.splitlines()[3] == (
+        "Without a reference (2): noref (no reference), slower (not compared: "
+        "body(1).velocity_z is -40.0 here, -50.0 in the reference).")
+    assert "noref" in (tmp_path / "rep" / "report.html").read_text()
