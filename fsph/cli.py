@@ -3,7 +3,8 @@
 `fsph info`, `fsph --version`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
-to the last good snapshot are kept; sweep: a variant did not complete); 4
+to the last good snapshot are kept; sweep: a variant did not complete;
+report: a deck's run did not complete, the report is written); 4
 interrupted by SIGINT/SIGTERM (a checkpoint is written); 1 any other fsph
 error.
 """
@@ -92,8 +93,10 @@ def _parser():
     pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png; with one "
                                            "--field, its picture)")
     pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
-    rp = sub.add_parser("report", help="run the validation decks (or reuse their outputs) and "
-                                       "write a report with errors against the references")
+    report_help = ("run the validation decks (or reuse their outputs where deck and reference "
+                   "are unchanged) and write a report with errors against the references; exit "
+                   "3 when a deck's run did not complete (the report is written all the same)")
+    rp = sub.add_parser("report", help=report_help, description=report_help)
     rp.add_argument("--cases", help="folder of the decks, their references in references/ "
                                     "beside them (default: the validation decks installed "
                                     "with fsph)")
@@ -228,6 +231,16 @@ def _plot(args):
     return EXIT_OK
 
 
+def _report_exit(statuses):
+    """Exit code of `fsph report` from its runs' statuses: 4 where one was
+    interrupted, 3 where one did not complete (the report is written all
+    the same and names them), else 0."""
+    statuses = list(statuses)
+    if "interrupted" in statuses:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if all(s == "completed" for s in statuses) else EXIT_RUN_FAILED
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     try:
@@ -254,7 +267,7 @@ def main(argv=None):
         if args.command == "plot":
             return _plot(args)
         if args.command == "report":
-            from .report import VALIDATION_DECKS, installed_cases, write_report
+            from .report import VALIDATION_DECKS, installed_cases, make_report
             decks = tuple(d.strip() for d in args.decks.split(",")) if args.decks else VALIDATION_DECKS
             cases = Path(args.cases) if args.cases is not None else installed_cases()
             if not cases.is_dir():
@@ -265,8 +278,9 @@ def main(argv=None):
             for name in decks:
                 if not name or not (cases / f"{name}.nml").is_file():
                     raise InputError(f"{cases}: expected a deck {name}.nml (--decks)")
-            print(write_report(cases, args.output, decks, args.rerun, say=print))
-            return EXIT_OK
+            path, statuses = make_report(cases, args.output, decks, args.rerun, say=print)
+            print(path)
+            return _report_exit(statuses.values())
         if args.command == "decks-reference":
             from .deck import reference_markdown
             text = reference_markdown()

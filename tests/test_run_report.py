@@ -517,3 +517,19 @@ def test_report_lists_the_decks_it_could_not_compare(tmp_path):
         "Without a reference (2): noref (no reference), slower (not compared: "
         "body(1).velocity_z is -40.0 here, -50.0 in the reference).")
     assert "noref" in (tmp_path / "rep" / "report.html").read_text()
+
+
+def test_report_exits_3_when_a_run_failed(tmp_path):
+    """A deck whose run fails (an energy error limit it cannot meet): the
+    report is written with its status row and 'Not completed', and the
+    exit code is 3 (was 0)."""
+    _short_cases(tmp_path, ok=None,
+                 fails=("end_time = 0.5e-6", "end_time = 0.5e-6\n  energy_error_limit = 1.0e-12"))
+    proc = fsph_cli(["report", "--cases", "cases", "--decks", "ok,fails", "-o", "rep"], tmp_path)
+    assert proc.returncode == 3, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == os.path.join("rep", "report.md")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "Not completed: fails (failed)." in text.splitlines()
+    assert _report_rows(text, "fails")[0][2:4] == ["status", "failed"]
+    assert _report_rows(text, "ok")
