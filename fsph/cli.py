@@ -3,7 +3,8 @@
 `fsph info`, `fsph --version`.
 
 Exit codes: 0 success; 2 bad deck or usage; 3 the run went bad (outputs up
-to the last good snapshot are kept; sweep: a variant did not complete); 4
+to the last good snapshot are kept; sweep: a variant did not complete;
+report: a deck's run did not complete, the report is written); 4
 interrupted by SIGINT/SIGTERM (a checkpoint is written); 1 any other fsph
 error.
 """
@@ -95,14 +96,18 @@ def _parser():
     pl.add_argument("-o", "--output", help="PNG file (default RUN_DIR/shapes.png; with one "
                                            "--field, its picture)")
     pl.add_argument("--dpi", type=int, default=150, help="resolution of the PNG")
-    rp = sub.add_parser("report", help="run the validation decks (or reuse their outputs) and "
-                                       "write a report with errors against the references")
+    report_help = ("run the validation decks (or reuse their outputs where deck and reference "
+                   "are unchanged) and write a report with errors against the references; exit "
+                   "3 when a deck's run did not complete (the report is written all the same)")
+    rp = sub.add_parser("report", help=report_help, description=report_help)
     rp.add_argument("--cases", help="folder of the decks, their references in references/ "
                                     "beside them (default: the validation decks installed "
                                     "with fsph)")
     rp.add_argument("-o", "--output", default="out/report", help="report folder")
     rp.add_argument("--decks", help="comma-separated deck names (default: the validation set)")
-    rp.add_argument("--rerun", action="store_true", help="run again even where outputs exist")
+    rp.add_argument("--rerun", action="store_true", help="run again even where the outputs of "
+                                                          "the deck and reference as they are "
+                                                          "now exist")
     d = sub.add_parser("decks-reference", help="print the deck reference (markdown)")
     d.add_argument("-o", "--output", help="write to this file instead")
     sub.add_parser("info", help="version and OpenMP threads")
@@ -161,18 +166,33 @@ def _plot_fields(text, run_dir):
     return names
 
 
+def _plot_run_dir(run_dir):
+    """The run folder of `fsph plot` checked before anything is drawn:
+    a folder (not one of its files) with a readable summary.json and
+    fsph.h5 (fsph.plot.read_summary, check_run_file); InputError, one
+    line, otherwise."""
+    from .plot import check_run_file, read_summary
+    if run_dir.is_file():
+        raise InputError(f"{run_dir}: a file; expected the output folder of `fsph run` "
+                         f"(the folder that holds fsph.h5 and summary.json)")
+    for name in ("fsph.h5", "summary.json"):
+        if not (run_dir / name).is_file():
+            raise InputError(f"{run_dir}: expected the output folder of `fsph run` (no {name})")
+    read_summary(run_dir)
+    check_run_file(run_dir)
+
+
 def _plot(args):
     """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
-    from .plot import (body_energies, damage_map, deformed_shapes, field_map, gauge_histories, histories,
-                       nearest_note, perforation_histories, snapshot_choice)
+    from .plot import (body_energies, cannot_read, damage_map, deformed_shapes, field_map,
+                       gauge_histories, histories, nearest_note, perforation_histories,
+                       snapshot_choice)
     times = _plot_times(args.times) if args.times is not None else None
     if not PLOT_DPI[0] <= args.dpi <= PLOT_DPI[1]:
         raise InputError(f"--dpi: expected an integer from {PLOT_DPI[0]} to {PLOT_DPI[1]}, "
                          f"got {args.dpi}")
     run_dir = Path(args.run_dir)
-    for name in ("fsph.h5", "summary.json"):
-        if not (run_dir / name).is_file():
-            raise InputError(f"{run_dir}: expected the output folder of `fsph run` (no {name})")
+    _plot_run_dir(run_dir)
     if args.output:
         output = Path(args.output)
         if output.suffix.lower() not in PLOT_FORMATS:
@@ -207,10 +227,21 @@ def _plot(args):
                       body_energies(run_dir, dpi=args.dpi)):
             if extra:
                 print(extra)
-    except OSError as err:
-        raise InputError(f"{err.filename or run_dir}: cannot write the picture: "
-                         f"{err.strerror or err}") from None
+    except OSError as err:      # h5py's reading; a picture not written says so itself
+        if err.filename:
+            raise InputError(f"{err.filename}: {err.strerror or err}") from None
+        raise InputError(cannot_read(run_dir / "fsph.h5", err)) from None
     return EXIT_OK
+
+
+def _report_exit(statuses):
+    """Exit code of `fsph report` from its runs' statuses: 4 where one was
+    interrupted, 3 where one did not complete (the report is written all
+    the same and names them), else 0."""
+    statuses = list(statuses)
+    if "interrupted" in statuses:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if all(s == "completed" for s in statuses) else EXIT_RUN_FAILED
 
 
 def main(argv=None):
@@ -241,7 +272,7 @@ def main(argv=None):
         if args.command == "plot":
             return _plot(args)
         if args.command == "report":
-            from .report import VALIDATION_DECKS, installed_cases, write_report
+            from .report import VALIDATION_DECKS, installed_cases, make_report
             decks = tuple(d.strip() for d in args.decks.split(",")) if args.decks else VALIDATION_DECKS
             cases = Path(args.cases) if args.cases is not None else installed_cases()
             if not cases.is_dir():
@@ -252,8 +283,9 @@ def main(argv=None):
             for name in decks:
                 if not name or not (cases / f"{name}.nml").is_file():
                     raise InputError(f"{cases}: expected a deck {name}.nml (--decks)")
-            print(write_report(cases, args.output, decks, args.rerun))
-            return EXIT_OK
+            path, statuses = make_report(cases, args.output, decks, args.rerun, say=print)
+            print(path)
+            return _report_exit(statuses.values())
         if args.command == "decks-reference":
             from .deck import reference_markdown
             text = reference_markdown()

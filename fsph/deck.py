@@ -1218,6 +1218,14 @@ def groups_of(deck):
     return {g: deck[g] for g in SCHEMA if g in deck}
 
 
+def text_digest(text):
+    """SHA-256 (hex) of a deck's text: what a stored run keeps of the deck
+    it ran (summary.json inputs; fsph.sweep's variant.json), so that a run
+    of a deck changed since, even by a comment, is not taken for one of
+    the deck as it is now."""
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 def _fingerprint(deck):
     """Digest of a deck's groups (what a Simulation is built from)."""
     return hashlib.sha256(json.dumps(groups_of(deck), sort_keys=True, default=repr).encode()).hexdigest()

@@ -265,7 +265,8 @@ class _Setup:
     reference values (None without) and why they do not apply to this deck
     ("" where they do: references.not_applied_because, decided once), the output
     folder and its lock, the simulation (at the checkpoint's state on a
-    restart) and its writer."""
+    restart), its writer and the digests of the deck and the reference
+    (references.run_inputs)."""
 
     deck_path: Path
     deck: dict
@@ -275,6 +276,7 @@ class _Setup:
     lock: FolderLock
     sim: Simulation
     writer: RunWriter
+    inputs: dict
 
 
 def _restart(sim, deck, restart, outdir):
@@ -303,6 +305,7 @@ def _set_up(deck_path, outdir, restart):
     lock and open the writer."""
     deck_path = Path(deck_path)
     deck = deck_module.load(deck_path)
+    deck_text = deck_path.read_text()
     reference = references.load(deck)
     why = "" if reference is None else references.not_applied_because(reference, deck)
     sim = Simulation(deck)
@@ -313,7 +316,7 @@ def _set_up(deck_path, outdir, restart):
     outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
     lock = FolderLock(outdir)
     try:
-        writer = RunWriter(outdir, deck_path.read_text(), deck["control"]["title"],
+        writer = RunWriter(outdir, deck_text, deck["control"]["title"],
                            vtu=deck["output"]["vtu"], body_names=sim.body_names,
                            material_names=sim.material_names,
                            revolve=(deck["output"]["revolve_segments"], deck["output"]["revolve_angle"]),
@@ -324,7 +327,8 @@ def _set_up(deck_path, outdir, restart):
     writer.energy0 = sim.initial_energy
     writer.max_energy_error = books.get("max_energy_error", 0.0)
     writer.max_energy_error_time = books.get("max_energy_error_time", 0.0)
-    return _Setup(deck_path, deck, reference, why, outdir, lock, sim, writer)
+    return _Setup(deck_path, deck, reference, why, outdir, lock, sim, writer,
+                  references.run_inputs(deck_text, reference))
 
 
 #: Column heads of the progress lines.
@@ -673,6 +677,9 @@ def _summary(setup, books, t_wall0):
         # kind of host ends with the same digest, whatever the thread count,
         # the outputs or a restart
         "state_digest": checkpoint_module.state_digest(sim) if books.ended else None,
+        # SHA-256 of the deck's text and of the reference's values (references.run_inputs):
+        # `fsph report` reuses this run only for the deck and reference as they are now
+        "inputs": setup.inputs,
     }
     if reference:
         summary["reference"] = {"source": reference.get("source", ""), "applies": not why,

@@ -24,6 +24,88 @@ BODY_COLOURS = (("#4a7ab5", "#d9822b"),     # blue, orange
                 ("#d4b44a", "#2b8c8c"))     # ochre, teal
 
 
+#: the groups of fsph.h5 that every picture reads
+RUN_GROUPS = ("snapshots", "history")
+#: the history columns history.png draws (every run writes them)
+HISTORY_COLUMNS = ("time", "dt", "kinetic", "internal", "total")
+#: the entries of summary.json the pictures read as JSON objects
+SUMMARY_OBJECTS = ("metrics", "reference", "energy", "material_state")
+#: the JSON names of the Python types json.loads returns
+JSON_TYPES = {list: "an array", str: "a string", int: "a number", float: "a number",
+              bool: "a boolean", type(None): "null"}
+
+
+def _not_a_summary(summary):
+    """Why a parsed summary.json is not the summary of a run ("" when it
+    is): `fsph run` writes a JSON object with its status, and objects
+    under SUMMARY_OBJECTS."""
+    if not isinstance(summary, dict):
+        return f"{JSON_TYPES.get(type(summary), type(summary).__name__)}, not a JSON object"
+    if not isinstance(summary.get("status"), str):
+        return "no status"
+    wrong = [key for key in SUMMARY_OBJECTS if key in summary and not isinstance(summary[key], dict)]
+    return f"{wrong[0]} is not a JSON object" if wrong else ""
+
+
+def read_summary(run_dir):
+    """summary.json of a run folder as a dict; InputError (one line naming
+    the file and what is wrong) where it cannot be read, is not JSON (cut
+    short) or is not the summary of a run (_not_a_summary)."""
+    path = Path(run_dir) / "summary.json"
+    try:
+        summary = json.loads(path.read_text())
+    except OSError as err:
+        raise InputError(f"{path}: cannot read it: {err.strerror or err}") from None
+    except ValueError as err:       # not JSON, not UTF-8
+        raise InputError(f"{path}: not a summary of `fsph run` (not JSON: {err})") from None
+    why = _not_a_summary(summary)
+    if why:
+        raise InputError(f"{path}: not a summary of `fsph run` ({why})")
+    return summary
+
+
+def cannot_read(path, err):
+    """The one line of a run file h5py cannot open or read: a run writing
+    it (HDF5's lock, held for each write), else damaged or cut short."""
+    if "unable to lock file" in str(err).lower():
+        return (f"{path}: cannot read it now: a run is writing it (HDF5 could not lock the "
+                f"file); try again once the write is done")
+    return f"{path}: cannot read it, damaged or cut short ({err})"
+
+
+def open_run_file(run_dir):
+    """fsph.h5 of a run folder, open for reading (an h5py.File, to use in
+    a `with`); InputError (cannot_read) where HDF5 cannot open it."""
+    path = Path(run_dir) / "fsph.h5"
+    try:
+        return h5py.File(path, "r")
+    except OSError as err:
+        raise InputError(cannot_read(path, err)) from None
+
+
+def check_run_file(run_dir):
+    """InputError (one line naming the file) unless the run's fsph.h5
+    opens, has the groups RUN_GROUPS, the history columns HISTORY_COLUMNS
+    and a complete snapshot, and every object in it can be opened (a
+    damaged header shows here, not halfway through a picture)."""
+    path = Path(run_dir) / "fsph.h5"
+    with open_run_file(run_dir) as h5:
+        try:
+            h5.visititems(lambda name, obj: None)
+            for group in RUN_GROUPS:
+                if not isinstance(h5.get(group), h5py.Group):
+                    raise InputError(f"{path}: no '{group}' group (not written by `fsph run`, "
+                                     f"or damaged)")
+            missing = [c for c in HISTORY_COLUMNS if c not in h5["history"]]
+            if missing:
+                raise InputError(f"{path}: no history/{missing[0]} (not written by `fsph run`, "
+                                 f"or damaged)")
+            if not _snapshots(h5):
+                raise InputError(f"{path}: no complete snapshot to draw")
+        except (KeyError, OSError, RuntimeError, ValueError) as err:
+            raise InputError(cannot_read(path, err)) from None
+
+
 def _snapshots(h5):
     """(time, group) of every complete snapshot, in time order (a snapshot
     being written, or cut short, has no number yet)."""
@@ -79,7 +161,7 @@ def choose_snapshots(snaps, times_us=None, fractions=None, n=DEFAULT_PANELS):
 def snapshot_choice(run_dir, times_us):
     """(requested time, drawn snapshot's time) [µs] for each of times_us
     (the nearest snapshot of the run in run_dir, as the pictures draw it)."""
-    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         chosen = choose_snapshots(_snapshots(h5), times_us)
     return [(t, time * 1e6) for requested, time, _ in chosen for t in requested]
 
@@ -103,10 +185,15 @@ def nearest_note(pairs):
 
 
 def _save(fig, output, dpi, **kwargs):
-    """Write the figure and close it (tests look at the figure here)."""
+    """Write the figure and close it (tests look at the figure here);
+    InputError naming the file where it cannot be written."""
     import matplotlib.pyplot as plt
-    fig.savefig(output, dpi=dpi, **kwargs)
-    plt.close(fig)
+    try:
+        fig.savefig(output, dpi=dpi, **kwargs)
+    except OSError as err:
+        raise InputError(f"{output}: cannot write the picture: {err.strerror or err}") from None
+    finally:
+        plt.close(fig)
 
 
 def _shape_marks(summary):
@@ -236,11 +323,11 @@ def _shapes_figure(run_dir, times_us=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    summary = json.loads((Path(run_dir) / "summary.json").read_text())
+    summary = read_summary(run_dir)
     experiment, frame = _shape_marks(summary)
     names = body_names(summary)
     present = set()
-    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         chosen = [(time, g) for _, time, g in choose_snapshots(_snapshots(h5), times_us)]
         fig, axes = plt.subplots(1, len(chosen), sharey=True, squeeze=False,
                                  layout="constrained")
@@ -284,7 +371,7 @@ def deformed_shapes(run_dir, times_us=None, output=None, dpi=150):
     (&metrics kind 'debris') gets debris_cloud's picture instead."""
     run_dir = Path(run_dir)
     output = Path(output) if output else run_dir / "shapes.png"
-    summary = json.loads((run_dir / "summary.json").read_text())
+    summary = read_summary(run_dir)
     if "debris" in summary.get("metrics", {}):
         return debris_cloud(run_dir, times_us, output, dpi)
     _save(_shapes_figure(run_dir, times_us), output, dpi, bbox_inches="tight")
@@ -370,10 +457,37 @@ def _debris_table(ax, rec, experiment, direction):
             bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"})
 
 
-def _debris_extent(series, index, experiment, z_face, direction):
+def _body_points(g, index):
+    """The points of body `index` (0-based, deck order) in snapshot g
+    [mm]: the nodes of its elements and its particles' centres, (n, 2)."""
+    points = [np.zeros((0, 2))]
+    if "connectivity" in g:
+        conn = g["connectivity"][...][g["body"][...] == index]
+        points.append(g["nodes"][...][np.unique(conn)] * 1e3)
+    if "particles" in g:
+        points.append(g["particles/x"][...][g["particles/body"][...] == index] * 1e3)
+    return np.vstack(points)
+
+
+def _start_extent(first, names, rec):
+    """Where the flyer and the target start [mm]: (z_low, z_high) of
+    their points in the first snapshot, with a margin of a twentieth of
+    that span, and the flyer's radius (None when the snapshot lacks
+    them)."""
+    points = [_body_points(first, names.index(rec[role]))
+              for role in ("flyer", "target") if rec[role] in names]
+    if len(points) < 2 or not all(len(p) for p in points):
+        return None
+    z = np.concatenate([p[:, 1] for p in points])
+    pad = 0.05 * (z.max() - z.min())
+    return (z.min() - pad, z.max() + pad), float(points[0][:, 0].max())
+
+
+def _debris_extent(series, index, experiment, z_face, direction, start=None):
     """Half-width and (z_low, z_high) of a debris panel [mm]: the clouds'
-    2 %-fronts and radii, the ejecta and the experiment's marks, with a
-    margin."""
+    2 %-fronts and radii, the ejecta, the experiment's marks and where the
+    bodies start (start: _start_extent, so that a panel before the clouds
+    form shows the flyer and the plate), with a margin."""
     def get(key):
         value = series.get(key, [None] * (index + 1))[index]
         return value if value is not None else 0.0
@@ -384,8 +498,12 @@ def _debris_extent(series, index, experiment, z_face, direction):
                 experiment.get("intersection_radius_mm", 0.0),
                 0.75 * experiment.get("hole_diameter_mm", 0.0),
                 0.75 * (get("hole_diameter_mm")), 5.0)
-    ends = sorted([z_face + direction * 1.1 * ahead, z_face - direction * 1.5 * behind])
-    return 1.2 * width, ends
+    ends = [z_face + direction * 1.1 * ahead, z_face - direction * 1.5 * behind]
+    if start is not None:
+        (z_low, z_high), flyer_radius = start
+        ends += [z_low, z_high]
+        width = max(width, flyer_radius)
+    return 1.2 * width, [min(ends), max(ends)]
 
 
 def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
@@ -404,16 +522,18 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
 
     run_dir = Path(run_dir)
     output = Path(output) if output else run_dir / "shapes.png"
-    summary = json.loads((run_dir / "summary.json").read_text())
+    summary = read_summary(run_dir)
     metrics = summary["metrics"]
     rec = metrics["debris"]
     series = metrics.get("series", {})
     experiment = {key: cmp["reference"] for key, cmp in
                   summary.get("reference", {}).get("comparison", {}).get("debris", {}).items()}
     z_face, direction = rec["plate_front_face_z_mm"], rec["flight_direction"]
-    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         snaps = _snapshots(h5)
-        colours = _debris_colours([str(n) for n in h5.attrs["body_names"]], rec)
+        names = [str(n) for n in h5.attrs["body_names"]]
+        colours = _debris_colours(names, rec)
+        start = _start_extent(snaps[0][1], names, rec)
         if times_us is None:
             times_us = [summary["metrics_time_s"] * 1e6]
         chosen = [(time, g) for _, time, g in choose_snapshots(snaps, times_us)]
@@ -427,7 +547,8 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
                 if series_times else 0
             at_metrics = abs(time - summary["metrics_time_s"]) <= 1e-12 * max(time, 1e-30)
             marks = experiment if at_metrics else {}
-            half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction)
+            half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction,
+                                                          start)
             # about four fifths of the panel's width is the axes' [pt/mm]
             _draw_bodies(ax, g, colours, 72.0 * 0.8 * panel_inches / (2.0 * half_width))
             if marks:
@@ -485,11 +606,11 @@ def _history_figure(run_dir):
     import matplotlib.pyplot as plt
 
     run_dir = Path(run_dir)
-    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         hist = {k: h5["history"][k][...] for k in h5["history"]}
         body_force = {name: g["force_z"][...] for name, g in h5.get("body_history", {}).items()}
     summary_path = run_dir / "summary.json"
-    summary = json.loads(summary_path.read_text()) if summary_path.is_file() else {}
+    summary = read_summary(run_dir) if summary_path.is_file() else {}
     t = hist["time"] * 1e6
     # the rigid planes' force, where a plane has acted (runs before it have no column)
     force = hist.get("plane_force_z")
@@ -587,7 +708,7 @@ def _perforation_figure(run_dir):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    summary = json.loads((Path(run_dir) / "summary.json").read_text())
+    summary = read_summary(run_dir)
     series = summary.get("metrics", {}).get("series")
     if not series or "velocity_z_m_s" not in series:
         return None
@@ -642,7 +763,7 @@ def _named_histories(run_dir, group, keys):
     (gauge_history, body_history) as (its datasets among keys, its
     attributes), and the run's title; None for a run without the group or
     with an empty one."""
-    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         if group not in h5 or not len(h5[group]):
             return None
         t = h5["history/time"][...] * 1e6
@@ -750,9 +871,9 @@ def _damage_figure(run_dir, times_us=None):
     from matplotlib.patches import Patch
 
     run_dir = Path(run_dir)
-    summary = json.loads((run_dir / "summary.json").read_text())
+    summary = read_summary(run_dir)
     names = body_names(summary)
-    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         snaps = _snapshots(h5)
         damaged = _damaged_bodies(snaps)
         if not damaged:
@@ -940,7 +1061,7 @@ FIELD_MODELS = {
 def material_names(run_dir):
     """The names of the run's materials in deck order (fsph.h5 /deck;
     'material N' where it cannot be read)."""
-    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         materials = _deck_materials(h5) or []
         n = max([len(materials)] + [int(g["material"][...].max(initial=-1)) + 1
                                     for _, g in _snapshots(h5) if "material" in g])
@@ -954,7 +1075,7 @@ def missing_fields(run_dir):
     of the deck with the model that computes it (their stored values are
     then zero and room temperature throughout). A dict NAME -> reason."""
     missing = {}
-    with h5py.File(Path(run_dir) / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         snaps = [g for _, g in _snapshots(h5)]
         materials = _deck_materials(h5)
         for field, (_, _, dataset, _, _) in FIELDS.items():
@@ -1077,10 +1198,10 @@ def _field_figure(run_dir, field, times_us=None):
     from matplotlib.patches import Patch
 
     run_dir = Path(run_dir)
-    summary = json.loads((run_dir / "summary.json").read_text())
+    summary = read_summary(run_dir)
     _, frame = _shape_marks(summary)
     names = material_names(run_dir)
-    with h5py.File(run_dir / "fsph.h5", "r") as h5:
+    with open_run_file(run_dir) as h5:
         without = _without_model(h5, field)
         panels = [(time, _panel(g, field, without))
                   for _, time, g in choose_snapshots(_snapshots(h5), times_us)]

@@ -12,6 +12,7 @@ why instead of reporting an error against another experiment. A reference
 without conditions applies to the deck that names it; a sweep drops it
 from the variants that change a key (fsph.sweep)."""
 
+import hashlib
 import json
 import math
 from pathlib import Path
@@ -38,6 +39,31 @@ def load(deck):
         raise DeckError(deck["path"], "output", "reference", "a JSON object (with 'conditions' an "
                         "object of deck keys, if any)", str(path))
     return reference
+
+
+#: The entries of a reference that no run stores: the bars `fsph report`
+#: holds the runs to, read afresh from the reference at each report.
+BAR_ENTRIES = ("acceptance", "acceptance_by_mode")
+
+
+def digest(reference):
+    """SHA-256 (hex) of what a run takes from its reference (None
+    without one): the values and conditions, not the bars (BAR_ENTRIES),
+    written as canonical JSON (keys sorted), so a reference rewritten
+    with the same content has the same digest."""
+    if reference is None:
+        return None
+    kept = {key: value for key, value in reference.items() if key not in BAR_ENTRIES}
+    return hashlib.sha256(json.dumps(kept, sort_keys=True).encode()).hexdigest()
+
+
+def run_inputs(deck_text, reference):
+    """What a run's results rest on besides fsph: the digests of the
+    deck's text (deck.text_digest) and of its reference (digest), as
+    summary.json keeps them ('inputs'); a stored run is one of the deck as
+    it is now only where the two are the same (fsph.report)."""
+    return {"deck_sha256": deck_module.text_digest(deck_text),
+            "reference_sha256": digest(reference)}
 
 
 def deck_value(deck, spec):

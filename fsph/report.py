@@ -47,12 +47,48 @@ def installed_cases():
     return package / "cases"
 
 
-def _summary(deck, outdir, rerun):
+def _inputs_now(deck_path):
+    """The digests of the deck and of its reference as they are now
+    (references.run_inputs, as a run stores them in summary.json)."""
+    deck = deck_module.load(deck_path)
+    return references.run_inputs(Path(deck_path).read_text(), references.load(deck))
+
+
+def stale_because(deck_path, summary):
+    """Why a stored summary is not a result of the deck as it is now ("" when
+    it is): a run that was killed ('running'), one that does not record
+    its inputs (from before they were recorded), or a deck or reference
+    changed since (their digests, summary.json inputs: as fsph.sweep
+    tells a changed variant deck by its text's digest)."""
+    if not isinstance(summary, dict) or "status" not in summary:
+        return "its summary.json is not a run's summary"
+    if summary["status"] == "running":
+        return "the run there did not finish"
+    stored = summary.get("inputs")
+    if not isinstance(stored, dict):
+        return "the run there does not record its deck"
+    now = _inputs_now(deck_path)
+    if stored.get("deck_sha256") != now["deck_sha256"]:
+        return f"{deck_path} changed since that run"
+    if stored.get("reference_sha256") != now["reference_sha256"]:
+        return f"the reference of {deck_path} changed since that run"
+    return ""
+
+
+def _summary(deck, outdir, rerun, say):
+    """The summary of the deck's run in outdir: the stored one where it is
+    a result of the deck as it is now (stale_because), else (or with
+    rerun) a new run's, saying why a stored run is not reused."""
     summary_path = outdir / "summary.json"
     if not rerun and summary_path.is_file():
-        summary = json.loads(summary_path.read_text())
-        if summary["status"] != "running":      # 'running': a run that was killed
+        try:
+            summary = json.loads(summary_path.read_text())
+        except (OSError, ValueError):
+            summary = None
+        why = stale_because(deck, summary)
+        if not why:
             return summary
+        say(f"fsph report: {outdir}: {why}; running it again")
     return run(deck, outdir, quiet=True)
 
 
@@ -119,9 +155,53 @@ def _acceptance_of(deck_path, mode):
     return acceptance(reference, mode, deck_path) if reference is not None else {}
 
 
-def _summary_line(results, unfinished):
+def _compared(name, metric, c, kind_value):
+    """A metric of case `name` against its reference (c: its comparison
+    entry) and its bar (kind_value: bar(); None without): the result the
+    summary line counts and the table's cells from fsph to within bar."""
+    key = metric.split(".", 1)[1]
+    measured = c["computed"] is not None
+    error = f"{c['error_percent']:+.2f} %" if measured else "not measured"
+    result = {"case": name, "metric": metric, "error": error, "bar": None, "within": None}
+    if kind_value is not None:
+        result.update(bar=_bar_text(kind_value, key), within=within(kind_value, c))
+        if kind_value[0] == "absolute" and measured:    # the difference in the bar's unit
+            error += f" ({c['computed'] - c['reference']:+.3g} {_unit(key)})".replace(" )", ")")
+            result["error"] = error
+    verdict = "–" if result["within"] is None else ("yes" if result["within"] else "NO")
+    computed = f"{c['computed']:.4g}" if measured else "none"
+    return result, (f"{computed} | {c['reference']:.4g} | {error} | {result['bar'] or 'none'} | "
+                    f"{verdict}")
+
+
+def _uncompared(summary):
+    """Why a run has no metric against a reference: (the table's cell,
+    the summary line's words): no reference named by its deck, one whose
+    conditions do not hold for the run (not compared, and why), or one
+    with no value of what the run measures; None where it has some."""
+    ref = summary.get("reference")
+    if ref is None:
+        return "no reference", "no reference"
+    if not ref.get("applies", True):
+        return "not compared", f"not compared: {ref.get('not_applied_because', '')}"
+    if not any(ref.get("comparison", {}).values()):
+        return "nothing compared", "the reference has none of its metrics"
+    return None
+
+
+def _measured(summary):
+    """The numbers a run measured (summary.json metrics, the series left
+    out): a list of (GROUP.KEY, value)."""
+    return [(f"{group}.{key}", value) for group, values in summary.get("metrics", {}).items()
+            if group != "series" and isinstance(values, dict)
+            for key, value in values.items()
+            if isinstance(value, (int, float)) and not isinstance(value, bool)]
+
+
+def _summary_line(results, unfinished, uncompared=()):
     """'N of M metrics within their bars', the failures, the metrics
-    without a bar and the runs that did not complete."""
+    without a bar, the runs without a comparison with a reference and the
+    runs that did not complete."""
     held = [r for r in results if r["bar"] is not None]
     outside = [r for r in held if not r["within"]]
     text = f"{len(held) - len(outside)} of {len(held)} metrics within their bars"
@@ -135,15 +215,30 @@ def _summary_line(results, unfinished):
     if free:
         lines.append(f"Without a bar ({len(free)}): "
                      + ", ".join(f"{r['case']} {r['metric']} ({r['error']})" for r in free) + ".")
+    if uncompared:
+        lines.append(f"Without a reference ({len(uncompared)}): "
+                     + ", ".join(f"{name} ({why})" for name, why in uncompared) + ".")
     if unfinished:
         lines.append("Not completed: " + ", ".join(f"{name} ({status})"
                                                    for name, status in unfinished) + ".")
     return lines
 
 
-def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
+def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False, say=None):
     """Run (or reuse) each deck's outputs under output_dir/runs/<deck> and
-    write output_dir/report.md; returns its path."""
+    write output_dir/report.md; returns its path (make_report)."""
+    return make_report(cases_dir, output_dir, decks, rerun, say)[0]
+
+
+def make_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False, say=None):
+    """Run each deck into output_dir/runs/<deck>, or reuse the run there
+    where it is of the deck and reference as they are now (stale_because;
+    say(line) tells why one is run again), and write output_dir/report.md
+    and report.html: a row per metric compared with a reference, per
+    metric measured by a run without a comparison (saying why), and a
+    status row for a run that did not complete or measured nothing.
+    Returns (report.md's path, {deck: its run's status})."""
+    say = say or (lambda line: None)
     cases_dir, output_dir = Path(cases_dir), Path(output_dir)
     try:
         output_dir.mkdir(parents=True, exist_ok=True)
@@ -153,55 +248,53 @@ def write_report(cases_dir, output_dir, decks=VALIDATION_DECKS, rerun=False):
     table = ["| case | mode | quantity | fsph | reference | error | bar | within bar "
              "| energy (end / largest) | cycles | wall [s] | warnings |",
              "|---|---|---|---:|---:|---:|---:|---|---|---:|---:|---|"]
-    pictures, results, unfinished = [], [], []
+    pictures, results, unfinished, uncompared, statuses = [], [], [], [], {}
     for name in decks:
         deck = cases_dir / f"{name}.nml"
         outdir = output_dir / "runs" / name
-        summary = _summary(deck, outdir, rerun)
+        summary = _summary(deck, outdir, rerun, say)
+        statuses[name] = summary["status"]
         block = _acceptance_of(deck, summary["mode"])
         energy = summary["energy"]
         e_text = (f"{100 * energy['relative_error']:+.2f} % / "
                   f"{100 * energy.get('max_relative_error', energy['relative_error']):+.2f} %")
         flags = "; ".join(f"**{w['kind']}**: {w['message']}" for w in summary.get("warnings", []))
+        tail = f"{e_text} | {summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |"
         comparison = summary.get("reference", {}).get("comparison", {})
         rows = [(group, key, c) for group, values in comparison.items()
                 for key, c in values.items()]
+        why = None if rows else _uncompared(summary)
+        own = _measured(summary) if why else []
+        if why:
+            uncompared.append((name, why[1]))
         if summary["status"] != "completed":
             unfinished.append((name, summary["status"]))
-        if summary["status"] != "completed" or (flags and not rows):
-            table.append(f"| {name} | {summary['mode']} | status | {summary['status']} | | | | | "
-                         f"{e_text} | {summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |")
+        if summary["status"] != "completed" or not (rows or own):
+            table.append(f"| {name} | {summary['mode']} | status | {summary['status']} | "
+                         f"{why[0] if why else ''} | | | | {tail}")
+        for metric, value in own:
+            table.append(f"| {name} | {summary['mode']} | {metric} | {value:.4g} | {why[0]} | – "
+                         f"| none | – | {tail}")
         for group, key, c in rows:
-            kind_value = bar(block, key, deck)
-            measured = c["computed"] is not None
-            error = f"{c['error_percent']:+.2f} %" if measured else "not measured"
-            result = {"case": name, "metric": f"{group}.{key}", "error": error, "bar": None,
-                      "within": None}
-            if kind_value is not None:
-                result.update(bar=_bar_text(kind_value, key), within=within(kind_value, c))
-                if kind_value[0] == "absolute" and measured:    # the difference in the bar's unit
-                    error += f" ({c['computed'] - c['reference']:+.3g} {_unit(key)})".replace(" )", ")")
-                    result["error"] = error
+            result, cells = _compared(name, f"{group}.{key}", c, bar(block, key, deck))
             results.append(result)
-            verdict = "–" if result["within"] is None else ("yes" if result["within"] else "NO")
-            computed = f"{c['computed']:.4g}" if measured else "none"
-            table.append(f"| {name} | {summary['mode']} | {group}.{key} | {computed} | "
-                         f"{c['reference']:.4g} | {error} | {result['bar'] or 'none'} | {verdict} | "
-                         f"{e_text} | {summary['cycles']} | {summary['wall_time_s']:.1f} | {flags} |")
+            table.append(f"| {name} | {summary['mode']} | {group}.{key} | {cells} | {tail}")
         if "taylor" in summary.get("metrics", {}):
             png = deformed_shapes(outdir, output=output_dir / f"{name}.png", dpi=80)
             pictures.append((name, png.name))
-    lines = ["# fsph validation report", ""] + _summary_line(results, unfinished) + [
+    head = _summary_line(results, unfinished, uncompared)
+    lines = ["# fsph validation report", ""] + head + [
         "", f"Generated by `fsph report` from the decks in `{cases_dir}`; each row is a metric "
         "of a case against its reference (`references/` beside the decks) and the bar the "
         "reference holds it to (its `acceptance`, per mode `acceptance_by_mode`; none: no "
-        "accuracy bar).", ""] + table + [""]
+        "accuracy bar); a case without a comparison (no reference, or one whose conditions "
+        "do not hold) lists what it measured.", ""] + table + [""]
     for name, png in pictures:
         lines += [f"## {name}", "", f"![{name}]({png})", ""]
     path = output_dir / "report.md"
     path.write_text("\n".join(lines))
-    (output_dir / "report.html").write_text(_html(_summary_line(results, unfinished), table, pictures))
-    return path
+    (output_dir / "report.html").write_text(_html(head, table, pictures))
+    return path, statuses
 
 
 def _cells(row):

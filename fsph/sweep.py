@@ -23,7 +23,6 @@ dask.distributed and pandas are imported when a sweep starts, not with fsph.
 """
 
 import difflib
-import hashlib
 import itertools
 import json
 import math
@@ -101,7 +100,7 @@ class Variant:
 
     @property
     def deck_hash(self):
-        return hashlib.sha256(self.deck_text.encode()).hexdigest()
+        return deck_module.text_digest(self.deck_text)
 
 
 # ---------------------------------------------------------------- values

@@ -572,3 +572,102 @@ def test_gauges_png_draws_each_gauge(tmp_path, monkeypatch, capsys):
     for line in axes["axial velocity [m/s]"].get_lines():
         assert line.get_ydata()[0] == pytest.approx(-50.0)
     assert (tmp_path / "out" / "gauges.png").is_file()
+
+
+# ---- a run folder fsph plot cannot read -------------------------------------------
+def _plot_refused(run_dir, cwd, *args, env=None):
+    """`fsph plot RUN_DIR ARGS` in a child process that must be refused:
+    exit 2, one line without a traceback, no picture; returns the line."""
+    res = subprocess.run([sys.executable, "-m", "fsph", "plot", str(run_dir), *args],
+                         capture_output=True, text=True, cwd=cwd, timeout=300, env=env)
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and "Traceback" not in res.stderr and len(lines) == 1, res.stderr
+    assert not [png for png in Path(run_dir).glob("*.png") if png.is_file()]
+    return lines[0]
+
+
+def _copy_run(run_dir, tmp_path):
+    """A copy of a run folder to spoil, without the pictures drawn in it."""
+    import shutil
+    return Path(shutil.copytree(run_dir, tmp_path / "run", ignore=shutil.ignore_patterns("*.png")))
+
+
+@pytest.mark.parametrize("text, why", [
+    ('{"status": ', "(not JSON: Expecting value: line 1 column 12"),
+    ("[]", "(an array, not a JSON object)"),
+    ('{"case": "rod"}', "(no status)"),
+    ('{"status": "completed", "metrics": []}', "(metrics is not a JSON object)"),
+])
+def test_a_summary_that_is_not_a_runs_is_a_one_line_error(elastic_run, tmp_path, text, why):
+    """summary.json cut short, or JSON that is not a run's summary: exit 2
+    naming the file and what is wrong (were tracebacks)."""
+    out = _copy_run(elastic_run, tmp_path)
+    (out / "summary.json").write_text(text)
+    line = _plot_refused(out, tmp_path)
+    assert f"{out / 'summary.json'}: not a summary of `fsph run` {why}" in line
+
+
+@pytest.mark.parametrize("group, says", [
+    ("snapshots", "no 'snapshots' group"), ("history", "no 'history' group"),
+    ("history/total", "no history/total"),
+])
+def test_a_run_file_without_its_groups_is_a_one_line_error(elastic_run, tmp_path, group, says):
+    """fsph.h5 without its snapshots or history (was a KeyError traceback):
+    exit 2 naming the file and what it lacks."""
+    out = _copy_run(elastic_run, tmp_path)
+    with h5py.File(out / "fsph.h5", "a") as h5:
+        del h5[group]
+    assert f"{out / 'fsph.h5'}: {says}" in _plot_refused(out, tmp_path)
+
+
+def test_a_run_file_that_cannot_be_read_is_not_a_picture_not_written(elastic_run, tmp_path):
+    """A cut-short fsph.h5 and one a run holds locked are refused as files
+    that cannot be read (were "cannot write the picture"), the lock as a
+    run writing it; a path to fsph.h5 itself asks for the run's folder
+    (was "(no fsph.h5)")."""
+    import os
+    out = _copy_run(elastic_run, tmp_path)
+    line = _plot_refused(out / "fsph.h5", tmp_path)
+    assert f"{out / 'fsph.h5'}: a file; expected the output folder of `fsph run`" in line
+    env = {k: v for k, v in os.environ.items() if k != "HDF5_USE_FILE_LOCKING"}
+    with h5py.File(out / "fsph.h5", "a"):            # a run writing it holds HDF5's lock
+        line = _plot_refused(out, tmp_path, env=env)
+    assert f"{out / 'fsph.h5'}: cannot read it now: a run is writing it" in line
+    assert "cannot write" not in line
+    with open(out / "fsph.h5", "r+b") as fh:
+        fh.truncate(4000)
+    line = _plot_refused(out, tmp_path)
+    assert f"{out / 'fsph.h5'}: cannot read it, damaged or cut short (" in line
+    assert "truncated file" in line and "cannot write" not in line
+
+
+def test_a_picture_that_cannot_be_written_says_so(elastic_run, tmp_path):
+    """-o into a folder that cannot take the file: the picture's name and
+    that it cannot be written."""
+    out = _copy_run(elastic_run, tmp_path)
+    (tmp_path / "shapes.png").mkdir()
+    line = _plot_refused(out, tmp_path, "-o", str(tmp_path / "shapes.png"))
+    assert f"{tmp_path / 'shapes.png'}: cannot write the picture" in line
+
+
+def test_debris_panel_before_the_clouds_shows_both_bodies(tmp_path, monkeypatch, capsys):
+    """Case 1 of the debris clouds, coarse, a 10 mm plate, 0.4 us: the
+    panel at 0 us frames the flyer and the plate where they start (it
+    framed the flyer only: no cloud, no fronts yet)."""
+    import f90nml
+    from conftest import CASES
+    nml = f90nml.read(CASES / "debris_cu_al_1.nml")
+    nml["output"].update({"n_snapshots": 2, "n_progress": 2, "vtu": False, "checkpoint": False})
+    del nml["output"]["reference"]
+    nml["control"]["end_time"] = 0.4e-6
+    nml["body"][0].update({"n_radial": 14, "n_axial": 9})
+    nml["body"][1].update({"radius": 10e-3, "fine_radius": 10e-3, "n_radial": 25, "n_coarse": 0,
+                           "n_axial": 7})
+    nml.write(tmp_path / "debris.nml", force=True)
+    run(tmp_path / "debris.nml", tmp_path / "out", quiet=True)
+    code, _, figures = plot_cli(monkeypatch, capsys, tmp_path / "out", "--times", "0")
+    assert code == 0
+    (ax,) = [ax for ax in figures["shapes.png"].axes if ax.get_title()]
+    z_low, z_high = ax.get_ylim()
+    assert z_low < -2.87 and z_high > 3.45          # the plate's rear face, the flyer's top
+    assert ax.get_xlim()[1] > 5.565                  # the flyer's radius

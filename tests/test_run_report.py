@@ -445,3 +445,91 @@ def test_a_reference_the_run_did_not_measure_is_reported_not_met():
     assert not within(("percent", 1e9), missing)
     assert not within(("absolute", 1e9), missing)
     assert within(("percent", 10.0 + 1e-9), got["debris"]["hole_diameter_mm"])
+
+
+# ---- fsph report: stale runs, decks without a comparison, failed runs ----------------
+def _short_cases(tmp_path, **edits):
+    """A cases folder of the elastic bar cut to 0.5 us (about 50 cycles),
+    its reference beside it; each edit NAME=(old, new) writes NAME.nml
+    with that text replaced (None: as is)."""
+    cases = tmp_path / "cases"
+    (cases / "references").mkdir(parents=True)
+    (cases / "references" / "elastic_bar.json").write_text(
+        (CASES / "references" / "elastic_bar.json").read_text())
+    text = (CASES / "elastic_bar.nml").read_text().replace("end_time = 3.0e-6", "end_time = 0.5e-6")
+    for name, edit in edits.items():
+        (cases / f"{name}.nml").write_text(text.replace(*edit) if edit else text)
+    return cases
+
+
+def test_report_runs_again_a_deck_or_reference_changed_since_its_run(tmp_path):
+    """A second `fsph report` reuses the runs of unchanged decks; a deck
+    edited since its run (end time 0.5 -> 1 us), or a reference whose
+    values changed, is run again and a line says why (the old run was
+    reported as if current). New bars alone do not rerun: the report
+    reads them afresh."""
+    cases = _short_cases(tmp_path, ok=None)
+    args = ["report", "--cases", "cases", "--decks", "ok", "-o", "rep"]
+    summary_path = tmp_path / "rep" / "runs" / "ok" / "summary.json"
+    first = fsph_cli(args, tmp_path)
+    assert first.returncode == 0, first.stderr
+    assert json.loads(summary_path.read_text())["requested_end_time_s"] == 0.5e-6
+    again = fsph_cli(args, tmp_path)
+    assert again.returncode == 0 and "running it again" not in again.stdout
+    deck = cases / "ok.nml"
+    deck.write_text(deck.read_text().replace("end_time = 0.5e-6", "end_time = 1.0e-6"))
+    changed = fsph_cli(args, tmp_path)
+    assert changed.returncode == 0, changed.stderr
+    assert f"fsph report: {os.path.join('rep', 'runs', 'ok')}: cases/ok.nml changed since that " \
+           "run; running it again" in changed.stdout
+    assert json.loads(summary_path.read_text())["requested_end_time_s"] == 1.0e-6
+    ref_path = cases / "references" / "elastic_bar.json"
+    ref = json.loads(ref_path.read_text())
+    ref["acceptance_by_mode"]["fem"]["plateau_percent"] = 50.0
+    ref_path.write_text(json.dumps(ref))
+    bars = fsph_cli(args, tmp_path)
+    assert bars.returncode == 0 and "running it again" not in bars.stdout
+    assert "| 50 % |" in (tmp_path / "rep" / "report.md").read_text()
+    ref["bar_wave"]["front_mm"] = 15.0
+    ref_path.write_text(json.dumps(ref))
+    values = fsph_cli(args, tmp_path)
+    assert "the reference of cases/ok.nml changed since that run" in values.stdout
+    assert "| 15 |" in (tmp_path / "rep" / "report.md").read_text()
+
+
+def test_report_lists_the_decks_it_could_not_compare(tmp_path):
+    """A deck without a reference, and one whose reference's conditions do
+    not hold (40 m/s, the reference's 50), ran but were in no row of the
+    report: each now has its measured metrics with the reason in the
+    reference column and a line of the summary."""
+    _short_cases(tmp_path, ok=None,
+                 noref=("  reference = 'references/elastic_bar.json'\n", ""),
+                 slower=("velocity_z = -50.0", "velocity_z = -40.0"))
+    proc = fsph_cli(["report", "--cases", "cases", "--decks", "ok,noref,slower", "-o", "rep"],
+                    tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    text = (tmp_path / "rep" / "report.md").read_text()
+    for case, why in (("noref", "no reference"), ("slower", "not compared")):
+        rows = {row[2]: row for row in _report_rows(text, case)}
+        assert {"bar_wave.plateau_GPa", "bar_wave.front_mm"} <= set(rows), case
+        assert rows["bar_wave.front_mm"][4:8] == [why, "–", "none", "–"], case
+    assert text.splitlines()[3] == (
+        "Without a reference (2): noref (no reference), slower (not compared: "
+        "body(1).velocity_z is -40.0 here, -50.0 in the reference).")
+    assert "noref" in (tmp_path / "rep" / "report.html").read_text()
+
+
+def test_report_exits_3_when_a_run_failed(tmp_path):
+    """A deck whose run fails (an energy error limit it cannot meet): the
+    report is written with its status row and 'Not completed', and the
+    exit code is 3 (was 0)."""
+    _short_cases(tmp_path, ok=None,
+                 fails=("end_time = 0.5e-6", "end_time = 0.5e-6\n  energy_error_limit = 1.0e-12"))
+    proc = fsph_cli(["report", "--cases", "cases", "--decks", "ok,fails", "-o", "rep"], tmp_path)
+    assert proc.returncode == 3, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == os.path.join("rep", "report.md")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "Not completed: fails (failed)." in text.splitlines()
+    assert _report_rows(text, "fails")[0][2:4] == ["status", "failed"]
+    assert _report_rows(text, "ok")
