@@ -652,9 +652,14 @@ SCHEMA = {
         "What is written and how often.",
         {
             "n_snapshots": Key("int", 10, "-",
-                               "Snapshots at equal intervals of end_time (plus t = 0).", lower=1,
+                               "Snapshots at equal intervals of end_time (plus t = 0), each at "
+                               "the first cycle end at or after its time (a snapshot never "
+                               "shortens a step, so the outputs do not alter the run); where one "
+                               "step passes several of these times they share one snapshot. The "
+                               "last is always at end_time exactly.", lower=1,
                                upper=MAX_OUTPUTS),
-            "n_progress": Key("int", 20, "-", "Progress lines printed over the run.", lower=1,
+            "n_progress": Key("int", 20, "-", "Progress lines printed over the run (at most one "
+                              "per cycle; they do not alter the run).", lower=1,
                               upper=MAX_OUTPUTS),
             "history_every": Key("int", 10, "-", "Cycles between time-history records.", lower=1),
             "vtu": Key("bool", True, "-", "Write a ParaView series (.pvd + .vtu)."),

@@ -436,16 +436,20 @@ class _Checkpoints:
         self.last = wallclock.perf_counter()
 
 
-def _advance_to(sim, t, land, flag, energy_limit, checkpoints, bar):
-    """Advance `sim` to time t [s] call by call (land: end the last step on
-    t) until t or a signal (flag), checking the energy error and writing the
-    checkpoints that fall due after each call."""
+def _advance_to(sim, t, t_end, flag, energy_limit, checkpoints, bar):
+    """Advance `sim` to time t [s] call by call, no step crossing the run's
+    end time t_end (its last steps land on it), until t or a signal
+    (flag), checking the energy error and writing the checkpoints that fall
+    due after each call."""
     while sim.time < t and not flag["signal"]:
         # a call never crosses a multiple of checkpoint_cycles; where a
-        # call ends does not alter the trajectory (land=False)
+        # call ends does not alter the trajectory (land=False: the stable
+        # step, shortened only to land on t_end)
         n_cycles = _cycles_this_call(sim.cycle, checkpoints.cycles)
         cycle0 = sim.cycle
-        sim.advance(t, land=land, max_cycles=n_cycles, partial=True)
+        sim.advance(t, land=False, land_on=t_end, max_cycles=n_cycles, partial=True)
+        if sim.cycle == cycle0:
+            break           # within a billionth of a step of t: the solver counts it reached
         _check_energy(sim, energy_limit)
         if checkpoints.due(cycle0, sim.cycle):
             checkpoints.save(sim)
@@ -515,24 +519,30 @@ def _advance(say, setup, books, checkpoints, bar, lines, t_wall0):
     (books.failure, .interrupted)."""
     sim, deck, writer = setup.sim, setup.deck, setup.writer
     ctrl, out = deck["control"], deck["output"]
+    t_start = sim.time
+    written = {"snapshot": sim.cycle, "progress": None}      # cycles of the last outputs
     try:
         with _interrupt_flag() as flag:
             for t, snap_due, progress_due in _targets(ctrl["end_time"], out["n_snapshots"],
                                                       out["n_progress"]):
-                if t <= sim.time:
+                if t <= t_start:
                     continue            # a restart begins after these
                 # intermediate outputs never shorten a step; the run ends on end_time
-                _advance_to(sim, t, t >= ctrl["end_time"], flag, ctrl["energy_error_limit"],
+                _advance_to(sim, t, ctrl["end_time"], flag, ctrl["energy_error_limit"],
                             checkpoints, bar)
                 _drain_history(sim, writer)
                 if flag["signal"]:
                     books.interrupted = _stop_on_signal(say, sim, flag["signal"], checkpoints, bar)
                     break
-                if snap_due:
+                # a step longer than the outputs' spacing passes several of
+                # them: the first cycle end after them has their one output
+                if snap_due and written["snapshot"] != sim.cycle:
                     _snapshot(setup, books, t_wall0,
                               checkpoints if checkpoints.enabled else None)
-                if progress_due and lines:
+                    written["snapshot"] = sim.cycle
+                if progress_due and lines and written["progress"] != sim.cycle:
                     say(_progress_line(sim, t_wall0))
+                    written["progress"] = sim.cycle
         writer.flush()
     except SimulationError as err:
         _record_failure(say, err, sim, writer, books, bar)

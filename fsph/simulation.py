@@ -65,6 +65,21 @@ def openmp_wait_settings():
     return {name: os.environ.get(name, "unset") for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
 
 
+#: The landing time of an advance that never shortens a step [s].
+_NEVER_LANDS = 1.0e300
+
+
+def _time_argument(name, value):
+    """A time argument of advance as a float [s]: a real number (not a
+    bool, not a string), finite and >= 0; FsphError otherwise."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise FsphError(f"advance: expected a time in seconds (a number) for {name}, got {value!r}")
+    value = float(value)
+    if not (math.isfinite(value) and value >= 0.0):
+        raise FsphError(f"advance: expected a finite time >= 0 s for {name}, got {value!r}")
+    return value
+
+
 def fortran_index(index):
     """1-based Fortran indices (int32) of 0-based ones; -1 (none) becomes 0.
     Every index handed to the solver goes through here."""
@@ -154,6 +169,8 @@ class Simulation:
                                 "a point inside a body at t = 0 (kind 'material' follows the "
                                 "material there)", list(g["point"]))
         self.initial_energy = self.energy_budget()["total"]
+        #: the SimulationError that ended the run, None while it can go on
+        self.failure = None
         # radii at set-up (a snapshot's radius0 for the particles present then)
         self.particle_radius0 = self._raw_snapshot()["particle_fields"][:, _PF["radius"]].copy()
         self.n_elements0 = self.n_elements
@@ -356,32 +373,43 @@ class Simulation:
                 and r_lo - reach <= r <= r_hi + reach and z_lo - reach <= z <= z_hi + reach)
 
     # ------------------------------------------------------------------
-    def advance(self, t, max_cycles=None, land=True, partial=False):
+    def advance(self, t, max_cycles=None, land=True, partial=False, land_on=None):
         """Advance the state to time t [s]; raises SimulationError on failure.
         land=True shortens the last steps to end exactly on t; land=False
         keeps the stable step and stops at the first cycle end at or after t
-        (outputs then do not alter the trajectory). With partial=True at most
-        max_cycles cycles are run and reaching that number is not an error
-        (the deck's max_cycles still is). A t at or before the current time
-        does nothing; a t that is not a finite number >= 0, or a max_cycles
-        that is not an integer >= 0, is refused."""
-        try:
-            t = float(t)
-        except (TypeError, ValueError):
-            raise FsphError(f"advance: expected a time in seconds, got {t!r}") from None
-        if not (math.isfinite(t) and t >= 0.0):
-            raise FsphError(f"advance: expected a finite time >= 0 s, got {t!r}")
+        (outputs then do not alter the trajectory). land_on [s] (>= t, with
+        land=False) is a time no step crosses, the last steps before it
+        shortened to end on it: the end time of a run that stops on the
+        way for its outputs, so that its last intermediate call cannot step
+        past the end. With partial=True at most max_cycles cycles are run
+        and reaching that number is not an error (the deck's max_cycles
+        still is). A t at or before the current time does nothing; a t that
+        is not a finite number >= 0, a max_cycles that is not an integer
+        >= 0, or a land_on before t is refused, and so is any advance after
+        one that failed (the state is the failed cycle's)."""
+        if self.failure is not None:
+            raise FsphError(f"advance: the run failed ({self.failure}); its state cannot be "
+                            "advanced further")
+        t = _time_argument("t", t)
+        if land_on is None:
+            t_land = t if land else _NEVER_LANDS
+        else:
+            t_land = _time_argument("land_on", land_on)
+            if land or t_land < t:
+                raise FsphError(f"advance: land_on ({t_land!r} s) needs land=False and a time at "
+                                f"or after t ({t!r} s)")
         if max_cycles is not None and not (isinstance(max_cycles, numbers.Integral)
                                            and not isinstance(max_cycles, bool) and max_cycles >= 0):
             raise FsphError(f"advance: expected max_cycles an integer >= 0 (or None), got {max_cycles!r}")
         limit = self.control["max_cycles"] - self.cycle
         if max_cycles is None or not partial:
             max_cycles = limit if max_cycles is None else max_cycles
-        ierr, ifault = _api.advance(self._run, t, int(max(min(max_cycles, limit), 0)), int(bool(land)))
+        ierr, ifault = _api.advance(self._run, t, int(max(min(max_cycles, limit), 0)), t_land)
         if ierr == STATUS_MAX_CYCLES and partial and self.cycle < self.control["max_cycles"]:
             return
         if ierr != STATUS_OK:
-            raise self._failure(ierr, ifault)
+            self.failure = self._failure(ierr, ifault)
+            raise self.failure
 
     def thread_use(self):
         """Cycles run so far at each thread count, {threads: cycles}, for

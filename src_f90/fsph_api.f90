@@ -636,19 +636,20 @@ contains
     call solver_initialise(sim, ierr, ifault)
   end subroutine initialise
 
-  !> Advance to t_target [s], at most max_cycles cycles; land /= 0: end
-  !> exactly on t_target (see solver_advance).
+  !> Advance to t_target [s], at most max_cycles cycles, no step crossing
+  !> t_land [s] (the last steps end on it; see solver_advance).
   !> In a debug build, floating-point traps (invalid, division by zero,
   !> overflow) are on during the cycle and restored afterwards.
-  subroutine advance(run, t_target, max_cycles, land, ierr, ifault)
+  subroutine advance(run, t_target, max_cycles, t_land, ierr, ifault)
     use fsph_solver, only: solver_advance
     use fsph_build, only: debug_checks
     use, intrinsic :: ieee_exceptions, only: ieee_get_halting_mode, ieee_set_halting_mode, &
                                               ieee_invalid, ieee_divide_by_zero, ieee_overflow
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
-    real(wp), intent(in) :: t_target
-    integer, intent(in) :: max_cycles, land
+    real(wp), intent(in) :: t_target       !< stop at the first cycle end at or after it [s]
+    real(wp), intent(in) :: t_land         !< no step crosses it: the last ones land on it [s]
+    integer, intent(in) :: max_cycles
     integer, intent(out) :: ierr, ifault
     logical :: halting(3)
     sim => run_state(run)
@@ -656,7 +657,7 @@ contains
       call ieee_get_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], halting)
       call ieee_set_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], .true.)
     end if
-    call solver_advance(sim, t_target, max_cycles, land, ierr, ifault)
+    call solver_advance(sim, t_target, max_cycles, t_land, ierr, ifault)
     if (debug_checks) then
       call ieee_set_halting_mode([ieee_invalid, ieee_divide_by_zero, ieee_overflow], halting)
     end if

@@ -316,18 +316,21 @@ contains
   end subroutine solver_stable_step
 
   !> Run cycles until the clock reaches t_target [s], or a failure, or
-  !> max_cycles more cycles. With land /= 0 the last steps are shortened to
-  !> end exactly on t_target; with land = 0 the stable step is never
-  !> changed and the clock stops at the first cycle end at or after
-  !> t_target, so intermediate outputs do not alter the trajectory.
-  subroutine solver_advance(sim, t_target, max_cycles, land, ierr, ifault)
+  !> max_cycles more cycles, the clock stopping at the first cycle end at
+  !> or after t_target. No step crosses t_land [s] (>= t_target): the last
+  !> steps before it are shortened to end exactly on it, and every other
+  !> step is the stable one. A run that lands on its end time (t_land) and
+  !> stops on the way for its outputs (t_target < t_land) therefore takes
+  !> the same steps whatever its output times; t_land = t_target lands on
+  !> t_target, a t_land beyond the run's end never shortens a step.
+  subroutine solver_advance(sim, t_target, max_cycles, t_land, ierr, ifault)
     type(simulation_t), intent(inout) :: sim
-    real(wp), intent(in) :: t_target
-    integer, intent(in) :: max_cycles, land
+    real(wp), intent(in) :: t_target, t_land
+    integer, intent(in) :: max_cycles
     integer, intent(out) :: ierr, ifault
     !> Remaining time below this fraction of a step counts as arrived [-].
     real(wp), parameter :: arrival_fraction = 1.0e-9_wp
-    real(wp) :: remaining, dt_step, started
+    real(wp) :: remaining, to_land, dt_step, started
     integer :: n_done
 
     ierr = status_not_ready
@@ -343,15 +346,14 @@ contains
         ierr = status_max_cycles
         exit
       end if
+      ! land on t_land without a sliver step: the last one or two steps
+      ! share the remainder
       dt_step = sim%dt
-      if (land /= 0) then
-        ! land on t_target without a sliver step: the last one or two steps
-        ! share the remainder
-        if (remaining <= sim%dt) then
-          dt_step = remaining
-        else if (remaining < 2.0_wp*sim%dt) then
-          dt_step = 0.5_wp*remaining
-        end if
+      to_land = t_land - sim%time
+      if (to_land <= sim%dt) then
+        dt_step = to_land
+      else if (to_land < 2.0_wp*sim%dt) then
+        dt_step = 0.5_wp*to_land
       end if
       started = wall_clock()
       call cycle(sim, dt_step, ierr, ifault)

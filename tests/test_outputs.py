@@ -292,3 +292,28 @@ def test_low_level_writes_make_what_the_high_level_interface_makes(tmp_path):
         assert type(b["g/x"].attrs["units"]) is str
         np.testing.assert_array_equal(b["series"][...], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
         np.testing.assert_array_equal(a["series"][...], b["series"][...])
+
+
+@pytest.mark.parametrize("end_time", [1.0e-6, 30.0e-9, 1.0e-15])
+def test_outputs_do_not_alter_the_run_and_it_ends_on_its_end_time(tmp_path, end_time):
+    """Progress lines and snapshots every few cycles (or more often than
+    the step) leave the run as it is with the default outputs: the same
+    final state, at end_time exactly, the last snapshot there and the
+    metrics of it. (A step that stopped for an output used to run past
+    end_time: the elastic bar at 0.5 us with n_progress = 1000 ended at
+    0.5058 us with only its t = 0 snapshot, and its metrics of t = 0.)"""
+    from fsph.driver import run
+    summaries, times = [], []
+    for name, outputs in (("default", ""), ("dense", "n_progress = 1000\n n_snapshots = 500")):
+        deck = tmp_path / f"{name}.nml"
+        deck.write_text(rod_deck(control=f"end_time = {end_time!r}", output=outputs + "\n vtu = .false."))
+        summaries.append(run(deck, tmp_path / name, quiet=True))
+        with h5py.File(tmp_path / name / "fsph.h5", "r") as h5:
+            snaps = h5["snapshots"]
+            times.append([snaps[k].attrs["time"] for k in sorted(snaps)])
+    for summary, snap_times in zip(summaries, times):
+        assert summary["status"] == "completed"
+        assert summary["metrics_time_s"] == end_time
+        assert snap_times[-1] == end_time and snap_times[0] == 0.0
+        assert np.all(np.diff(snap_times) > 0.0)          # no two snapshots of one cycle
+    assert summaries[0]["state_digest"] == summaries[1]["state_digest"]

@@ -9,7 +9,8 @@ import pytest
 
 import fsph
 from fsph import deck as deck_module
-from fsph.errors import DeckError, FsphError
+from fsph.checkpoint import state_digest
+from fsph.errors import DeckError, FsphError, SimulationError
 from conftest import CASES
 
 ROD = {
@@ -60,12 +61,42 @@ def test_a_changed_deck_is_validated_again():
         fsph.Simulation(deck)
 
 
-@pytest.mark.parametrize("t", [math.nan, math.inf, -1.0e-6, "soon", None])
+@pytest.mark.parametrize("t", [math.nan, math.inf, -1.0e-6, "soon", None, True, "2e-6"])
 def test_advance_refuses_bad_times(t):
+    """Not a number of seconds >= 0: refused (a bool was taken as 1 s, a
+    string that reads as a number as that number)."""
     sim = fsph.Simulation.from_dict(ROD)
     with pytest.raises(FsphError, match="advance: expected a"):
         sim.advance(t)
     assert sim.cycle == 0
+
+
+def test_advance_lands_on_land_on_and_refuses_one_before_t():
+    """land_on: the stops on the way keep the stable step, the last steps
+    land on it; the run's steps are those of one call to land_on."""
+    one = fsph.Simulation.from_dict(ROD)
+    one.advance(1.0e-6)
+    parts = fsph.Simulation.from_dict(ROD)
+    for k in range(1, 40):
+        parts.advance(k * 0.0251e-6, land=False, land_on=1.0e-6)
+    parts.advance(1.0e-6, land=False, land_on=1.0e-6)
+    assert parts.time == 1.0e-6 and parts.cycle == one.cycle
+    assert state_digest(parts) == state_digest(one)
+    with pytest.raises(FsphError, match="land_on"):
+        parts.advance(2.0e-6, land=False, land_on=1.5e-6)
+
+
+def test_advance_after_a_failure_is_refused():
+    """After a SimulationError the state is the failed cycle's: a further
+    advance is refused, not run on it."""
+    sim = fsph.Simulation.from_dict(ROD)
+    sim.control["max_cycles"] = 3
+    with pytest.raises(SimulationError):
+        sim.advance(1.0e-6)
+    cycle = sim.cycle
+    with pytest.raises(FsphError, match="the run failed"):
+        sim.advance(2.0e-6)
+    assert sim.cycle == cycle
 
 
 @pytest.mark.parametrize("max_cycles", [-3, 2.5, "10", True])
