@@ -457,6 +457,13 @@ def _debris_table(ax, rec, experiment, direction):
             bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"})
 
 
+def _series_value(series, key, index):
+    """The debris series' `key` at snapshot `index`, 0 where it is absent
+    or undefined (None)."""
+    value = series.get(key, [None] * (index + 1))[index]
+    return value if value is not None else 0.0
+
+
 def _body_points(g, index):
     """The points of body `index` (0-based, deck order) in snapshot g
     [mm]: the nodes of its elements and its particles' centres, (n, 2)."""
@@ -483,22 +490,40 @@ def _start_extent(first, names, rec):
     return (z.min() - pad, z.max() + pad), float(points[0][:, 0].max())
 
 
-def _debris_extent(series, index, experiment, z_face, direction, start=None):
+def _ejecta_radius(g, names, rec, z_face, direction, height):
+    """Largest radius [mm] of the flyer's and the target's points in
+    snapshot g that lie uprange of the plate's front face by no more than
+    the ejecta height `height` [mm]: where the back-splash that sets the
+    ejecta height is (the few points beyond it, which the height's mass
+    quantile leaves out, are not framed). 0 when there are none."""
+    radius = 0.0
+    for role in ("flyer", "target"):
+        if rec[role] in names:
+            points = _body_points(g, names.index(rec[role]))
+            behind = -direction * (points[:, 1] - z_face)        # [mm] uprange of the face
+            uprange = points[(behind > 0.0) & (behind <= height), 0]
+            radius = max(radius, float(uprange.max(initial=0.0)))
+    return radius
+
+
+def _debris_extent(series, index, experiment, z_face, direction, start=None,
+                   ejecta_radius=0.0):
     """Half-width and (z_low, z_high) of a debris panel [mm]: the clouds'
-    2 %-fronts and radii, the ejecta, the experiment's marks and where the
+    2 %-fronts and radii, the ejecta (up to its height, out to
+    `ejecta_radius`: _ejecta_radius), the experiment's marks and where the
     bodies start (start: _start_extent, so that a panel before the clouds
     form shows the flyer and the plate), with a margin."""
-    def get(key):
-        value = series.get(key, [None] * (index + 1))[index]
-        return value if value is not None else 0.0
-    ahead = max(get("target_front_0p5pct_mm"), get("flyer_front_0p5pct_mm"),
+    ahead = max(_series_value(series, "target_front_0p5pct_mm", index),
+                _series_value(series, "flyer_front_0p5pct_mm", index),
                 experiment.get("target_front_mm", 0.0), experiment.get("flyer_front_mm", 0.0))
-    behind = max(get("ejecta_height_mm"), experiment.get("ejecta_height_mm", 0.0), 3.0)
-    width = max(get("target_cloud_radius_mm"), get("flyer_cloud_radius_mm"),
+    behind = max(_series_value(series, "ejecta_height_mm", index),
+                 experiment.get("ejecta_height_mm", 0.0), 3.0)
+    width = max(_series_value(series, "target_cloud_radius_mm", index),
+                _series_value(series, "flyer_cloud_radius_mm", index),
                 experiment.get("intersection_radius_mm", 0.0),
                 0.75 * experiment.get("hole_diameter_mm", 0.0),
-                0.75 * (get("hole_diameter_mm")), 5.0)
-    ends = [z_face + direction * 1.1 * ahead, z_face - direction * 1.5 * behind]
+                0.75 * _series_value(series, "hole_diameter_mm", index), ejecta_radius, 5.0)
+    ends = [z_face + direction * 1.1 * ahead, z_face - direction * 1.15 * behind]
     if start is not None:
         (z_low, z_high), flyer_radius = start
         ends += [z_low, z_high]
@@ -547,8 +572,10 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
                 if series_times else 0
             at_metrics = abs(time - summary["metrics_time_s"]) <= 1e-12 * max(time, 1e-30)
             marks = experiment if at_metrics else {}
+            ejecta_radius = _ejecta_radius(g, names, rec, z_face, direction,
+                                           _series_value(series, "ejecta_height_mm", index))
             half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction,
-                                                          start)
+                                                          start, ejecta_radius)
             # about four fifths of the panel's width is the axes' [pt/mm]
             _draw_bodies(ax, g, colours, 72.0 * 0.8 * panel_inches / (2.0 * half_width))
             if marks:

@@ -671,3 +671,22 @@ def test_debris_panel_before_the_clouds_shows_both_bodies(tmp_path, monkeypatch,
     z_low, z_high = ax.get_ylim()
     assert z_low < -2.87 and z_high > 3.45          # the plate's rear face, the flyer's top
     assert ax.get_xlim()[1] > 5.565                  # the flyer's radius
+
+
+def test_debris_panel_frames_the_ejecta_up_to_their_height():
+    """The panel's half-width reaches the back-splash that sets the ejecta
+    height (a point 22 mm out, 20 mm uprange of the face, with the height
+    25 mm: a sphere's bumper throws its ejecta wider than either cloud),
+    and not a stray point beyond the height (35 mm out, 40 mm uprange)."""
+    from fsph.plot import _debris_extent, _ejecta_radius
+    x = np.array([[0.0, -30.0], [8.0, -20.0], [22.0, 20.0], [35.0, 40.0], [29.0, -1.0]]) * 1e-3
+    snapshot = {"particles": None, "particles/x": x, "particles/body": np.array([0, 0, 1, 1, 1])}
+    rec = {"flyer": "sphere", "target": "bumper"}
+    reach = _ejecta_radius(snapshot, ["sphere", "bumper"], rec, 0.0, -1.0, 25.0)
+    assert reach == pytest.approx(22.0)
+    series = {"ejecta_height_mm": [25.0], "target_front_0p5pct_mm": [31.0],
+              "flyer_front_0p5pct_mm": [30.0], "target_cloud_radius_mm": [12.0],
+              "flyer_cloud_radius_mm": [9.0], "hole_diameter_mm": [14.0]}
+    half_width, (z_low, z_high) = _debris_extent(series, 0, {}, 0.0, -1.0, None, reach)
+    assert 22.0 < half_width < 35.0
+    assert z_high > 25.0 and z_low < -31.0
