@@ -112,6 +112,8 @@ class Simulation:
         self.material_names = [m["name"] for m in materials]
         self.body_names = [b["name"] for b in deck["body"]]
         rho0 = {m["name"]: m["density"] for m in materials}
+        #: each material's reference density [kg/m^3], by material index
+        self.material_density0 = np.array([m["density"] for m in materials], dtype=float)
 
         # this run's own state in the solver: runs in one process are independent
         self.thread_policy = thread_policy()
@@ -610,10 +612,18 @@ class Simulation:
                 "scalars": scalars}
 
     def snapshot(self):
-        """Current state as plain arrays, from one solver call that changes
-        nothing. Elements: nodes (n, 2), connectivity (m, 3) 0-based and
-        element fields; particles (if any) under "particles". Stress is the
-        total Cauchy stress (rr, zz, rz, tt)."""
+        """Current state as plain arrays in SI units, from one solver call
+        that changes nothing: `time`, `cycle`; the nodes' `x`, `x0`,
+        `velocity` (n, 2) and `node_mass`; the elements' `conn` (m, 3,
+        0-based into the nodes), `material`, `body`, `id` and fields
+        (`stress`, the total Cauchy stress rr, zz, rz, tt; `pressure`, `q`,
+        `plastic_strain`, `density`, `internal_energy` per mass,
+        `temperature`, `sound_speed`, `area`, `element_mass`, `damage`,
+        `failed`, `melted`); the particles (if any) under "particles", with
+        `x`, `x0`, `velocity`, `mass`, `h`, `radius`, `radius0` (in the
+        initial configuration) and the same fields. fsph.h5 holds the same
+        arrays, the nodes' positions as `nodes` and the connectivity as
+        `connectivity`."""
         raw = self._raw_snapshot()
         scalars = raw["scalars"]
         snap = {"time": float(scalars[_SS["time"]]), "cycle": int(scalars[_SS["cycle"]]),
@@ -624,13 +634,24 @@ class Simulation:
             snap.update(_element_snapshot(raw))
         if len(raw["particle_ids"]):
             part = _particle_snapshot(raw["particle_fields"], raw["particle_ids"])
-            # the particles of the set-up by their ids (renumbered in spatial order)
-            radius0 = part["radius"].copy()
-            initial = part["id"] < len(self.particle_radius0)
-            radius0[initial] = self.particle_radius0[part["id"][initial]]
-            part["radius0"] = radius0
+            part["radius0"] = self._particle_radius0(part)
             snap["particles"] = part
         return snap
+
+
+    def _particle_radius0(self, part):
+        """Each particle's radius [m] in the initial configuration: a
+        set-up particle's radius then (by its id: particles are renumbered
+        in spatial order); a converted one's from its element's ring at
+        t = 0, half the square root of the planar area m / (2 pi r0 rho0)
+        at its initial position r0 = x0[:, 0] (the radius a particle gets,
+        fsph_sph.f90 particle_radius)."""
+        initial = part["id"] < len(self.particle_radius0)
+        ring_r0 = np.maximum(np.abs(part["x0"][:, 0]), np.finfo(float).tiny)
+        rho0 = self.material_density0[part["material"]]
+        radius0 = 0.5 * np.sqrt(part["mass"] / (2.0 * np.pi * ring_r0 * rho0))
+        radius0[initial] = self.particle_radius0[part["id"][initial]]
+        return radius0
 
 
 # rows of the snapshot layouts by name (0-based columns of the transposed rows)

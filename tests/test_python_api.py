@@ -120,3 +120,37 @@ def test_import_leaves_meshio_and_scipy_to_their_first_use(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=tmp_path)
     assert out.stdout.strip() == "[]"
+
+
+
+def test_radius0_is_a_property_of_the_initial_configuration():
+    """A snapshot's radius0: the set-up particles' radius at t = 0, and for
+    a particle converted from an element the particle radius (half the
+    square root of m / (2 pi r rho)) at its initial position x0 and the
+    material's reference density: the same at every snapshot (it was the
+    present radius). The formula gives the set-up particles' own radii."""
+    import numpy as np
+
+    def by_id(part, key):
+        return part[key][np.argsort(part["id"])]
+
+    deck = deck_module.load(CASES / "taylor_armco.nml")
+    deck["body"][0].update(n_radial=5, n_axial=34)
+    sim = fsph.Simulation(deck)
+    sim.advance(20e-6)
+    first = sim.snapshot()["particles"]
+    sim.advance(30e-6)
+    later = sim.snapshot()["particles"]
+    n = len(first["id"])
+    assert n > 20 and np.array_equal(np.sort(first["id"]), np.sort(later["id"])[:n])
+    np.testing.assert_array_equal(by_id(first, "radius0"), by_id(later, "radius0")[:n])
+    assert not np.allclose(first["radius"], first["radius0"], rtol=1e-3)
+    rho0 = deck["material"][0]["density"]
+    np.testing.assert_allclose(first["radius0"], 0.5 * np.sqrt(
+        first["mass"] / (2 * np.pi * first["x0"][:, 0] * rho0)), rtol=1e-12)
+
+    lattice = copy.deepcopy(ROD)
+    lattice["control"]["mode"] = "sph"
+    part = fsph.Simulation.from_dict(lattice).snapshot()["particles"]
+    np.testing.assert_allclose(part["radius0"], 0.5 * np.sqrt(
+        part["mass"] / (2 * np.pi * part["x0"][:, 0] * part["density"])), rtol=1e-12)
