@@ -267,7 +267,7 @@ class _Setup:
     folder and its lock, the simulation (at the checkpoint's state on a
     restart), its writer and the digests of the deck and the reference
     (references.run_inputs); on a restart, the snapshot series of the run
-    before the checkpoint (_carry_on)."""
+    before the checkpoint (_carry_on; None where none carries on)."""
 
     deck_path: Path
     deck: dict
@@ -278,7 +278,7 @@ class _Setup:
     sim: Simulation
     writer: RunWriter
     inputs: dict
-    series: list = field(default_factory=list)
+    series: list = None
 
 
 def _restart(sim, deck, restart, outdir):
@@ -301,17 +301,24 @@ def _restart(sim, deck, restart, outdir):
     return outdir, books
 
 
-def _books_to_carry(writer, series):
+def _metrics_identity(deck):
+    """The deck's &metrics group as plain JSON values: the snapshot series
+    carries on across a restart that keeps it."""
+    return json.loads(json.dumps(deck["metrics"], default=repr))
+
+
+def _books_to_carry(writer, series, deck):
     """What a restart carries on from the run before its checkpoint (the
     checkpoint's books, JSON): the largest energy error and its time, the
     peak axial forces of the rigid planes and of each body with their
     times [N, s], each gauge's peak pressure with its time [Pa, s], the
     last history row the forces are rates from (its time [s], the planes'
     impulse and each body's axial momentum [N s]) and the snapshot series
-    (metrics.snapshot_series records), so that summary.json covers the
-    whole run."""
+    (metrics.snapshot_series records) with the &metrics group it was
+    recorded under, so that summary.json covers the whole run."""
     plane, bodies = writer._plane_last, writer._body_last
     return {
+        "metrics": _metrics_identity(deck),
         "max_energy_error": writer.max_energy_error,
         "max_energy_error_time": writer.max_energy_error_time,
         "plane_force_peak": [writer.plane_force_peak, writer.plane_force_peak_time],
@@ -327,7 +334,8 @@ def _books_to_carry(writer, series):
 
 
 #: The books a restart carries on (_books_to_carry), with what each must be.
-_CARRIED = {"max_energy_error": "a number", "max_energy_error_time": "a number",
+_CARRIED = {"metrics": "the &metrics group", "max_energy_error": "a number",
+            "max_energy_error_time": "a number",
             "plane_force_peak": "[force, time]", "body_force_peaks": "{body: [force, time]}",
             "gauge_peaks": "{gauge: {kind, point, peak_pressure}}",
             "last_row": "null or {time, plane_impulse_z, body_momentum_z}",
@@ -346,6 +354,7 @@ def _carried_books_fit(books, writer):
     gauges = books.get("gauge_peaks")
     row = books.get("last_row")
     fits = {
+        "metrics": isinstance(books.get("metrics"), dict),
         "max_energy_error": number(books.get("max_energy_error")),
         "max_energy_error_time": number(books.get("max_energy_error_time")),
         "plane_force_peak": pair(books.get("plane_force_peak")),
@@ -366,13 +375,15 @@ def _carried_books_fit(books, writer):
     return next((key for key, ok in fits.items() if not ok), None)
 
 
-def _carry_on(writer, books, restart):
+def _carry_on(writer, books, restart, deck):
     """Put the books of the run before the checkpoint `restart` into
-    `writer` (_books_to_carry); returns its snapshot series. A gauge's
-    peak carries on where the deck has a gauge of that name, kind and
-    point (a restart may change the gauges). Books from a checkpoint
-    written without them (checkpoint.save through the Python API: no
-    outputs before it) are empty and not read."""
+    `writer` (_books_to_carry); returns its snapshot series, None where
+    the deck's &metrics differs from the one it was recorded under (a
+    restart may change &metrics: the series then begins at the restart).
+    A gauge's peak carries on where the deck has a gauge of that name,
+    kind and point (a restart may change the gauges). Books from a
+    checkpoint written without them (checkpoint.save through the Python
+    API: no outputs before it) are empty and not read."""
     bad = _carried_books_fit(books, writer)
     if bad:
         raise CheckpointError(restart, "dataset /books", f"the books of the run before the "
@@ -391,7 +402,7 @@ def _carry_on(writer, books, restart):
         writer._plane_last = (row["time"], np.float64(row["plane_impulse_z"]))
         if row["body_momentum_z"] is not None:
             writer._body_last = (row["time"], np.array(row["body_momentum_z"], dtype=float))
-    return books["series"]
+    return books["series"] if books["metrics"] == _metrics_identity(deck) else None
 
 
 def _set_up(deck_path, outdir, restart):
@@ -420,7 +431,7 @@ def _set_up(deck_path, outdir, restart):
         lock.release()
         raise
     writer.energy0 = sim.initial_energy
-    series = _carry_on(writer, books, restart) if books else []
+    series = _carry_on(writer, books, restart, deck) if books else None
     return _Setup(deck_path, deck, reference, why, outdir, lock, sim, writer,
                   references.run_inputs(deck_text, reference), series)
 
@@ -532,7 +543,8 @@ class _Checkpoints:
     def save(self, sim):
         # the writer's books first take the history up to this cycle
         _drain_history(sim, self.writer)
-        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series))
+        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series,
+                                                               sim.deck))
         self.last = wallclock.perf_counter()
 
 
@@ -880,12 +892,13 @@ def _run(say, setup, restart, kind, stream, t_wall0):
     """The run of run() once set up: banner, the first snapshot, the
     advance to the end, the summary."""
     _print_banner(say, setup, restart, kind == "lines")
-    books = _Books(series=list(setup.series))
+    books = _Books(series=list(setup.series or []))
     checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"],
                                            setup.writer, books)
     _drain_history(setup.sim, setup.writer)
-    # a restart's first snapshot is the checkpoint's state, not an output time of the run
-    _snapshot(setup, books, t_wall0, in_series=restart is None)
+    # a restart's first snapshot is the checkpoint's state, not an output
+    # time of the run whose series it continues
+    _snapshot(setup, books, t_wall0, in_series=setup.series is None)
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None
     _advance(say, setup, books, checkpoints, bar, kind == "lines", t_wall0)

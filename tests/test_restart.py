@@ -242,7 +242,8 @@ def test_a_restarted_debris_run_keeps_its_series_and_measured_state(tmp_path):
     checkpoint at the snapshot at 0.18 us: the summary's snapshot series,
     debris record, impedance match with the state measured over the
     snapshots before and after the checkpoint, and neighbour-list builds
-    are the uninterrupted run's."""
+    are the uninterrupted run's; with &metrics changed the series begins
+    at the checkpoint."""
     import f90nml
     from fsph.driver import run
     nml = f90nml.read(CASES / "debris_cu_al_1.nml")
@@ -265,6 +266,12 @@ def test_a_restarted_debris_run_keeps_its_series_and_measured_state(tmp_path):
     for key in ("series", "debris", "impedance_match"):
         assert resumed["metrics"][key] == full["metrics"][key], key
     assert resumed["neighbour_list_builds"] == full["neighbour_list_builds"]
+
+    # a restart that changes &metrics (it may) begins its series at the checkpoint
+    nml["metrics"]["front_fraction"] = 0.02
+    nml.write(deck, force=True)
+    changed = run(deck, tmp_path / "changed", quiet=True, restart=ckpt)["metrics"]["series"]["time_us"]
+    assert changed == [1e6 * restored.time] + full["metrics"]["series"]["time_us"][7:]
 
 
 def _books(path):
@@ -482,7 +489,7 @@ MALFORMED = {
     "lists_missing": (lambda h5: h5.__delitem__("lists"), ["group /lists", "no such group"]),
     "books_not_json": (lambda h5: _replace(h5, "books", "{"), ["dataset /books", "a JSON object"]),
     "books_incomplete": (lambda h5: _replace(h5, "books", '{"max_energy_error": 0.0}'),
-                         ["dataset /books", "'max_energy_error_time'"]),
+                         ["dataset /books", "the books of the run before the checkpoint, 'metrics'"]),
     "format_5": (lambda h5: h5.attrs.__setitem__("format", 5),
                  ["of format 6 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
 }
