@@ -18,7 +18,7 @@ from . import estimate
 from . import layouts
 from . import metrics as metrics_module
 from . import references
-from .errors import DeckError, FsphError, OutputError, SimulationError
+from .errors import CheckpointError, DeckError, FsphError, OutputError, SimulationError
 from .output import FolderLock, RunWriter, write_summary
 from .points import state_masses
 from .simulation import Simulation, threads
@@ -266,7 +266,8 @@ class _Setup:
     ("" where they do: references.not_applied_because, decided once), the output
     folder and its lock, the simulation (at the checkpoint's state on a
     restart), its writer and the digests of the deck and the reference
-    (references.run_inputs)."""
+    (references.run_inputs); on a restart, the snapshot series of the run
+    before the checkpoint (_carry_on; None where none carries on)."""
 
     deck_path: Path
     deck: dict
@@ -277,6 +278,7 @@ class _Setup:
     sim: Simulation
     writer: RunWriter
     inputs: dict
+    series: list = None
 
 
 def _restart(sim, deck, restart, outdir):
@@ -297,6 +299,110 @@ def _restart(sim, deck, restart, outdir):
                         "holds no earlier run (a restart never overwrites one; give -o)",
                         f"{outdir} with {', '.join(earlier)}")
     return outdir, books
+
+
+def _metrics_identity(deck):
+    """The deck's &metrics group as plain JSON values: the snapshot series
+    carries on across a restart that keeps it."""
+    return json.loads(json.dumps(deck["metrics"], default=repr))
+
+
+def _books_to_carry(writer, series, deck):
+    """What a restart carries on from the run before its checkpoint (the
+    checkpoint's books, JSON): the largest energy error and its time, the
+    peak axial forces of the rigid planes and of each body with their
+    times [N, s], each gauge's peak pressure with its time [Pa, s], the
+    last history row the forces are rates from (its time [s], the planes'
+    impulse and each body's axial momentum [N s]) and the snapshot series
+    (metrics.snapshot_series records) with the &metrics group it was
+    recorded under, so that summary.json covers the whole run."""
+    plane, bodies = writer._plane_last, writer._body_last
+    return {
+        "metrics": _metrics_identity(deck),
+        "max_energy_error": writer.max_energy_error,
+        "max_energy_error_time": writer.max_energy_error_time,
+        "plane_force_peak": [writer.plane_force_peak, writer.plane_force_peak_time],
+        "body_force_peaks": {name: list(peak) for name, peak in zip(writer.body_names,
+                                                                   writer.body_force_peak)},
+        "gauge_peaks": {g["name"]: {"kind": g["kind"], "point": [float(v) for v in g["point"]],
+                                    "peak_pressure": list(peak)}
+                        for g, peak in zip(writer.gauges, writer.gauge_peak)},
+        "last_row": None if plane is None else {
+            "time": float(plane[0]), "plane_impulse_z": float(plane[1]),
+            "body_momentum_z": None if bodies is None else [float(v) for v in bodies[1]]},
+        "series": series}
+
+
+#: The books a restart carries on (_books_to_carry), with what each must be.
+_CARRIED = {"metrics": "the &metrics group", "max_energy_error": "a number",
+            "max_energy_error_time": "a number",
+            "plane_force_peak": "[force, time]", "body_force_peaks": "{body: [force, time]}",
+            "gauge_peaks": "{gauge: {kind, point, peak_pressure}}",
+            "last_row": "null or {time, plane_impulse_z, body_momentum_z}",
+            "series": "a list of snapshot records"}
+
+
+def _carried_books_fit(books, writer):
+    """The name of the first of the checkpoint's books that is missing or
+    not of its form (_CARRIED) for this run's bodies, None if all fit."""
+    def number(v):
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    def pair(v):
+        return isinstance(v, list) and len(v) == 2 and all(number(x) for x in v)
+
+    gauges = books.get("gauge_peaks")
+    row = books.get("last_row")
+    fits = {
+        "metrics": isinstance(books.get("metrics"), dict),
+        "max_energy_error": number(books.get("max_energy_error")),
+        "max_energy_error_time": number(books.get("max_energy_error_time")),
+        "plane_force_peak": pair(books.get("plane_force_peak")),
+        "body_force_peaks": isinstance(books.get("body_force_peaks"), dict)
+        and all(pair(books["body_force_peaks"].get(name)) for name in writer.body_names),
+        "gauge_peaks": isinstance(gauges, dict) and all(
+            isinstance(g, dict) and isinstance(g.get("peak_pressure"), list)
+            and len(g["peak_pressure"]) == 2 for g in gauges.values()),
+        "last_row": row is None or (
+            isinstance(row, dict) and number(row.get("time")) and number(row.get("plane_impulse_z"))
+            and (row.get("body_momentum_z") is None
+                 or (isinstance(row["body_momentum_z"], list)
+                     and len(row["body_momentum_z"]) == len(writer.body_names)
+                     and all(number(v) for v in row["body_momentum_z"])))),
+        "series": isinstance(books.get("series"), list)
+        and all(isinstance(r, dict) for r in books["series"]),
+    }
+    return next((key for key, ok in fits.items() if not ok), None)
+
+
+def _carry_on(writer, books, restart, deck):
+    """Put the books of the run before the checkpoint `restart` into
+    `writer` (_books_to_carry); returns its snapshot series, None where
+    the deck's &metrics differs from the one it was recorded under (a
+    restart may change &metrics: the series then begins at the restart).
+    A gauge's peak carries on where the deck has a gauge of that name,
+    kind and point (a restart may change the gauges). Books from a
+    checkpoint written without them (checkpoint.save through the Python
+    API: no outputs before it) are empty and not read."""
+    bad = _carried_books_fit(books, writer)
+    if bad:
+        raise CheckpointError(restart, "dataset /books", f"the books of the run before the "
+                              f"checkpoint, '{bad}' {_CARRIED[bad]}", books.get(bad))
+    writer.max_energy_error = books["max_energy_error"]
+    writer.max_energy_error_time = books["max_energy_error_time"]
+    writer.plane_force_peak, writer.plane_force_peak_time = books["plane_force_peak"]
+    writer.body_force_peak = [tuple(books["body_force_peaks"][name]) for name in writer.body_names]
+    for g, gauge in enumerate(writer.gauges):
+        before = books["gauge_peaks"].get(gauge["name"], {})
+        if [before.get("kind"), before.get("point")] == [gauge["kind"], [float(v) for v in gauge["point"]]]:
+            writer.gauge_peak[g] = tuple(before["peak_pressure"])
+    row = books["last_row"]
+    if row is not None:
+        # the forces of the first rows after the restart are rates from this row
+        writer._plane_last = (row["time"], np.float64(row["plane_impulse_z"]))
+        if row["body_momentum_z"] is not None:
+            writer._body_last = (row["time"], np.array(row["body_momentum_z"], dtype=float))
+    return books["series"] if books["metrics"] == _metrics_identity(deck) else None
 
 
 def _set_up(deck_path, outdir, restart):
@@ -325,10 +431,9 @@ def _set_up(deck_path, outdir, restart):
         lock.release()
         raise
     writer.energy0 = sim.initial_energy
-    writer.max_energy_error = books.get("max_energy_error", 0.0)
-    writer.max_energy_error_time = books.get("max_energy_error_time", 0.0)
+    series = _carry_on(writer, books, restart, deck) if books else None
     return _Setup(deck_path, deck, reference, why, outdir, lock, sim, writer,
-                  references.run_inputs(deck_text, reference))
+                  references.run_inputs(deck_text, reference), series)
 
 
 #: Column heads of the progress lines.
@@ -369,27 +474,32 @@ def _progress_line(sim, t_wall0):
 @dataclass
 class _Books:
     """What the run keeps from its outputs: the last snapshot written (the
-    one the metrics use), the per-snapshot metric records (perforation
-    series), and how the advance ended: the SimulationError of a failure,
-    the signal name of an interruption (both None: completed); ended False
-    while the run goes on (status 'running')."""
+    one the metrics use) and its metric record, the per-snapshot metric
+    records of the whole run (perforation and debris series; a restart
+    starts from those of the run before its checkpoint), and how the
+    advance ended: the SimulationError of a failure, the signal name of an
+    interruption (both None: completed); ended False while the run goes on
+    (status 'running')."""
 
     last_good: dict = None
+    last_record: dict = None
     series: list = field(default_factory=list)
     failure: SimulationError = None
     interrupted: str = None
     ended: bool = False
 
-    def record(self, sim, deck, writer):
+    def record(self, sim, deck, writer, in_series=True):
         """Take a snapshot of `sim`, write it with its metric record (and
         that record's history in fsph.h5 for the kinds that keep one) and
-        keep the record."""
+        keep the record, in the series unless in_series is False (the
+        state a restart begins from: the run before it had its snapshots
+        at the output times)."""
         snap = sim.snapshot()
         record = metrics_module.snapshot_series(snap, deck)
         units = metrics_module.series_units(deck)
         writer.write_snapshot(snap, (deck["metrics"]["kind"], record, units) if units else None)
-        self.last_good = snap
-        if record:
+        self.last_good, self.last_record = snap, record
+        if record and in_series:
             self.series.append(record)
 
     @property
@@ -414,13 +524,14 @@ class _Checkpoints:
     minutes: float
     last: float
     writer: RunWriter
+    books: _Books
 
     @classmethod
-    def from_output(cls, path, out, writer):
-        """From the deck's &output, the clock started now; `writer` keeps
-        the books a restart carries on (the largest energy error)."""
+    def from_output(cls, path, out, writer, books):
+        """From the deck's &output, the clock started now; `writer` and
+        `books` keep what a restart carries on (_books_to_carry)."""
         return cls(path, out["checkpoint"], out["checkpoint_cycles"] if out["checkpoint"] else 0,
-                   out["checkpoint_minutes"], wallclock.perf_counter(), writer)
+                   out["checkpoint_minutes"], wallclock.perf_counter(), writer, books)
 
     def due(self, cycle0, cycle):
         """Whether a call that went from cycle0 to cycle ends on a multiple
@@ -430,9 +541,10 @@ class _Checkpoints:
                         and wallclock.perf_counter() - self.last >= 60.0 * self.minutes))
 
     def save(self, sim):
-        checkpoint_module.save(sim, self.path, {
-            "max_energy_error": self.writer.max_energy_error,
-            "max_energy_error_time": self.writer.max_energy_error_time})
+        # the writer's books first take the history up to this cycle
+        _drain_history(sim, self.writer)
+        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series,
+                                                               sim.deck))
         self.last = wallclock.perf_counter()
 
 
@@ -494,17 +606,19 @@ def _record_failure(say, err, sim, writer, books, bar, outputs_usable=True):
         f"{writer.h5_path}")
 
 
-def _snapshot(setup, books, t_wall0, checkpoints=None):
+def _snapshot(setup, books, t_wall0, checkpoints=None, in_series=True):
     """Write a snapshot (once sure the disk has room for it), the checkpoint
     (checkpoints: a _Checkpoints, None for none), and summary.json with the
     status so far ('running'), so a run killed later leaves a summary of
-    its last snapshot. OutputError when a write fails or would not fit."""
+    its last snapshot; in_series False keeps its metric record out of the
+    run's series (_Books.record). OutputError when a write fails or would
+    not fit."""
     sim = setup.sim
     checkpoint_bytes = 0
     if checkpoints and checkpoints.path.is_file():
         checkpoint_bytes = checkpoints.path.stat().st_size
     setup.writer.check_room(sim.time, checkpoint_bytes)
-    books.record(sim, setup.deck, setup.writer)
+    books.record(sim, setup.deck, setup.writer, in_series)
     if checkpoints:
         checkpoints.save(sim)
     write_summary(setup.outdir, _summary(setup, books, t_wall0))
@@ -561,8 +675,8 @@ def _final_metrics(books, deck, reference):
     (and a perforation's settling) where there is one, and their comparison
     with the reference ({} without)."""
     series = books.series
-    # the last record is the last good snapshot's (Books.record keeps both)
-    case_metrics = metrics_module.case_metrics(books.last_good, deck, series[-1] if series else None)
+    # the last good snapshot's own record (Books.record keeps both)
+    case_metrics = metrics_module.case_metrics(books.last_good, deck, books.last_record)
     if series:
         case_metrics["series"] = {key: [r[key] for r in series] for key in series[0]}
         if "perforation" in case_metrics:
@@ -778,11 +892,13 @@ def _run(say, setup, restart, kind, stream, t_wall0):
     """The run of run() once set up: banner, the first snapshot, the
     advance to the end, the summary."""
     _print_banner(say, setup, restart, kind == "lines")
-    books = _Books()
+    books = _Books(series=list(setup.series or []))
     checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"],
-                                           setup.writer)
+                                           setup.writer, books)
     _drain_history(setup.sim, setup.writer)
-    _snapshot(setup, books, t_wall0)
+    # a restart's first snapshot is the checkpoint's state, not an output
+    # time of the run whose series it continues
+    _snapshot(setup, books, t_wall0, in_series=setup.series is None)
     end_time = setup.deck["control"]["end_time"]
     bar = _ProgressBar(stream, setup.sim, end_time) if kind == "bar" else None
     _advance(say, setup, books, checkpoints, bar, kind == "lines", t_wall0)

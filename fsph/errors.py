@@ -33,15 +33,33 @@ class DeckError(InputError):
         self.key = key
         self.expected = expected
         self.got = got
-        where = self.path
-        if group:
-            where += f": &{group}"
-        if key:
-            where += f" key '{key}'"
-        msg = f"{where}: expected {expected}"
+        msg = f"{self._where()}: expected {expected}"
         if got is not None:
             msg += f", got {got!r}"
         super().__init__(msg)
+
+    def _where(self):
+        """The file, the group and the key, as the message names them."""
+        where = self.path
+        if self.group:
+            where += f": &{self.group}"
+        if self.key:
+            where += f" key '{self.key}'"
+        return where
+
+
+class CheckpointError(DeckError):
+    """A checkpoint is unreadable, incomplete or holds what a restart
+    cannot take. Exit 2, like a deck; the message names the file, the
+    dataset or attribute (`item`, e.g. "dataset /state/elements/conn") and
+    what was expected, on one line."""
+
+    def __init__(self, path, item, expected, got=None):
+        self.item = item
+        super().__init__(path, None, None, expected, got)
+
+    def _where(self):
+        return f"{self.path}: {self.item}" if self.item else self.path
 
 
 class OutputError(FsphError):

@@ -237,6 +237,8 @@ class Simulation:
                 a, c = root(ib), root(names.index(b["joined_to"]))
                 continuum[max(a, c)] = min(a, c)
         continuum = [root(k) for k in range(len(bodies))]
+        #: the continuum of each body (0-based: the first body joined into it)
+        self.continuum_of_body = continuum
         mode = self.control["mode"]
         coupled = []
         for ib, b in enumerate(bodies):

@@ -18,6 +18,7 @@ module fsph_api
   public :: set_conversion, set_contact, set_erosion, get_erosion_stats, get_debris_count
   public :: get_contact_stats, get_conversion_stats, begin_checkpoint, checkpoint_sizes, get_real_state
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
+  public :: get_list_sizes, get_list_books, set_list_books
   public :: set_formulation
   public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
   public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
@@ -535,6 +536,63 @@ contains
     sim => run_state(run)
     call finish_restore(sim)
   end subroutine restore_end
+
+  !> Columns of the neighbour lists' books in a checkpoint (fsph_verlet
+  !> listed_sizes): real particles, nodes, elements and coupled nodes at
+  !> the lists' build; all 0 where the next cycle rebuilds the lists.
+  subroutine get_list_sizes(run, n_listed, n_nodes, n_elements, n_coupled)
+    use fsph_verlet, only: listed_sizes
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(out) :: n_listed, n_nodes, n_elements, n_coupled
+    sim => run_state(run)
+    call listed_sizes(sim%particles, sim%nodes, sim%elements, n_listed, n_nodes, n_elements, n_coupled)
+  end subroutine get_list_sizes
+
+  !> The neighbour lists' books for a checkpoint, of the sizes
+  !> get_list_sizes gives: reals (skin [m], its scale over the deck's
+  !> [-]), integers (builds so far, cycles the lists have served), the
+  !> real particles' and nodes' positions [m] and the elements' h [m] at
+  !> the build, the coupled bodies' nodes (1-based).
+  subroutine get_list_books(run, n_listed, n_nodes, n_elements, n_coupled, reals, ints, x_listed, &
+                            node_listed, elem_listed, coupled_nodes)
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: n_listed, n_nodes, n_elements, n_coupled
+    real(wp), intent(out) :: reals(2), x_listed(2, n_listed), node_listed(2, n_nodes), elem_listed(n_elements)
+    integer, intent(out) :: ints(2), coupled_nodes(n_coupled)
+    sim => run_state(run)
+    associate (pt => sim%particles)
+      reals = [pt%skin, pt%skin_scale]
+      ints = [pt%n_rebuilds, pt%list_uses]
+      x_listed = 0.0_wp; node_listed = 0.0_wp; elem_listed = 0.0_wp; coupled_nodes = 0
+      if (n_listed > 0 .and. n_listed == pt%n_listed) x_listed = pt%x_listed(:, 1:n_listed)
+      if (n_listed > 0 .and. n_nodes <= size(pt%node_listed, 2)) node_listed = pt%node_listed(:, 1:n_nodes)
+      if (n_listed > 0 .and. n_elements <= size(pt%elem_listed)) elem_listed = pt%elem_listed(1:n_elements)
+      if (n_listed > 0 .and. n_coupled == pt%n_coupled_nodes) coupled_nodes = pt%coupled_nodes(1:n_coupled)
+    end associate
+  end subroutine get_list_books
+
+  !> After restore_end: the neighbour lists' books of the checkpoint (as
+  !> get_list_books gives them; fsph_verlet restore_lists), so the
+  !> restarted run builds its lists when the run that wrote the checkpoint
+  !> did. ierr status_bad_input, nothing changed, where they do not fit.
+  subroutine set_list_books(run, n_listed, n_nodes, n_elements, n_coupled, reals, ints, x_listed, &
+                            node_listed, elem_listed, coupled_nodes, ierr)
+    use fsph_verlet, only: restore_lists
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    type(simulation_t), pointer :: sim
+    integer, intent(in) :: n_listed, n_nodes, n_elements, n_coupled
+    real(wp), intent(in) :: reals(2), x_listed(2, n_listed), node_listed(2, n_nodes), elem_listed(n_elements)
+    integer, intent(in) :: ints(2), coupled_nodes(n_coupled)
+    integer, intent(out) :: ierr
+    logical :: ok
+    sim => run_state(run)
+    call restore_lists(sim%particles, sim%nodes, sim%elements, reals(1), reals(2), ints(1), ints(2), &
+                       x_listed, node_listed, elem_listed, coupled_nodes, ok)
+    ierr = merge(status_ok, status_bad_input, ok)
+  end subroutine set_list_books
 
   !> The smoothing kernel, its radial derivative and the gradient factor
   !> (dW/d dist)/dist the pair sums use, at distances dist [m] for

@@ -37,7 +37,7 @@ module fsph_solver
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
                            update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
                            association_reach
-  use fsph_verlet, only: lists_still_valid, record_lists, list_skin, adapt_skin
+  use fsph_verlet, only: lists_still_valid, record_lists, list_skin, adapt_skin, restored_skin
   use fsph_convert, only: assign_groups, convert_elements
   use fsph_topology, only: rebuild_corner_map, nodal_masses
   use fsph_contact, only: contact_rebuild_surface, contact_correct, contact_step_limit
@@ -517,7 +517,6 @@ contains
     integer :: i, n
     real(wp) :: skin
     logical :: expired
-    integer, allocatable :: search_body(:)
     associate (pt => sim%particles)
       n = pt%n
       ! lists that may only expire by the displacement test
@@ -534,20 +533,15 @@ contains
                                        sim%conversion%alpha_h, .not. any_mirror_plane(sim))) then
         if (expired) call adapt_skin(sim%particles)
         skin = list_skin(sim%particles, sim%control%neighbour_skin)
-        pt%n_imag = 0
-        if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
-        call select_mirrors(sim, skin)
-        call fill_mirrors_start(sim)
-        ! total-Lagrangian particles take part in the search as contact
-        ! candidates only: a negative continuum keeps them out of the sums
-        search_body = pt%continuum(1:n + pt%n_imag + pt%n_mirror)
-        if (total_active(sim%total)) search_body(sim%total%index) = -search_body(sim%total%index)
-        call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, search_body, skin, pt%search, &
-                             pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
-                             pt%cnt_ptr, pt%cnt_list)
+        call build_lists(sim, skin)
         call record_lists(sim%particles, sim%nodes, sim%elements, sim%body_coupled, sim%conversion%alpha_h, &
                           skin)
       else
+        ! books of lists a restart restored (fsph_verlet restore_lists):
+        ! their entries, built once, not counted as a build
+        if (pt%lists_pending) call build_lists(sim, restored_skin(sim%particles, sim%elements, &
+                                                                  sim%body_coupled, sim%conversion%alpha_h))
+        pt%lists_pending = .false.
         pt%list_uses = pt%list_uses + 1
       end if
       ntot = n + pt%n_imag + pt%n_mirror
@@ -571,6 +565,30 @@ contains
       call reserve(pt%cnt_in, size(pt%cnt_list))
     end associate
   end subroutine prepare_particle_sums
+
+  !> Choose the imaginary particles and the mirror images and build the
+  !> neighbour and contact lists with every pair's reach widened by `skin`
+  !> [m] (fsph_neighbours); the caller books the build (fsph_verlet).
+  subroutine build_lists(sim, skin)
+    type(simulation_t), intent(inout) :: sim
+    real(wp), intent(in) :: skin
+    integer :: n
+    integer, allocatable :: search_body(:)
+    associate (pt => sim%particles)
+      n = pt%n
+      pt%n_imag = 0
+      if (sim%elements%n > 0) call refill_imaginary(sim, stage_select, skin)
+      call select_mirrors(sim, skin)
+      call fill_mirrors_start(sim)
+      ! total-Lagrangian particles take part in the search as contact
+      ! candidates only: a negative continuum keeps them out of the sums
+      search_body = pt%continuum(1:n + pt%n_imag + pt%n_mirror)
+      if (total_active(sim%total)) search_body(sim%total%index) = -search_body(sim%total%index)
+      call build_neighbours(n, n + pt%n_imag + pt%n_mirror, pt%x, pt%h, search_body, skin, pt%search, &
+                           pt%nbr_ptr, pt%nbr_list, pt%half_end, pt%low_ptr, pt%low_pair, pt%low_other, &
+                           pt%cnt_ptr, pt%cnt_list)
+    end associate
+  end subroutine build_lists
 
   !> Empty neighbour and contact lists for the n particles, without mirror
   !> images or imaginary particles.

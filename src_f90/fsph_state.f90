@@ -110,6 +110,9 @@ module fsph_state
     type(neighbour_work_t) :: search
     ! lists kept across cycles (fsph_verlet)
     logical :: lists_valid = .false.      !< the lists may be reused (false forces a rebuild)
+    !> the lists' books came from a checkpoint without their entries: the next
+    !> cycle builds the entries and keeps the books (fsph_verlet restored_skin)
+    logical :: lists_pending = .false.
     real(wp) :: skin = 0.0_wp             !< skin of the current lists [m]
     integer :: n_listed = 0               !< real particles when the lists were built
     integer :: n_rebuilds = 0             !< list builds so far
@@ -290,11 +293,14 @@ module fsph_state
 
 contains
 
-  !> Allocate every node and element array for nn nodes and ne elements.
+  !> Allocate every node and element array for nn nodes and ne elements,
+  !> and room for coupling edges (an element region may get them: every
+  !> state array of a checkpoint then has its rows from set-up on).
   subroutine state_allocate(sim, nn, ne)
     type(simulation_t), intent(inout) :: sim
     integer, intent(in) :: nn, ne
     integer :: k
+    if (.not. allocated(sim%coupling%edge)) allocate (sim%coupling%edge(2, 64))
     sim%nodes = node_set_t()
     sim%elements = element_set_t()
     sim%ready = .false.

@@ -16,8 +16,11 @@
 !> plane) c_z is 0. Rows are sorted, and entries beyond the
 !> support contribute exact zeros, so the sums, and the run, are the same
 !> bit for bit as with lists rebuilt every cycle (tested). A conversion,
-!> an erosion, a restart or a verification hook that moves particles
-!> forces a rebuild.
+!> an erosion or a verification hook that moves particles forces a
+!> rebuild. A restart does not: the lists' books are in the checkpoint
+!> (restore_lists), so a restarted run rebuilds, adapts its skin and counts
+!> its builds as the run that wrote the checkpoint; only the entries are
+!> built again, once, wider (restored_skin).
 module fsph_verlet
   use fsph_kinds, only: wp
   use fsph_state, only: particle_set_t, node_set_t, element_set_t
@@ -28,6 +31,7 @@ module fsph_verlet
   private
 
   public :: lists_still_valid, record_lists, invalidate_lists, list_skin, adapt_skin
+  public :: listed_sizes, restore_lists, restored_skin
 
   !> Bounds of the skin's scale over the deck's `neighbour_skin` [-], the
   !> lives (cycles) of lists below and above which it grows and shrinks,
@@ -72,6 +76,7 @@ contains
   subroutine invalidate_lists(pt)
     type(particle_set_t), intent(inout) :: pt
     pt%lists_valid = .false.
+    pt%lists_pending = .false.
   end subroutine invalidate_lists
 
   !> Positions of the real particles and of the nodes, the h of the
@@ -125,7 +130,98 @@ contains
     pt%lists_valid = skin > 0.0_wp
     pt%n_rebuilds = pt%n_rebuilds + 1
     pt%list_uses = 0
+    pt%lists_pending = .false.
   end subroutine record_lists
+
+  !> Columns of the books a checkpoint keeps of lists that may be reused:
+  !> the real particles, nodes and elements they were built at and the
+  !> coupled bodies' nodes; all 0 for lists the next cycle rebuilds anyway.
+  subroutine listed_sizes(pt, nd, el, n_listed, n_nodes, n_elements, n_coupled)
+    type(particle_set_t), intent(in) :: pt
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
+    integer, intent(out) :: n_listed, n_nodes, n_elements, n_coupled
+    n_listed = 0; n_nodes = 0; n_elements = 0; n_coupled = 0
+    if (.not. pt%lists_valid .or. pt%n /= pt%n_listed .or. pt%n == 0) return
+    n_listed = pt%n
+    n_nodes = nd%n
+    n_elements = el%n
+    n_coupled = pt%n_coupled_nodes
+  end subroutine listed_sizes
+
+  !> A restart takes the lists' books from its checkpoint (their entries
+  !> are not in it): the skin [m] and its scale [-], the builds so far and
+  !> the cycles the lists have served; for lists that may be reused (n_listed
+  !> > 0, listed_sizes), the real particles' and nodes' positions [m] and
+  !> the elements' h [m] at their build and the coupled bodies' nodes. The
+  !> next cycle then rebuilds, adapts the skin and counts builds as the run
+  !> that wrote the checkpoint did; the entries of reused lists are built
+  !> by it uncounted (lists_pending, restored_skin). ok is false, and
+  !> nothing is changed, where the books do not fit the state.
+  subroutine restore_lists(pt, nd, el, skin, skin_scale, n_rebuilds, list_uses, x_listed, node_listed, &
+                           elem_listed, coupled_nodes, ok)
+    type(particle_set_t), intent(inout) :: pt
+    type(node_set_t), intent(in) :: nd
+    type(element_set_t), intent(in) :: el
+    real(wp), intent(in) :: skin, skin_scale
+    integer, intent(in) :: n_rebuilds, list_uses
+    real(wp), intent(in) :: x_listed(:, :), node_listed(:, :), elem_listed(:)
+    integer, intent(in) :: coupled_nodes(:)
+    logical, intent(out) :: ok
+    integer :: n, nc
+    n = size(x_listed, 2)
+    nc = size(coupled_nodes)
+    ok = skin >= 0.0_wp .and. skin_scale >= 1.0_wp .and. skin_scale <= skin_scale_max &
+         .and. n_rebuilds >= 0 .and. list_uses >= 0
+    if (n > 0) ok = ok .and. skin > 0.0_wp .and. n == pt%n .and. size(x_listed, 1) == 2 &
+                    .and. size(node_listed, 1) == 2 .and. size(node_listed, 2) == nd%n &
+                    .and. size(elem_listed) == el%n .and. nc <= nd%n
+    if (ok .and. nc > 0) ok = minval(coupled_nodes) >= 1 .and. maxval(coupled_nodes) <= nd%n
+    if (.not. ok) return
+    pt%skin = skin
+    pt%skin_scale = skin_scale
+    pt%n_rebuilds = n_rebuilds
+    pt%list_uses = list_uses
+    if (n == 0) return
+    if (.not. allocated(pt%x_listed)) allocate (pt%x_listed(2, pt%capacity))
+    pt%x_listed(:, 1:n) = x_listed
+    call reserve(pt%elem_listed, max(el%n, 1))
+    call reserve(pt%node_listed, 2, max(nd%n, 1))
+    call reserve(pt%coupled_nodes, max(nd%n, 1))
+    pt%elem_listed(1:el%n) = elem_listed
+    pt%node_listed(:, 1:nd%n) = node_listed
+    pt%coupled_nodes(1:nc) = coupled_nodes
+    pt%n_coupled_nodes = nc
+    pt%n_listed = n
+    pt%lists_valid = .true.
+    pt%lists_pending = .true.
+  end subroutine restore_lists
+
+  !> Skin [m] of the entries built for restored books (restore_lists): a
+  !> pair within the kernel support at a later cycle, while the books
+  !> hold, has moved apart by less than the skin s since their build, and
+  !> had moved by less than s from the build to now, so it is now within
+  !> its support at now's h plus 2 s plus kernel_support times the
+  !> largest shrinking of an element's h since the build; one s more
+  !> covers rounding. The pairs beyond the support that the wider skin
+  !> lists add exact zeros, as at any skin.
+  real(wp) function restored_skin(pt, el, body_coupled, alpha_h)
+    type(particle_set_t), intent(in) :: pt
+    type(element_set_t), intent(in) :: el
+    logical, intent(in) :: body_coupled(:)
+    real(wp), intent(in) :: alpha_h
+    integer :: ie, ne
+    real(wp) :: shrink
+    ne = el%n
+    shrink = 0.0_wp
+    !$omp parallel do default(none) shared(pt, el, body_coupled, alpha_h, ne) private(ie) reduction(max:shrink)
+    do ie = 1, ne
+      if (.not. coupled_body(body_coupled, el%body(ie))) cycle
+      shrink = max(shrink, pt%elem_listed(ie) - element_smoothing_length(alpha_h, el%area(ie)))
+    end do
+    !$omp end parallel do
+    restored_skin = 3.0_wp*pt%skin + kernel_support*shrink
+  end function restored_skin
 
   !> Whether the lists of the last build still hold every pair within the
   !> kernel support (see the module header). An element's imaginary

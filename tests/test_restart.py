@@ -6,7 +6,7 @@ import pytest
 
 import fsph
 from fsph.errors import FsphError
-from fsph import checkpoint
+from fsph import checkpoint, layouts
 from conftest import CASES, REFERENCE_DIGESTS
 
 
@@ -181,16 +181,127 @@ def test_cycle_checkpoints_restart_bit_for_bit(tmp_path):
         assert np.array_equal(a[key], c[key]), key
 
 
+def _history(out):
+    """{group/field: column} of fsph.h5's history, bodies' and gauges'
+    histories (the rows of /history)."""
+    import h5py
+    columns = {}
+    with h5py.File(out / "fsph.h5") as h5:
+        for group in ("history", "body_history", "gauge_history"):
+            h5[group].visititems(lambda name, obj, g=group: columns.__setitem__(
+                f"{g}/{name}", obj[...]) if hasattr(obj, "shape") else None)
+    return columns
+
+
+def test_a_restarted_run_reports_what_the_whole_run_does(tmp_path):
+    """The short Taylor deck with a gauge at the impact face, restarted
+    from its checkpoint at cycle 100 (after the impact's peak forces and
+    pressure, and after neighbour lists were built), reports what the
+    uninterrupted run reports: the anvil's and the rod's peak forces and
+    their times, the gauge's peak pressure, the neighbour-list builds and
+    the largest energy error. Its history rows are the uninterrupted
+    run's after the checkpoint, bit for bit, the forces of the first row
+    (rates from the row before the checkpoint) included."""
+    from fsph.driver import run
+    deck = _short_taylor(tmp_path, "every", "  checkpoint_cycles = 100\n")
+    deck.write_text(deck.read_text() + "&gauge\n  name = 'face'\n  kind = 'fixed'\n"
+                                       "  point = 1.0e-3, 1.0e-3\n/\n")
+    full, seen = _run_watching_checkpoints(deck, tmp_path / "full", keep=tmp_path)
+    assert seen[0] == 100 and full["status"] == "completed"
+    restored = fsph.Simulation.from_deck(deck)
+    checkpoint.restore(restored, tmp_path / "ckpt_100.h5")
+    resumed = run(deck, tmp_path / "resumed", quiet=True, restart=tmp_path / "ckpt_100.h5")
+    assert resumed["state_digest"] == full["state_digest"]
+
+    # what the continuation alone would miss happened before the checkpoint
+    assert full["rigid_planes"]["peak_force_time_s"] < restored.time
+    assert full["bodies"]["rod"]["peak_force_time_s"] < restored.time
+    assert full["gauges"]["face"]["peak_pressure_time_s"] < restored.time
+    assert 0 < restored.list_rebuilds < full["neighbour_list_builds"]
+    for part in ("rigid_planes", ("bodies", "rod"), ("gauges", "face"), "energy"):
+        a, b = full, resumed
+        for key in part if isinstance(part, tuple) else (part,):
+            a, b = a[key], b[key]
+        for key in a:
+            if "peak" in key or key.startswith("max_"):
+                assert b[key] == a[key], (part, key)
+    assert resumed["neighbour_list_builds"] == full["neighbour_list_builds"]
+
+    whole, after = _history(tmp_path / "full"), _history(tmp_path / "resumed")
+    assert whole.keys() == after.keys() and "history/plane_force_z" in whole
+    first = np.searchsorted(whole["history/cycle"], 100, side="right")
+    assert whole["history/cycle"][first - 1] == 100 and after["history/cycle"][0] > 100
+    assert whole["history/plane_force_z"][first] != 0.0
+    for name in whole:
+        assert np.array_equal(whole[name][first:], after[name], equal_nan=True), name
+
+
+def test_a_restarted_debris_run_keeps_its_series_and_measured_state(tmp_path):
+    """Debris case 1 for its first 0.27 us (the plate a 10 mm disc, as
+    tests/test_debris.py measures the interface state), restarted from its
+    checkpoint at the snapshot at 0.18 us: the summary's snapshot series,
+    debris record, impedance match with the state measured over the
+    snapshots before and after the checkpoint, and neighbour-list builds
+    are the uninterrupted run's; with &metrics changed the series begins
+    at the checkpoint."""
+    import f90nml
+    from fsph.driver import run
+    nml = f90nml.read(CASES / "debris_cu_al_1.nml")
+    nml["output"].update(reference=str(CASES / nml["output"]["reference"]), n_snapshots=9, vtu=False)
+    nml["control"]["end_time"] = 0.27e-6
+    nml["body"][1].update(radius=10e-3, fine_radius=10e-3, n_radial=100, n_coarse=0)
+    deck = tmp_path / "debris.nml"
+    nml.write(deck)
+    full, seen = _run_watching_checkpoints(deck, tmp_path / "full", keep=tmp_path)
+    ckpt = tmp_path / f"ckpt_{seen[5]}.h5"          # at the sixth snapshot
+    restored = fsph.Simulation.from_deck(deck)
+    checkpoint.restore(restored, ckpt)
+    resumed = run(deck, tmp_path / "resumed", quiet=True, restart=ckpt)
+    assert resumed["state_digest"] == full["state_digest"]
+
+    match = full["metrics"]["impedance_match"]
+    assert match["measured_snapshots"] >= 3
+    assert min(match["measured_times_us"]) < 1e6 * restored.time < max(match["measured_times_us"])
+    assert len(full["metrics"]["series"]["time_us"]) == 10
+    for key in ("series", "debris", "impedance_match"):
+        assert resumed["metrics"][key] == full["metrics"][key], key
+    assert resumed["neighbour_list_builds"] == full["neighbour_list_builds"]
+
+    # a restart that changes &metrics (it may) begins its series at the checkpoint
+    nml["metrics"]["front_fraction"] = 0.02
+    nml.write(deck, force=True)
+    changed = run(deck, tmp_path / "changed", quiet=True, restart=ckpt)["metrics"]["series"]["time_us"]
+    assert changed == [1e6 * restored.time] + full["metrics"]["series"]["time_us"][7:]
+
+
+def _books(path):
+    """The run's books a checkpoint holds (the dataset /books, JSON)."""
+    import h5py
+    import json
+    with h5py.File(path) as h5:
+        return json.loads(h5["books"].asstr()[()])
+
+
+def _set_books(path, books):
+    """Replace the run's books of the checkpoint at `path`."""
+    import h5py
+    import json
+    with h5py.File(path, "r+") as h5:
+        del h5["books"]
+        h5["books"] = json.dumps(books)
+
+
 def test_largest_energy_error_survives_a_restart(tmp_path):
     """The largest energy error before the checkpoint (booked in it) is the
     whole run's largest when the continuation stays below it: summary and
     warning report it, at its time."""
     from fsph.driver import run
     deck = _short_taylor(tmp_path, "taylor")
-    sim = fsph.Simulation.from_deck(deck)
-    sim.advance(1.0e-6)
-    path = checkpoint.save(sim, tmp_path / "ckpt.h5",
-                           {"max_energy_error": -0.2, "max_energy_error_time": 0.5e-6})
+    early = tmp_path / "early.nml"
+    early.write_text(deck.read_text().replace("end_time = 4.0e-6", "end_time = 1.0e-6"))
+    assert run(early, tmp_path / "early", quiet=True)["status"] == "completed"
+    path = tmp_path / "early" / "checkpoint.h5"
+    _set_books(path, dict(_books(path), max_energy_error=-0.2, max_energy_error_time=0.5e-6))
     summary = run(deck, tmp_path / "resumed", quiet=True, restart=path)
     assert summary["status"] == "completed"
     energy = summary["energy"]
@@ -290,3 +401,140 @@ def test_checkpoint_of_another_material_history_is_refused(tmp_path):
                                         rf"{sim.n_elements}\): {rows - 2} material history rows where "
                                         rf"this version has {rows}"):
         checkpoint.restore(fsph.Simulation.from_deck(deck), path)
+
+
+# --------------------------------------------------------------------------
+# malformed checkpoints: exit 2, one line naming the file, the item and
+# what was expected; nothing of them reaches the solver
+
+@pytest.fixture(scope="module")
+def adaptive_checkpoint(tmp_path_factory):
+    """The short Taylor deck and its checkpoint at 3 us, after conversions:
+    elements, particles, coupling edges and neighbour lists kept, so that
+    it holds every dataset a restore reads."""
+    tmp = tmp_path_factory.mktemp("checkpoint")
+    deck = _short_taylor(tmp, "taylor")
+    sim = fsph.Simulation.from_deck(deck)
+    sim.advance(3.0e-6)
+    return deck, checkpoint.save(sim, tmp / "ckpt.h5")
+
+
+#: every dataset a restore reads
+CHECKPOINT_DATASETS = (["books", "particle_radius0", "lists/particles_x", "lists/nodes_x",
+                        "lists/elements_h", "lists/coupled_nodes"]
+                       + [f"state/{name}" for name in layouts.CHECKPOINT_REAL + layouts.CHECKPOINT_INT])
+
+
+def test_the_table_holds_every_dataset_of_a_checkpoint(adaptive_checkpoint):
+    import h5py
+    names = []
+    with h5py.File(adaptive_checkpoint[1]) as h5:
+        h5.visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
+    assert sorted(names) == sorted(CHECKPOINT_DATASETS)
+
+
+def _restart_refused(deck, path, tmp_path, capsys):
+    """The one line `fsph run DECK --restart PATH` prints, checking that it
+    exits 2 with that line alone."""
+    from fsph import cli
+    code = cli.main(["run", str(deck), "-q", "--restart", str(path), "-o", str(tmp_path / "out")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith(f"fsph: error: {path}: ") and "expected" in lines[0], lines[0]
+    return lines[0]
+
+
+def _copy(original, tmp_path):
+    import shutil
+    path = tmp_path / "ckpt.h5"
+    shutil.copy(original, path)
+    return path
+
+
+@pytest.mark.parametrize("name", CHECKPOINT_DATASETS)
+def test_a_checkpoint_without_a_dataset_is_refused(name, adaptive_checkpoint, tmp_path, capsys):
+    import h5py
+    deck, original = adaptive_checkpoint
+    path = _copy(original, tmp_path)
+    with h5py.File(path, "r+") as h5:
+        assert name in h5
+        del h5[name]
+    assert f": dataset /{name}: expected " in _restart_refused(deck, path, tmp_path, capsys)
+
+
+def _replace(h5, name, values):
+    del h5[name]
+    h5[name] = values
+
+
+#: other damage: (what it does to the open checkpoint, what the line says)
+CONN = "state/elements/conn"
+MALFORMED = {
+    "conn_of_another_shape": (lambda h5: _replace(h5, CONN, h5[CONN][:, :-1]),
+                              [f"dataset /{CONN}", "an integer array of shape (3, ", "got 'shape (3, "]),
+    "conn_of_reals": (lambda h5: _replace(h5, CONN, h5[CONN][...] * 1.0),
+                      [f"dataset /{CONN}", "an integer array", "float64"]),
+    "conn_beyond_the_nodes": (lambda h5: _replace(h5, CONN, h5[CONN][...] + 10**6),
+                              [f"dataset /{CONN}", "of values from 1 to "]),
+    "position_not_finite": (lambda h5: h5["state/nodes/x"].__setitem__((0, 5), np.nan),
+                            ["dataset /state/nodes/x", "a real array", "nan at (0, 5)"]),
+    "scalar_missing": (lambda h5: h5["scalars"].attrs.__delitem__("time"),
+                       ["attribute 'time' of /scalars", "no such attribute"]),
+    "step_not_positive": (lambda h5: h5["scalars"].attrs.__setitem__("dt", 0.0),
+                          ["attribute 'dt' of /scalars", "> 0"]),
+    "sizes_missing": (lambda h5: h5.attrs.__delitem__("sizes"), ["attribute 'sizes'", "no such attribute"]),
+    "capacity_beyond_reason": (lambda h5: h5.attrs.__setitem__("sizes",
+                                                               h5.attrs["sizes"] * [1, 1, 1, 9**9, 1]),
+                               ["attribute 'sizes'", "particle capacity"]),
+    "lists_missing": (lambda h5: h5.__delitem__("lists"), ["group /lists", "no such group"]),
+    "books_not_json": (lambda h5: _replace(h5, "books", "{"), ["dataset /books", "a JSON object"]),
+    "books_incomplete": (lambda h5: _replace(h5, "books", '{"max_energy_error": 0.0}'),
+                         ["dataset /books", "the books of the run before the checkpoint, 'metrics'"]),
+    "format_5": (lambda h5: h5.attrs.__setitem__("format", 5),
+                 ["of format 6 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(MALFORMED))
+def test_a_malformed_checkpoint_is_refused(name, adaptive_checkpoint, tmp_path, capsys):
+    import h5py
+    deck, original = adaptive_checkpoint
+    path = _copy(original, tmp_path)
+    damage, fragments = MALFORMED[name]
+    with h5py.File(path, "r+") as h5:
+        damage(h5)
+    line = _restart_refused(deck, path, tmp_path, capsys)
+    for fragment in fragments:
+        assert fragment in line, line
+
+
+def test_a_file_that_is_not_a_checkpoint_is_refused(adaptive_checkpoint, tmp_path, capsys):
+    deck, _ = adaptive_checkpoint
+    path = tmp_path / "ckpt.h5"
+    path.write_text("not HDF5")
+    assert "expected a readable fsph checkpoint (HDF5)" in _restart_refused(deck, path, tmp_path, capsys)
+
+
+@pytest.mark.parametrize("damage", ["delete", "shape"])
+def test_a_checkpoint_without_its_connectivity_is_one_line_not_a_crash(damage, adaptive_checkpoint,
+                                                                       tmp_path):
+    """A checkpoint without state/elements/conn (or with too few columns)
+    crashed the solver: through the command line it is one line, exit 2."""
+    import h5py
+    import os
+    import subprocess
+    import sys
+    deck, original = adaptive_checkpoint
+    path = _copy(original, tmp_path)
+    with h5py.File(path, "r+") as h5:
+        conn = h5["state/elements/conn"][...]
+        del h5["state/elements/conn"]
+        if damage == "shape":
+            h5["state/elements/conn"] = conn[:, :-1]
+    res = subprocess.run([sys.executable, "-m", "fsph", "run", str(deck), "-q", "--restart", str(path),
+                          "-o", str(tmp_path / "out")], capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ, OMP_NUM_THREADS="1"), cwd=tmp_path)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr
+    assert str(path) in lines[0] and "dataset /state/elements/conn" in lines[0]
