@@ -351,6 +351,9 @@ def _print_banner(say, setup, restart, lines):
     if setup.lock.stale:
         say(f"fsph: warning: took over the lock of a run that is gone (pid {setup.lock.stale}) "
             f"in {setup.outdir}")
+    if setup.writer.removed_earlier:
+        say(f"fsph: removed the ParaView series of an earlier run from {setup.outdir} "
+            f"({setup.writer.removed_earlier} files)")
     for text in setup.deck.get("warnings", []):
         say(f"fsph: warning: {text}")
     if lines:
