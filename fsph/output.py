@@ -35,8 +35,11 @@ HISTORY_CHUNK = 512
 PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bodies, averaged "
                "between history rows (the rate of plane_impulse_z); the bodies push the planes "
                "with minus it")
+#: the element fields of a snapshot (failed and melted: the material
+#: point's flags, 0/1, as the particles')
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
-                        "internal_energy", "temperature", "damage", "material", "body", "id")
+                        "internal_energy", "temperature", "damage", "failed", "melted",
+                        "material", "body", "id")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
 #: the lock file that keeps a second run out of an output folder in use
 LOCK_NAME = "fsph.lock"
