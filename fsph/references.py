@@ -26,7 +26,8 @@ CONDITION_TOLERANCE = 1e-9
 
 def load(deck):
     """The reference JSON named by the deck (None without); a file that is
-    not a JSON object is a DeckError naming it."""
+    not a JSON object is a DeckError naming it, and so is one whose entries
+    are not of the format (check)."""
     name = deck["output"]["reference"]
     if name is None:
         return None
@@ -38,7 +39,92 @@ def load(deck):
     if not isinstance(reference, dict) or not isinstance(reference.get("conditions", {}), dict):
         raise DeckError(deck["path"], "output", "reference", "a JSON object (with 'conditions' an "
                         "object of deck keys, if any)", str(path))
+    check(reference, path)
     return reference
+
+
+#: The entries of a reference that are not metric groups: its source
+#: (text), its conditions (not_applied_because), the bars of `fsph report`
+#: (BAR_ENTRIES, checked there) and a sweep's measured ballistic curve
+#: (fsph.sweep.experiment_points: lists of striking and residual velocities
+#: [m/s]). Every other entry is a metric group: an object of measured
+#: values, as the run's metrics of that group name them (fsph.metrics).
+SOURCE, CONDITIONS, BALLISTIC = "source", "conditions", "ballistic"
+BALLISTIC_KEYS = ("striking_velocity_m_s", "residual_velocity_m_s")
+
+
+def _json_text(value, limit=60):
+    """A value as the JSON file writes it, cut to `limit` characters."""
+    text = json.dumps(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _refused(path, key, expected, value):
+    """The DeckError of an entry `key` of the reference file at `path`
+    that is not what the format allows (one line: file, key, expected,
+    the value as written)."""
+    return DeckError(path, None, key, f"{expected}, got {_json_text(value)}")
+
+
+def _number(value):
+    """Whether a JSON value is a finite number (not true or false)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def check(reference, path):
+    """Refuse (DeckError naming the file and the key) a reference whose
+    entries are not of the format: a measured value that is not a finite
+    number other than 0 (the errors are relative to it), a source that is
+    not text, a condition that names no deck key or whose value is no deck
+    value, a ballistic curve that is not two lists of finite numbers of
+    one length. The bars are checked where `fsph report` reads them."""
+    for group, values in reference.items():
+        if group == SOURCE:
+            if not isinstance(values, str):
+                raise _refused(path, group, "text (where the values come from)", values)
+        elif group == CONDITIONS:
+            for spec, expected in values.items():
+                _check_condition(path, spec, expected)
+        elif group == BALLISTIC:
+            _check_ballistic(path, values)
+        elif group not in BAR_ENTRIES:
+            if not isinstance(values, dict):
+                raise _refused(path, group, "an object of measured values (a metric group), "
+                               "'source', 'conditions' or 'ballistic'", values)
+            for key, value in values.items():
+                if not _number(value) or value == 0:
+                    raise _refused(path, f"{group}.{key}", "a finite number other than 0 (the "
+                                   "measured value errors are relative to)", value)
+
+
+def _check_condition(path, spec, expected):
+    """A condition: a KEY_SPEC and a deck value (a number, text, true or
+    false, null for unset, or a list of numbers), or {"at_least": a finite
+    number}."""
+    key = f"conditions.{spec}"
+    if not deck_module.KEY_SPEC.match(spec):
+        raise _refused(path, key, "a deck key GROUP.KEY, GROUP(I).KEY or GROUP(NAME).KEY",
+                       spec)
+    if isinstance(expected, list):
+        ok = all(_number(v) for v in expected)
+    else:
+        ok = expected is None or isinstance(expected, (str, bool)) or _number(expected)
+    if not ok:
+        raise _refused(path, key, "a deck value (a finite number, text, true or false, null "
+                       "for unset, or a list of numbers)", expected)
+
+
+def _check_ballistic(path, curve):
+    """A ballistic curve: an object of BALLISTIC_KEYS, lists of finite
+    numbers [m/s] of one length."""
+    if not isinstance(curve, dict) or set(curve) - set(BALLISTIC_KEYS):
+        raise _refused(path, BALLISTIC, f"an object of {' and '.join(BALLISTIC_KEYS)}", curve)
+    for key, values in curve.items():
+        if not isinstance(values, list) or not all(_number(v) for v in values):
+            raise _refused(path, f"{BALLISTIC}.{key}", "a list of finite numbers [m/s]", values)
+    if len({len(v) for v in curve.values()}) > 1:
+        raise _refused(path, BALLISTIC, f"{' and '.join(BALLISTIC_KEYS)} of one length",
+                       {key: len(v) for key, v in curve.items()})
 
 
 #: The entries of a reference that no run stores: the bars `fsph report`

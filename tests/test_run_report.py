@@ -232,6 +232,39 @@ def test_malformed_reference_is_a_deck_error(tmp_path):
     assert not (tmp_path / "o" / "fsph.h5").exists()
 
 
+@pytest.mark.parametrize("entries, key, expected, got", [
+    ('"taylor": {"L_mm": null}', "taylor.L_mm", "a finite number other than 0", "null"),
+    ('"taylor": {"L_mm": "19.8 mm"}', "taylor.L_mm", "a finite number other than 0", '"19.8 mm"'),
+    ('"taylor": {"L_mm": NaN}', "taylor.L_mm", "a finite number other than 0", "NaN"),
+    ('"taylor": {"L_mm": 0}', "taylor.L_mm", "a finite number other than 0", "0"),
+    ('"taylor": {"L_mm": true}', "taylor.L_mm", "a finite number other than 0", "true"),
+    ('"taylor": 19.8', "taylor", "an object of measured values", "19.8"),
+    ('"source": 1988', "source", "text", "1988"),
+    ('"conditions": {"body(rod).velocity_z": {"about": -221.0}}',
+     "conditions.body(rod).velocity_z", "a deck value", '{"about": -221.0}'),
+    ('"conditions": {"velocity": -221.0}', "conditions.velocity", "a deck key GROUP.KEY", '"velocity"'),
+    ('"ballistic": {"striking_velocity_m_s": [300, 400], "residual_velocity_m_s": [0, "x"]}',
+     "ballistic.residual_velocity_m_s", "a list of finite numbers", '[0, "x"]'),
+    ('"ballistic": {"striking_velocity_m_s": [300, 400], "residual_velocity_m_s": [0]}',
+     "ballistic", "striking_velocity_m_s and residual_velocity_m_s of one length", '{"striking_velocity_m_s": 2, "residual_velocity_m_s": 1}'),
+])
+def test_a_reference_entry_out_of_the_format_is_a_deck_error(tmp_path, entries, key, expected, got):
+    """A reference value that is null, text, not finite, 0 (the errors are
+    relative to it) or true, a group that is not an object, a condition
+    that is no deck key or value, a ballistic curve that is not two lists
+    of numbers of one length: exit 2 at set-up, one line naming the
+    reference file, the key, what was expected and the value as written
+    (before, a value of null or text was a traceback at the first
+    snapshot)."""
+    res = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0, "{" + entries + "}")), "-o", "o"], tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert f"taylor_armco.json key '{key}': expected {expected}" in lines[0], lines[0]
+    assert lines[0].endswith(f", got {got}"), lines[0]
+    assert not (tmp_path / "o").exists()
+
+
 # ---- fsph report: the installed decks and the bars ---------------------------------
 def _report_rows(text, case):
     """The table cells of the rows of `case` in report.md."""
