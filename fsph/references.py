@@ -6,8 +6,14 @@ A reference may list the deck values its measurements were made at:
     "conditions": {"body(rod).velocity_z": -221.0, "body(rod).radius": 3.8e-3}
 
 keys written as for `fsph sweep --set` (GROUP.KEY, GROUP(NAME).KEY or
-GROUP(I).KEY). A run whose deck differs in one of them (a sweep variant at
-another striking velocity, say) is not compared with it: the summary says
+GROUP(I).KEY). A condition may also be a least value,
+
+    "conditions": {"control.end_time": {"at_least": 6.0e-5}}
+
+for a value measured once a process has ended (a Taylor rod's final
+shape, a residual velocity): any later end time gives it. A run whose
+deck differs in one of them (a sweep variant at another striking
+velocity, a run cut short, say) is not compared with it: the summary says
 why instead of reporting an error against another experiment. A reference
 without conditions applies to the deck that names it; a sweep drops it
 from the variants that change a key (fsph.sweep)."""
@@ -97,21 +103,28 @@ def check(reference, path):
                                    "measured value errors are relative to)", value)
 
 
+#: The key of a condition that is a least value.
+AT_LEAST = "at_least"
+
+
 def _check_condition(path, spec, expected):
     """A condition: a KEY_SPEC and a deck value (a number, text, true or
-    false, null for unset, or a list of numbers), or {"at_least": a finite
+    false, null for unset, or a list of numbers), or {AT_LEAST: a finite
     number}."""
     key = f"conditions.{spec}"
     if not deck_module.KEY_SPEC.match(spec):
         raise _refused(path, key, "a deck key GROUP.KEY, GROUP(I).KEY or GROUP(NAME).KEY",
                        spec)
-    if isinstance(expected, list):
+    if isinstance(expected, dict):
+        ok = set(expected) == {AT_LEAST} and _number(expected[AT_LEAST])
+    elif isinstance(expected, list):
         ok = all(_number(v) for v in expected)
     else:
         ok = expected is None or isinstance(expected, (str, bool)) or _number(expected)
     if not ok:
         raise _refused(path, key, "a deck value (a finite number, text, true or false, null "
-                       "for unset, or a list of numbers)", expected)
+                       f"for unset, or a list of numbers) or {{\"{AT_LEAST}\": a finite number}}",
+                       expected)
 
 
 def _check_ballistic(path, curve):
@@ -170,6 +183,12 @@ def _same(a, b):
     return a == b
 
 
+def _at_least(value, bound):
+    """Whether a deck value is a number at least `bound` (within
+    CONDITION_TOLERANCE)."""
+    return _number(value) and (value >= bound or _same(value, bound))
+
+
 def not_applied_because(reference, deck):
     """Why the reference does not apply to the deck: the first condition
     that does not hold; "" when every one holds (it applies)."""
@@ -178,6 +197,9 @@ def not_applied_because(reference, deck):
             value = deck_value(deck, spec)
         except (KeyError, DeckError):
             return f"the deck has no single {spec} (a condition of the reference)"
-        if not _same(value, expected):
+        if isinstance(expected, dict):
+            if not _at_least(value, expected[AT_LEAST]):
+                return f"{spec} is {value!r} here, at least {expected[AT_LEAST]!r} in the reference"
+        elif not _same(value, expected):
             return f"{spec} is {value!r} here, {expected!r} in the reference"
     return ""
