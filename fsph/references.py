@@ -49,6 +49,11 @@ def load(deck):
     return reference
 
 
+#: The entries of a reference that no run stores: the bars `fsph report`
+#: holds the runs to, read afresh from the reference at each report.
+BAR_ENTRIES = ("acceptance", "acceptance_by_mode")
+
+
 #: The entries of a reference that are not metric groups: its source
 #: (text), its conditions (not_applied_because), the bars of `fsph report`
 #: (BAR_ENTRIES, checked there) and a sweep's measured ballistic curve
@@ -99,8 +104,8 @@ def check(reference, path):
                                "'source', 'conditions' or 'ballistic'", values)
             for key, value in values.items():
                 if not _number(value) or value == 0:
-                    raise _refused(path, f"{group}.{key}", "a finite number other than 0 (the "
-                                   "measured value errors are relative to)", value)
+                    raise _refused(path, f"{group}.{key}", "a finite number other than 0 (a "
+                                   "measured value: errors are relative to it)", value)
 
 
 #: The key of a condition that is a least value.
@@ -138,11 +143,6 @@ def _check_ballistic(path, curve):
     if len({len(v) for v in curve.values()}) > 1:
         raise _refused(path, BALLISTIC, f"{' and '.join(BALLISTIC_KEYS)} of one length",
                        {key: len(v) for key, v in curve.items()})
-
-
-#: The entries of a reference that no run stores: the bars `fsph report`
-#: holds the runs to, read afresh from the reference at each report.
-BAR_ENTRIES = ("acceptance", "acceptance_by_mode")
 
 
 def digest(reference):
