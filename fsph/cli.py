@@ -9,17 +9,18 @@ interrupted by SIGINT/SIGTERM (a checkpoint is written); 1 any other fsph
 error.
 """
 
-import argparse
-import math
 import sys
-from pathlib import Path
 
 from .errors import FsphError, InputError, OutputError
+
+# Nothing more is imported before main() has taken over Ctrl-C: argparse,
+# pathlib and the rest are imported where they are used.
 
 EXIT_OK, EXIT_ERROR, EXIT_DECK, EXIT_RUN_FAILED, EXIT_INTERRUPTED = 0, 1, 2, 3, 4
 
 
 def _parser():
+    import argparse
     from . import __version__
     p = argparse.ArgumentParser(prog="fsph", description="Axisymmetric FEM-SPH impact hydrocode")
     p.add_argument("--version", action="version", version=f"fsph {__version__}",
@@ -139,6 +140,7 @@ def _check(deck_path):
 
 def _plot_times(text):
     """--times as a list of finite times >= 0 [µs]; InputError otherwise."""
+    import math
     expected = f"--times: expected times in microseconds >= 0 separated by commas, got {text!r}"
     try:
         times = [float(t) for t in text.split(",") if t.strip()]
@@ -184,6 +186,7 @@ def _plot_run_dir(run_dir):
 
 def _plot(args):
     """`fsph plot`: the arguments checked (InputError, exit 2) before any picture is drawn."""
+    from pathlib import Path
     from .plot import (body_energies, cannot_read, damage_map, deformed_shapes, field_map,
                        gauge_histories, histories, nearest_note, perforation_histories,
                        snapshot_choice)
@@ -244,8 +247,99 @@ def _report_exit(statuses):
     return EXIT_OK if all(s == "completed" for s in statuses) else EXIT_RUN_FAILED
 
 
-def main(argv=None):
-    args = _parser().parse_args(argv)
+#: The modules of each command, imported before it begins (main): the
+#: solver, numpy, h5py and the rest come with them (about 0.3 s).
+COMMAND_MODULES = {"run": ("driver",), "check": ("estimate", "simulation"), "sweep": ("sweep",),
+                   "plot": ("plot",), "report": ("report",), "decks-reference": ("deck",),
+                   "info": ("simulation",)}
+#: What a Ctrl-C outside a run's own handling prints (stderr).
+INTERRUPTED = "fsph: interrupted"
+
+
+def _interrupted(exit_now):
+    """The one line and the exit code of a Ctrl-C outside a run's own
+    handling (which stops at the end of a call, with a checkpoint). With
+    exit_now the process ends here, its output flushed, without the
+    interpreter's shutdown: a Ctrl-C during the imports leaves modules
+    half set up (h5py's printed errors of their own as they were cleared
+    away, and one made the process end by SIGINT after the line)."""
+    if not exit_now:
+        print(INTERRUPTED, file=sys.stderr)
+        return EXIT_INTERRUPTED
+    import os
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError, RuntimeError):   # closed, or in the middle of a write
+            pass
+    os.write(2, f"{INTERRUPTED}\n".encode())
+    os._exit(EXIT_INTERRUPTED)
+
+
+def _exit_at_interrupt(signum, frame):
+    """The SIGINT handler while the program starts (_start)."""
+    _interrupted(exit_now=True)
+
+
+def _start(argv, exit_at_interrupt):
+    """The parsed command line, the modules of its command imported
+    (COMMAND_MODULES). With exit_at_interrupt a Ctrl-C meanwhile ends the
+    process at once (_interrupted): as a KeyboardInterrupt it could be
+    raised inside a clean-up the import machinery runs (a weak
+    reference's callback), which drops it with a traceback, and the run
+    went on. A SIGINT that the process was started to ignore stays
+    ignored."""
+    import signal
+    previous = signal.getsignal(signal.SIGINT)
+    exit_at_interrupt = exit_at_interrupt and previous is not signal.SIG_IGN
+    if exit_at_interrupt:
+        signal.signal(signal.SIGINT, _exit_at_interrupt)
+    try:
+        args = _parser().parse_args(argv)
+        for name in COMMAND_MODULES[args.command]:
+            __import__(f"{__package__}.{name}")
+        return args
+    finally:
+        if exit_at_interrupt:
+            # Python's own (KeyboardInterrupt) unless another was set in C
+            signal.signal(signal.SIGINT, signal.default_int_handler if previous is None
+                          else previous)
+
+
+def _unraisable(info):
+    """sys.unraisablehook of the program: a Ctrl-C (KeyboardInterrupt)
+    that came while Python ran a clean-up that cannot raise (a weak
+    reference's callback, a __del__: a lazy import of numpy's, say) is
+    raised again in the program's own code, where main() reports it,
+    instead of being dropped with a traceback while the run went on;
+    anything else as Python reports it."""
+    if issubclass(info.exc_type, KeyboardInterrupt):
+        import _thread
+        # SIGINT again, handled once this returns (signal.raise_signal
+        # would raise it here, where it would be dropped again)
+        _thread.interrupt_main()
+        return
+    sys.__unraisablehook__(info)
+
+
+def program():
+    """The program `fsph` (the console script, and python -m fsph): main()
+    on the command line, a Ctrl-C that it reports ending the process at
+    once (_interrupted), none dropped in a clean-up (_unraisable)."""
+    sys.unraisablehook = _unraisable
+    return main(exit_at_interrupt=True)
+
+
+def main(argv=None, exit_at_interrupt=False):
+    """The command line (argv: the arguments, default sys.argv[1:]);
+    returns the exit code. A Ctrl-C at any moment from here, the imports
+    of the solver, numpy and h5py included (fsph imports them on first
+    use, after this has begun), ends with one line and exit 4, as later in
+    a run; with exit_at_interrupt the process ends there (_interrupted)."""
+    try:
+        args = _start(argv, exit_at_interrupt)
+    except KeyboardInterrupt:
+        return _interrupted(exit_at_interrupt)
     try:
         if args.command == "run":
             from .driver import run
@@ -272,6 +366,7 @@ def main(argv=None):
         if args.command == "plot":
             return _plot(args)
         if args.command == "report":
+            from pathlib import Path
             from .report import VALIDATION_DECKS, installed_cases, make_report
             decks = tuple(d.strip() for d in args.decks.split(",")) if args.decks else VALIDATION_DECKS
             cases = Path(args.cases) if args.cases is not None else installed_cases()
@@ -312,8 +407,7 @@ def main(argv=None):
         print(f"fsph: error: {err}", file=sys.stderr)
         return EXIT_RUN_FAILED
     except KeyboardInterrupt:
-        print("fsph: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return _interrupted(exit_at_interrupt)
     except FsphError as err:
         print(f"fsph: error: {err}", file=sys.stderr)
         return EXIT_ERROR
@@ -321,4 +415,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(program())

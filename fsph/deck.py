@@ -685,9 +685,14 @@ SCHEMA = {
                                      "trajectory does not depend on it.", lower=0),
             "reference": Key("str", None, "-",
                              "JSON file of reference (experimental or analytic) values, "
-                             "relative to the deck's folder. Its optional 'conditions' "
-                             "({\"body(rod).velocity_z\": -221.0, ...}) are the deck values "
-                             "the values hold for: a run that differs in one is not compared "
+                             "relative to the deck's folder: 'source' (text), and the "
+                             "measured values by metric group ({\"taylor\": {\"L_mm\": "
+                             "19.8}}: finite numbers other than 0, the errors being relative "
+                             "to them; checked when the deck is read). Its optional "
+                             "'conditions' ({\"body(rod).velocity_z\": -221.0, ...}) are the "
+                             "deck values the values hold for, or least values "
+                             "({\"control.end_time\": {\"at_least\": 6.0e-5}}: a final shape, "
+                             "a residual velocity): a run that differs in one is not compared "
                              "(the summary says why), and a sweep keeps a reference without "
                              "conditions only for the variants that change nothing."),
         },
@@ -702,7 +707,9 @@ SCHEMA = {
                         "mass-weighted axial velocity and its residual velocity (the "
                         "component along the striking direction; 0 for a projectile that "
                         "stopped or rebounds, flagged 'rebounded'), penetration depth, "
-                        "whether it has left the target and the hole diameter, with their "
+                        "whether it has left the target ('exited': its rear has passed the "
+                        "target's initial far face; a residual velocity is compared with a "
+                        "reference only then) and the hole diameter, with their "
                         "history at every snapshot, and whether the velocity had settled "
                         "(changed by at most 1 % of the striking speed over the last fifth "
                         "of the run; 'settled'); debris: a flyer's debris cloud behind a "

@@ -39,7 +39,8 @@ def _format_metrics(comparison, metrics):
             cmp = comparison.get(group, {}).get(key)
             if not isinstance(val, float) and not cmp:
                 continue
-            text = f"  {group}.{key:<14s} " + _value_text(val)
+            # the compared value: none where the run did not measure it
+            text = f"  {group}.{key:<14s} " + _value_text(cmp["computed"] if cmp else val)
             if cmp:
                 text += _reference_text(cmp)
             lines.append(text)
@@ -53,9 +54,11 @@ def _value_text(value):
 
 def _reference_text(cmp):
     """'   reference R   error E %' of a comparison entry, or 'not measured'
-    where the run has no value (metrics.compare)."""
+    (and why, where the comparison says) where the run has no value
+    (metrics.compare)."""
     if cmp["error_percent"] is None:
-        return f"   reference {cmp['reference']:.4g}   not measured"
+        why = cmp.get("not_measured_because")
+        return f"   reference {cmp['reference']:.4g}   not measured" + (f": {why}" if why else "")
     return f"   reference {cmp['reference']:.4g}   error {cmp['error_percent']:+.1f} %"
 
 
@@ -456,6 +459,9 @@ def _print_banner(say, setup, restart, lines):
     if setup.lock.stale:
         say(f"fsph: warning: took over the lock of a run that is gone (pid {setup.lock.stale}) "
             f"in {setup.outdir}")
+    if setup.writer.removed_earlier:
+        say(f"fsph: removed the ParaView series of an earlier run from {setup.outdir} "
+            f"({setup.writer.removed_earlier} files)")
     for text in setup.deck.get("warnings", []):
         say(f"fsph: warning: {text}")
     if lines:

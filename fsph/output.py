@@ -3,6 +3,7 @@
 
 import json
 import os
+import re
 import resource
 import shutil
 import socket
@@ -34,8 +35,11 @@ HISTORY_CHUNK = 512
 PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bodies, averaged "
                "between history rows (the rate of plane_impulse_z); the bodies push the planes "
                "with minus it")
+#: the element fields of a snapshot (failed and melted: the material
+#: point's flags, 0/1, as the particles')
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
-                        "internal_energy", "temperature", "damage", "material", "body", "id")
+                        "internal_energy", "temperature", "damage", "failed", "melted",
+                        "material", "body", "id")
 STRESS_COMPONENTS = ("rr", "zz", "rz", "tt")
 #: the lock file that keeps a second run out of an output folder in use
 LOCK_NAME = "fsph.lock"
@@ -58,6 +62,12 @@ def _points3(xy):
 
 #: The parts of the .pvd series, in order.
 VTU_PARTS = ("elements", "particles")
+#: The ParaView series of a run: its .pvd collections in the output folder
+#: and the names of its .vtu files in vtu/ (RunWriter._add_part: the part,
+#: _3d for the revolved series, the snapshot's number). A run removes the
+#: files of these names an earlier run left in its folder, and no other.
+PVD_NAMES = ("fsph.pvd", "fsph_3d.pvd")
+VTU_FILE = re.compile(r"(?:elements|particles)(?:_3d)?_\d{5,}\.vtu")
 
 
 def _element_mesh(snap):
@@ -105,6 +115,26 @@ def _atomic_write_text(path, text):
             os.replace(tmp, path)
         finally:
             tmp.unlink(missing_ok=True)
+
+
+def remove_earlier_series(outdir):
+    """Remove the ParaView series an earlier run left in outdir: its .pvd
+    collections (PVD_NAMES) and the .vtu files in vtu/ named as fsph names
+    them (VTU_FILE), so that the folder shows one run only (fsph.h5 and
+    summary.json are replaced by the new run's). Any other file stays;
+    vtu/ goes once empty. Returns the number of files removed."""
+    outdir = Path(outdir)
+    folder = outdir / "vtu"
+    with writing_errors(outdir):
+        stale = [outdir / name for name in PVD_NAMES if (outdir / name).is_file()]
+        if folder.is_dir():
+            stale += [path for path in folder.iterdir()
+                      if VTU_FILE.fullmatch(path.name) and path.is_file()]
+        for path in stale:
+            path.unlink()
+        if folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
+    return len(stale)
 
 
 def _pid_alive(pid):
@@ -208,9 +238,11 @@ class RunWriter:
     pressure, ...); the case metrics that have a history (&metrics kind
     debris) in /metrics/<kind>/<key>, one value per snapshot (NaN where
     undefined) with its unit in the attribute `units`. The deck text is
-    stored in /deck. vtu/ with fsph.pvd
-    (elements) and fsph_particles.pvd (particles as vertices): the same
-    snapshots for ParaView (points at (r, z, 0)).
+    stored in /deck. fsph.pvd with vtu/ (elements as part 0, particles
+    as vertices as part 1), and fsph_3d.pvd where the deck revolves them:
+    the same snapshots for ParaView (points at (r, z, 0)). The series an
+    earlier run left in the folder is removed first
+    (remove_earlier_series).
 
     fsph.h5 is opened for each write and closed after it, so other
     processes can read it while the run goes on: each write holds HDF5's
@@ -230,6 +262,7 @@ class RunWriter:
         self.outdir = Path(outdir)
         self.h5_path = self.outdir / "fsph.h5"
         self.lock_warning = ""      # set once a write could not wait for a reader
+        self.removed_earlier = remove_earlier_series(self.outdir)   # files of an earlier run
         self._file_locks = True     # False on a file system without locks
         with self._h5("w") as h5:
             h5.attrs["title"] = title

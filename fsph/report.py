@@ -161,7 +161,9 @@ def _compared(name, metric, c, kind_value):
     summary line counts and the table's cells from fsph to within bar."""
     key = metric.split(".", 1)[1]
     measured = c["computed"] is not None
-    error = f"{c['error_percent']:+.2f} %" if measured else "not measured"
+    why = c.get("not_measured_because")
+    error = f"{c['error_percent']:+.2f} %" if measured else \
+        "not measured" + (f" ({why})" if why else "")
     result = {"case": name, "metric": metric, "error": error, "bar": None, "within": None}
     if kind_value is not None:
         result.update(bar=_bar_text(kind_value, key), within=within(kind_value, c))

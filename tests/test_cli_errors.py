@@ -585,3 +585,57 @@ def test_progress_bar_on_a_pseudo_terminal(tmp_path):
     assert f"cycle {summary['cycles']}, dt " in final[-1] and ", el 144, pt 0]" in final[-1]
     assert "    cycle     t [us]" not in text        # no table of plain lines
     assert on_pty("--quiet") == ""
+
+
+#: a rod deck of some seconds: still running when the last interrupt comes
+SECONDS_DECK = rod_deck(control="end_time = 2.0e-4", body="n_radial = 6\n n_axial = 24")
+
+
+@pytest.mark.parametrize("entry", ["console script", "python -m fsph"])
+def test_ctrl_c_at_any_moment_of_the_start_is_one_line_and_exit_4(entry, tmp_path):
+    """SIGINT in the first 0.2 s of `fsph run`, while the solver, numpy and
+    h5py are imported, was a KeyboardInterrupt traceback (or the noise of
+    modules half set up, an exit by SIGINT, or the interrupt dropped in a
+    clean-up while the run went on). From the moment fsph's code runs (its
+    first module imported, as Python's import profile says: the
+    interpreter's own start-up before it is Python's) through the
+    imports, the set-up and into the run: exit 4, no traceback, and on
+    stderr at most the line 'fsph: interrupted'."""
+    from pathlib import Path
+    import signal
+    import time
+    deck = tmp_path / "rod.nml"
+    deck.write_text(SECONDS_DECK)
+    command = ([str(Path(sys.executable).parent / "fsph")] if entry == "console script"
+               else [sys.executable, "-m", "fsph"])
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPROFILEIMPORTTIME="1")
+    for k, delay in enumerate((0.02, 0.05, 0.1, 0.2, 0.35)):
+        proc = subprocess.Popen(command + ["run", str(deck), "-o", str(tmp_path / f"out{k}"), "-q"],
+                                cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        seen = []
+        for line in proc.stderr:            # one line per import, as each ends
+            seen.append(line)
+            if line.rsplit("|", 1)[-1].strip() == "fsph.errors":
+                break
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, rest = proc.communicate(timeout=120)
+        stderr = "".join(seen) + rest
+        said = [line for line in stderr.splitlines() if not line.startswith("import time:")]
+        assert proc.returncode == 4 and "Traceback" not in stderr, (delay, proc.returncode, said)
+        assert said in ([], ["fsph: interrupted"]), (delay, said)
+
+
+def test_the_package_loads_the_solver_on_first_use(tmp_path):
+    """`import fsph` (the command line's first step) loads neither numpy
+    nor the solver; Simulation, threads and sweep come on first use, and
+    fsph.sweep stays the function when the module of that name is
+    imported."""
+    code = ("import sys, fsph; light = not {'numpy', 'h5py', 'fsph.simulation'} & set(sys.modules); "
+            "import fsph.sweep; print(light, fsph.sweep.__module__, fsph.Simulation.__name__, "
+            "fsph.threads.__name__, sorted(set(fsph.__all__) - set(dir(fsph))))")
+    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == ["True", "fsph.sweep", "Simulation", "threads", "[]"]

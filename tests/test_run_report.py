@@ -208,11 +208,22 @@ def _taylor_at(tmp_path, speed, reference_text=None):
     return deck
 
 
+def without_end_time(name):
+    """The text of the shipped reference NAME without its condition on
+    the end time: its values hold at the deck's end time, which the short
+    runs of these tests do not reach; the tests of the other conditions
+    and of the report compare them all the same."""
+    ref = reference(name)
+    del ref["conditions"]["control.end_time"]
+    return json.dumps(ref)
+
+
 def test_reference_is_compared_only_where_its_conditions_hold(tmp_path):
     """The 221 m/s experiment: compared at 221 m/s; at 180 m/s the summary
     and the console say why not, and no error against it is reported."""
-    same = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0)), "-o", "same"], tmp_path)
-    slower = fsph_cli(["run", str(_taylor_at(tmp_path, 180.0)), "-o", "slower"], tmp_path)
+    text = without_end_time("taylor_armco")
+    same = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0, text)), "-o", "same"], tmp_path)
+    slower = fsph_cli(["run", str(_taylor_at(tmp_path, 180.0, text)), "-o", "slower"], tmp_path)
     assert same.returncode == slower.returncode == 0, same.stderr + slower.stderr
     ref_same = json.loads((tmp_path / "same" / "summary.json").read_text())["reference"]
     ref_slow = json.loads((tmp_path / "slower" / "summary.json").read_text())["reference"]
@@ -223,6 +234,69 @@ def test_reference_is_compared_only_where_its_conditions_hold(tmp_path):
     assert "reference 19.8" in same.stdout and "reference 19.8" not in slower.stdout
 
 
+def test_a_run_cut_short_is_not_compared_with_the_final_state_of_the_experiment(tmp_path):
+    """The Taylor rod's final shape holds from the shipped deck's 60 us on,
+    the elastic bar's front at its 3 us: their references name the end
+    time (a least one for the rod), so a run cut short says why it is not
+    compared (the rod at 15 us was +13 % on L, the bar at 1.5 us -48 % on
+    its plateau), and every shipped deck meets the conditions of its
+    reference."""
+    from fsph import references
+    rod = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0)), "-o", "rod"], tmp_path)
+    bar = fsph_cli(["run", "bar.nml", "-o", "bar"], _short_cases(tmp_path, bar=None,
+                                                                 end_time=True))
+    assert rod.returncode == bar.returncode == 0, rod.stderr + bar.stderr
+    for out, why in ((tmp_path / "rod", "control.end_time is 2e-06 here, at least 6e-05 in the "
+                                        "reference"),
+                     (tmp_path / "cases" / "bar", "control.end_time is 5e-07 here, 3e-06 in the "
+                                                  "reference")):
+        ref = json.loads((out / "summary.json").read_text())["reference"]
+        assert not ref["applies"] and ref["comparison"] == {}, out
+        assert ref["not_applied_because"] == why
+    assert f"fsph: not compared with the reference ({reference('taylor_armco')['source']}): " \
+           "control.end_time is 2e-06 here" in rod.stdout and "reference 19.8" not in rod.stdout
+    shipped = [deck_module.load(path) for path in sorted(CASES.glob("*.nml"))]
+    named = [deck for deck in shipped if deck["output"]["reference"] is not None]
+    assert len(named) >= 15
+    for deck in named:
+        assert references.not_applied_because(references.load(deck), deck) == "", deck["path"]
+    taylor = deck_module.load(CASES / "taylor_armco.nml")
+    longer = taylor | {"control": dict(taylor["control"], end_time=1.0e-4)}
+    assert references.not_applied_because(references.load(longer), longer) == ""
+
+
+def test_a_projectile_still_in_the_target_has_no_residual_velocity_compared(tmp_path):
+    """A perforation run whose projectile has not left the target (a rod
+    6 us into a 4 mm block) printed its velocity as a residual velocity
+    against the experiment's; it now says it was not measured and why,
+    and `fsph report` counts it outside the bar."""
+    (tmp_path / "block.json").write_text(
+        '{"source": "test", "perforation": {"residual_velocity_m_s": 555.0}}')
+    (tmp_path / "block.nml").write_text(
+        rod_deck(control="mode = 'adaptive'\n end_time = 6e-6",
+                 material="name = 'steel'\n library = 'projectile_bilinear_concrete'",
+                 body="velocity_z = -600.0\n n_radial = 4\n n_axial = 16\n z_base = 0.05e-3",
+                 boundary=False, output="reference = 'block.json'")
+        + "&material\n name = 'concrete'\n library = 'concrete_48mpa_hjc'\n/\n"
+        "&body\n name = 'block'\n material = 'concrete'\n radius = 6.0e-3\n"
+        " length = 4.0e-3\n z_base = -4.0e-3\n n_radial = 12\n n_axial = 8\n/\n"
+        "&metrics\n kind = 'perforation'\n body = 'rod'\n target = 'block'\n/\n")
+    proc = fsph_cli(["run", "block.nml", "-o", "out"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["metrics"]["perforation"]["exited"] is False
+    assert summary["reference"]["applies"]
+    got = summary["reference"]["comparison"]["perforation"]["residual_velocity_m_s"]
+    assert got["computed"] is None and got["error_percent"] is None
+    line = [t for t in proc.stdout.splitlines() if "perforation.residual_velocity_m_s" in t]
+    assert len(line) == 1 and line[0].split()[1] == "none", line
+    assert line[0].endswith("reference 555   not measured: the projectile has not left the target")
+    from fsph.report import _compared
+    result, cells = _compared("block", "perforation.residual_velocity_m_s", got, ("percent", 5.0))
+    assert result["within"] is False
+    assert result["error"] == "not measured (the projectile has not left the target)"
+
+
 def test_malformed_reference_is_a_deck_error(tmp_path):
     res = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0, '{"taylor": {"L_mm": 19.8,}')), "-o", "o"],
                    tmp_path)
@@ -230,6 +304,39 @@ def test_malformed_reference_is_a_deck_error(tmp_path):
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "&output key 'reference': expected a readable JSON file" in lines[0]
     assert not (tmp_path / "o" / "fsph.h5").exists()
+
+
+@pytest.mark.parametrize("entries, key, expected, got", [
+    ('"taylor": {"L_mm": null}', "taylor.L_mm", "a finite number other than 0", "null"),
+    ('"taylor": {"L_mm": "19.8 mm"}', "taylor.L_mm", "a finite number other than 0", '"19.8 mm"'),
+    ('"taylor": {"L_mm": NaN}', "taylor.L_mm", "a finite number other than 0", "NaN"),
+    ('"taylor": {"L_mm": 0}', "taylor.L_mm", "a finite number other than 0", "0"),
+    ('"taylor": {"L_mm": true}', "taylor.L_mm", "a finite number other than 0", "true"),
+    ('"taylor": 19.8', "taylor", "an object of measured values", "19.8"),
+    ('"source": 1988', "source", "text", "1988"),
+    ('"conditions": {"body(rod).velocity_z": {"about": -221.0}}',
+     "conditions.body(rod).velocity_z", "a deck value", '{"about": -221.0}'),
+    ('"conditions": {"velocity": -221.0}', "conditions.velocity", "a deck key GROUP.KEY", '"velocity"'),
+    ('"ballistic": {"striking_velocity_m_s": [300, 400], "residual_velocity_m_s": [0, "x"]}',
+     "ballistic.residual_velocity_m_s", "a list of finite numbers", '[0, "x"]'),
+    ('"ballistic": {"striking_velocity_m_s": [300, 400], "residual_velocity_m_s": [0]}',
+     "ballistic", "striking_velocity_m_s and residual_velocity_m_s of one length", '{"striking_velocity_m_s": 2, "residual_velocity_m_s": 1}'),
+])
+def test_a_reference_entry_out_of_the_format_is_a_deck_error(tmp_path, entries, key, expected, got):
+    """A reference value that is null, text, not finite, 0 (the errors are
+    relative to it) or true, a group that is not an object, a condition
+    that is no deck key or value, a ballistic curve that is not two lists
+    of numbers of one length: exit 2 at set-up, one line naming the
+    reference file, the key, what was expected and the value as written
+    (before, a value of null or text was a traceback at the first
+    snapshot)."""
+    res = fsph_cli(["run", str(_taylor_at(tmp_path, 221.0, "{" + entries + "}")), "-o", "o"], tmp_path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert f"taylor_armco.json key '{key}': expected {expected}" in lines[0], lines[0]
+    assert lines[0].endswith(f", got {got}"), lines[0]
+    assert not (tmp_path / "o").exists()
 
 
 # ---- fsph report: the installed decks and the bars ---------------------------------
@@ -448,14 +555,17 @@ def test_a_reference_the_run_did_not_measure_is_reported_not_met():
 
 
 # ---- fsph report: stale runs, decks without a comparison, failed runs ----------------
-def _short_cases(tmp_path, **edits):
+def _short_cases(tmp_path, end_time=False, **edits):
     """A cases folder of the elastic bar cut to 0.5 us (about 50 cycles),
-    its reference beside it; each edit NAME=(old, new) writes NAME.nml
-    with that text replaced (None: as is)."""
+    its reference beside it (without its condition on the end time, so
+    that the short runs are compared, unless end_time); each edit
+    NAME=(old, new) writes NAME.nml with that text replaced (None: as
+    is). Returns the folder."""
     cases = tmp_path / "cases"
     (cases / "references").mkdir(parents=True)
     (cases / "references" / "elastic_bar.json").write_text(
-        (CASES / "references" / "elastic_bar.json").read_text())
+        (CASES / "references" / "elastic_bar.json").read_text() if end_time
+        else without_end_time("elastic_bar"))
     text = (CASES / "elastic_bar.nml").read_text().replace("end_time = 3.0e-6", "end_time = 0.5e-6")
     for name, edit in edits.items():
         (cases / f"{name}.nml").write_text(text.replace(*edit) if edit else text)
