@@ -10,8 +10,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from . import checkpoint as checkpoint_module
 from . import deck as deck_module
 from . import estimate
@@ -319,7 +317,7 @@ def _books_to_carry(writer, series, deck):
     impulse and each body's axial momentum [N s]) and the snapshot series
     (metrics.snapshot_series records) with the &metrics group it was
     recorded under, so that summary.json covers the whole run."""
-    plane, bodies = writer._plane_last, writer._body_last
+    plane, bodies = writer.last_rates_row()
     return {
         "metrics": _metrics_identity(deck),
         "max_energy_error": writer.max_energy_error,
@@ -402,9 +400,7 @@ def _carry_on(writer, books, restart, deck):
     row = books["last_row"]
     if row is not None:
         # the forces of the first rows after the restart are rates from this row
-        writer._plane_last = (row["time"], np.float64(row["plane_impulse_z"]))
-        if row["body_momentum_z"] is not None:
-            writer._body_last = (row["time"], np.array(row["body_momentum_z"], dtype=float))
+        writer.continue_rates_from(row["time"], row["plane_impulse_z"], row["body_momentum_z"])
     return books["series"] if books["metrics"] == _metrics_identity(deck) else None
 
 

@@ -401,6 +401,21 @@ class RunWriter:
         if self.gauges:
             self._gauges.append(self._gauge_rows(records[:, HISTORY_FIELDS.index("time")], gauges))
 
+    def last_rates_row(self):
+        """The last history row the forces are rates from, for a
+        checkpoint: (time [s], the planes' axial impulse [N s]) and (time
+        [s], each body's axial momentum [N s]); None for one not yet met."""
+        return self._plane_last, self._body_last
+
+    def continue_rates_from(self, time, plane_impulse_z, body_momentum_z=None):
+        """A restart's writer: the forces of its first history rows are
+        rates from the checkpoint's last row at `time` [s] (the planes'
+        axial impulse [N s]; each body's axial momentum [N s], None where
+        the checkpoint had no body rows)."""
+        self._plane_last = (time, np.float64(plane_impulse_z))
+        if body_momentum_z is not None:
+            self._body_last = (time, np.array(body_momentum_z, dtype=float))
+
     def _gauge_rows(self, t, gauges):
         """The gauges' rows (k, gauges, columns), tracking each gauge's
         largest |pressure| (the first time it is reached) and last row."""
