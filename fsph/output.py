@@ -266,7 +266,9 @@ class RunWriter:
         self._file_locks = True     # False on a file system without locks
         with self._h5("w") as h5:
             h5.attrs["title"] = title
-            h5.attrs["units"] = "SI: m, s, kg, N, Pa, J, K"
+            h5.attrs["units"] = ("SI: m, s, kg, N, Pa, J, K; each dataset's own `units` "
+                                 "attribute names its unit (the /metrics series: mm, us, GPa "
+                                 "as their names end)")
             # the snapshots' body and material fields index these (0-based)
             h5.attrs["body_names"] = list(body_names)
             h5.attrs["material_names"] = list(material_names)
