@@ -456,8 +456,8 @@ def _print_banner(say, setup, restart, lines):
         say(f"fsph: warning: took over the lock of a run that is gone (pid {setup.lock.stale}) "
             f"in {setup.outdir}")
     if setup.writer.removed_earlier:
-        say(f"fsph: removed the ParaView series of an earlier run from {setup.outdir} "
-            f"({setup.writer.removed_earlier} files)")
+        say(f"fsph: removed {setup.writer.removed_earlier} files an earlier run left in "
+            f"{setup.outdir} (its ParaView series, checkpoint and pictures)")
     for text in setup.deck.get("warnings", []):
         say(f"fsph: warning: {text}")
     if lines:
@@ -754,12 +754,24 @@ def _body_summary(writer):
     return out
 
 
+def _ended_early_because(books, control):
+    """Why a run that failed or was interrupted is not compared with its
+    reference (whose values hold at the deck's end time, the conditions
+    say): its metrics are those of its last good snapshot, before that
+    time. "" for a run that completed or goes on."""
+    if books.status not in ("failed", "interrupted"):
+        return ""
+    reached = books.last_good["time"] if books.last_good else 0.0
+    return (f"the run {books.status} and its last good snapshot is at t = {reached * 1e6:.6g} us, "
+            f"before its end time {control['end_time'] * 1e6:.6g} us")
+
+
 def _summary(setup, books, t_wall0):
     """The summary dict of a run that has ended (summary.json)."""
     sim, deck, writer, reference = setup.sim, setup.deck, setup.writer, setup.reference
     ctrl = deck["control"]
     energies = sim.energies()
-    why = setup.not_applied_because
+    why = setup.not_applied_because or _ended_early_because(books, ctrl)
     case_metrics, comparison = _final_metrics(books, deck, None if why else reference)
     peaks = _peaks(books.last_good, deck)
     warnings = [{"kind": "deck", "message": text} for text in deck.get("warnings", [])]

@@ -65,9 +65,13 @@ VTU_PARTS = ("elements", "particles")
 #: The ParaView series of a run: its .pvd collections in the output folder
 #: and the names of its .vtu files in vtu/ (RunWriter._add_part: the part,
 #: _3d for the revolved series, the snapshot's number). A run removes the
-#: files of these names an earlier run left in its folder, and no other.
+#: files of these names an earlier run left in its folder, its checkpoint
+#: and the pictures `fsph plot` drew of it under their default names
+#: (fsph.plot), and no other file.
 PVD_NAMES = ("fsph.pvd", "fsph_3d.pvd")
 VTU_FILE = re.compile(r"(?:elements|particles)(?:_3d)?_\d{5,}\.vtu")
+CHECKPOINT_NAME = "checkpoint.h5"
+PICTURE_FILE = re.compile(r"(?:shapes|history|perforation|gauges|bodies|damage|field_\w+)\.png")
 
 
 def _element_mesh(snap):
@@ -117,16 +121,21 @@ def _atomic_write_text(path, text):
             tmp.unlink(missing_ok=True)
 
 
-def remove_earlier_series(outdir):
-    """Remove the ParaView series an earlier run left in outdir: its .pvd
-    collections (PVD_NAMES) and the .vtu files in vtu/ named as fsph names
-    them (VTU_FILE), so that the folder shows one run only (fsph.h5 and
-    summary.json are replaced by the new run's). Any other file stays;
-    vtu/ goes once empty. Returns the number of files removed."""
+def remove_earlier_outputs(outdir):
+    """Remove what an earlier run left in outdir that the new run may not
+    replace: its ParaView series, the .pvd collections (PVD_NAMES) and the
+    .vtu files in vtu/ named as fsph names them (VTU_FILE); its checkpoint
+    (a run without checkpoints would leave it beside its own outputs); and
+    the pictures fsph plot drew of it (PICTURE_FILE), so that the folder
+    shows one run only (fsph.h5 and summary.json are replaced by the new
+    run's). Any other file stays; vtu/ goes once empty. Returns the number
+    of files removed."""
     outdir = Path(outdir)
     folder = outdir / "vtu"
     with writing_errors(outdir):
-        stale = [outdir / name for name in PVD_NAMES if (outdir / name).is_file()]
+        stale = [outdir / name for name in PVD_NAMES + (CHECKPOINT_NAME,) if (outdir / name).is_file()]
+        stale += [path for path in outdir.iterdir()
+                  if PICTURE_FILE.fullmatch(path.name) and path.is_file()]
         if folder.is_dir():
             stale += [path for path in folder.iterdir()
                       if VTU_FILE.fullmatch(path.name) and path.is_file()]
@@ -242,7 +251,7 @@ class RunWriter:
     as vertices as part 1), and fsph_3d.pvd where the deck revolves them:
     the same snapshots for ParaView (points at (r, z, 0)). The series an
     earlier run left in the folder is removed first
-    (remove_earlier_series).
+    (remove_earlier_outputs).
 
     fsph.h5 is opened for each write and closed after it, so other
     processes can read it while the run goes on: each write holds HDF5's
@@ -262,7 +271,7 @@ class RunWriter:
         self.outdir = Path(outdir)
         self.h5_path = self.outdir / "fsph.h5"
         self.lock_warning = ""      # set once a write could not wait for a reader
-        self.removed_earlier = remove_earlier_series(self.outdir)   # files of an earlier run
+        self.removed_earlier = remove_earlier_outputs(self.outdir)   # files of an earlier run
         self._file_locks = True     # False on a file system without locks
         with self._h5("w") as h5:
             h5.attrs["title"] = title

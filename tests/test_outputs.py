@@ -182,26 +182,34 @@ def test_lock_of_another_host_is_not_taken_over(tmp_path):
 
 def test_a_run_replaces_the_series_of_an_earlier_run_and_leaves_other_files(tmp_path):
     """A run into a folder used before: the earlier run's .vtu files (more
-    snapshots than this run has, a revolved series) and its .pvd files go,
-    so the folder and fsph.pvd show this run alone; files fsph does not
-    name so (a user's notes, a .vtu of another name) stay. A run without
-    vtu removes the earlier series too, and vtu/ once it is empty."""
+    snapshots than this run has, a revolved series), its .pvd files, its
+    checkpoint and the pictures fsph plot drew of it go, so the folder and
+    fsph.pvd show this run alone; files fsph does not name so (a user's
+    notes, a .vtu or a picture of another name) stay. A run without vtu
+    and without checkpoints removes the earlier series and checkpoint too,
+    and vtu/ once it is empty."""
     deck = tmp_path / "rod.nml"
     deck.write_text(rod_deck())
     out = tmp_path / "out"
     (out / "vtu").mkdir(parents=True)
     stale = ["vtu/elements_00042.vtu", "vtu/particles_00007.vtu", "vtu/elements_3d_00003.vtu",
-             "vtu/particles_3d_123456.vtu", "fsph_3d.pvd", "fsph.pvd"]
+             "vtu/particles_3d_123456.vtu", "fsph_3d.pvd", "fsph.pvd", "checkpoint.h5",
+             "shapes.png", "history.png", "field_eps_p.png", "damage.png"]
     users = ["vtu/elements_final.vtu", "vtu/my_cut.vtu", "vtu/elements_00001.vtu.bak",
-             "notes.txt", "elements_00001.vtu"]
+             "notes.txt", "elements_00001.vtu", "my_shapes.png", "shapes.png.bak",
+             "vtu/history.png"]
     for name in stale + users:
         (out / name).write_text("an earlier run's or a user's file")
     res = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
     assert res.returncode == 0, res.stderr
-    assert f"removed the ParaView series of an earlier run from {out} (6 files)" in res.stdout
+    assert (f"removed 11 files an earlier run left in {out} (its ParaView series, checkpoint "
+            "and pictures)") in res.stdout
     for name in users:
         assert (out / name).read_text() == "an earlier run's or a user's file", name
-    assert not (out / "fsph_3d.pvd").exists()
+    assert not any((out / name).exists() for name in ("fsph_3d.pvd", "shapes.png", "history.png",
+                                                      "field_eps_p.png", "damage.png"))
+    with h5py.File(out / "checkpoint.h5") as h5:          # this run's own
+        assert len(h5.keys()) > 0
     listed = sorted(re.findall(r'file="([^"]+)"', (out / "fsph.pvd").read_text()))
     fsph_files = sorted(f"vtu/{p.name}" for p in (out / "vtu").iterdir()
                         if p.name not in {n.split("/")[1] for n in users if "/" in n})
@@ -210,10 +218,12 @@ def test_a_run_replaces_the_series_of_an_earlier_run_and_leaves_other_files(tmp_
     # no series at all: the earlier one goes, vtu/ too once nothing else is in it
     for name in users:
         (out / name).unlink()
-    deck.write_text(rod_deck(output="vtu = .false."))
+    (out / "shapes.png").write_text("a picture of the run before")
+    deck.write_text(rod_deck(output="vtu = .false.\n checkpoint = .false."))
     res = fsph_cli(["run", str(deck), "-o", str(out)], tmp_path)
     assert res.returncode == 0, res.stderr
     assert not (out / "vtu").exists() and not (out / "fsph.pvd").exists()
+    assert not (out / "checkpoint.h5").exists() and not (out / "shapes.png").exists()
     assert (out / "fsph.h5").is_file() and (out / "summary.json").is_file()
 
 

@@ -6,6 +6,7 @@ particles left out and counted)."""
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -643,3 +644,24 @@ def test_report_exits_3_when_a_run_failed(tmp_path):
     assert "Not completed: fails (failed)." in text.splitlines()
     assert _report_rows(text, "fails")[0][2:4] == ["status", "failed"]
     assert _report_rows(text, "ok")
+
+
+def test_a_run_that_failed_is_not_compared_with_its_reference(tmp_path):
+    """The elastic bar with its reference's conditions met, stopped by an
+    energy error limit it cannot meet: its metrics are those of its last
+    good snapshot, before the end time the reference's values hold at, so
+    the summary says why it is not compared (it was compared as if
+    complete) and prints no error against the reference."""
+    deck = tmp_path / "bar.nml"
+    deck.write_text((CASES / "elastic_bar.nml").read_text()
+                    .replace("end_time = 3.0e-6", "end_time = 3.0e-6\n  energy_error_limit = 1.0e-12")
+                    .replace("references/", f"{CASES / 'references'}/"))
+    proc = fsph_cli(["run", str(deck), "-o", "out", "--progress", "lines"], tmp_path)
+    assert proc.returncode == 3, proc.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    ref = summary["reference"]
+    assert ref["applies"] is False and ref["comparison"] == {}
+    assert ref["not_applied_because"].startswith("the run failed and its last good snapshot is at t = ")
+    assert ref["not_applied_because"].endswith("before its end time 3 us")
+    assert not re.search(r"reference \S+ +error", proc.stdout) and "not compared" in proc.stdout
