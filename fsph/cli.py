@@ -277,7 +277,7 @@ def _interrupted(exit_now):
 
 
 def _exit_at_interrupt(signum, frame):
-    """The SIGINT handler while the program starts (_start)."""
+    """The SIGINT and SIGTERM handler while the program starts (_start)."""
     _interrupted(exit_now=True)
 
 
@@ -287,23 +287,24 @@ def _start(argv, exit_at_interrupt):
     process at once (_interrupted): as a KeyboardInterrupt it could be
     raised inside a clean-up the import machinery runs (a weak
     reference's callback), which drops it with a traceback, and the run
-    went on. A SIGINT that the process was started to ignore stays
-    ignored."""
+    went on. SIGTERM likewise. A signal the process was started to ignore
+    stays ignored."""
     import signal
-    previous = signal.getsignal(signal.SIGINT)
-    exit_at_interrupt = exit_at_interrupt and previous is not signal.SIG_IGN
-    if exit_at_interrupt:
-        signal.signal(signal.SIGINT, _exit_at_interrupt)
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    caught = [sig for sig, handler in previous.items()
+              if exit_at_interrupt and handler is not signal.SIG_IGN]
+    for sig in caught:
+        signal.signal(sig, _exit_at_interrupt)
     try:
         args = _parser().parse_args(argv)
         for name in COMMAND_MODULES[args.command]:
             __import__(f"{__package__}.{name}")
         return args
     finally:
-        if exit_at_interrupt:
-            # Python's own (KeyboardInterrupt) unless another was set in C
-            signal.signal(signal.SIGINT, signal.default_int_handler if previous is None
-                          else previous)
+        for sig in caught:
+            # SIGINT: Python's own (KeyboardInterrupt) unless another was set in C
+            signal.signal(sig, signal.default_int_handler if previous[sig] is None
+                          else previous[sig])
 
 
 def _unraisable(info):
@@ -322,11 +323,22 @@ def _unraisable(info):
     sys.__unraisablehook__(info)
 
 
+def _terminate_as_interrupt(signum, frame):
+    """The program's SIGTERM outside a run's own handling (the driver's,
+    which stops at the end of a call with a checkpoint): as a Ctrl-C, one
+    line and exit 4 (it ended the process without a word)."""
+    raise KeyboardInterrupt
+
+
 def program():
     """The program `fsph` (the console script, and python -m fsph): main()
-    on the command line, a Ctrl-C that it reports ending the process at
-    once (_interrupted), none dropped in a clean-up (_unraisable)."""
+    on the command line, a Ctrl-C or a SIGTERM that it reports ending the
+    process at once (_interrupted), none dropped in a clean-up
+    (_unraisable)."""
+    import signal
     sys.unraisablehook = _unraisable
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        signal.signal(signal.SIGTERM, _terminate_as_interrupt)
     return main(exit_at_interrupt=True)
 
 

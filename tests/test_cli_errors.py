@@ -591,8 +591,10 @@ def test_progress_bar_on_a_pseudo_terminal(tmp_path):
 SECONDS_DECK = rod_deck(control="end_time = 2.0e-4", body="n_radial = 6\n n_axial = 24")
 
 
-@pytest.mark.parametrize("entry", ["console script", "python -m fsph"])
-def test_ctrl_c_at_any_moment_of_the_start_is_one_line_and_exit_4(entry, tmp_path):
+@pytest.mark.parametrize("entry, signal_name", [("console script", "SIGINT"),
+                                                 ("python -m fsph", "SIGINT"),
+                                                 ("console script", "SIGTERM")])
+def test_ctrl_c_at_any_moment_of_the_start_is_one_line_and_exit_4(entry, signal_name, tmp_path):
     """SIGINT in the first 0.2 s of `fsph run`, while the solver, numpy and
     h5py are imported, was a KeyboardInterrupt traceback (or the noise of
     modules half set up, an exit by SIGINT, or the interrupt dropped in a
@@ -600,7 +602,8 @@ def test_ctrl_c_at_any_moment_of_the_start_is_one_line_and_exit_4(entry, tmp_pat
     first module imported, as Python's import profile says: the
     interpreter's own start-up before it is Python's) through the
     imports, the set-up and into the run: exit 4, no traceback, and on
-    stderr at most the line 'fsph: interrupted'."""
+    stderr at most the line 'fsph: interrupted'. SIGTERM the same (it
+    ended the process without a word before the run's own handling)."""
     from pathlib import Path
     import signal
     import time
@@ -619,7 +622,7 @@ def test_ctrl_c_at_any_moment_of_the_start_is_one_line_and_exit_4(entry, tmp_pat
             if line.rsplit("|", 1)[-1].strip() == "fsph.errors":
                 break
         time.sleep(delay)
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(getattr(signal, signal_name))
         _, rest = proc.communicate(timeout=120)
         stderr = "".join(seen) + rest
         said = [line for line in stderr.splitlines() if not line.startswith("import time:")]
