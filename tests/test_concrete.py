@@ -44,11 +44,14 @@ def residual_error_percent(summary, name):
 
 def check_run(summary):
     """Completed; the projectile has gone through (its tip more than the
-    slab thickness below the top face); axial momentum of the system (with
-    what erosion removed) within 0.5 %; energy balance within 2 %."""
+    slab thickness below the top face, and its rear past the far face:
+    `exited`, so that the residual velocity is compared); axial momentum
+    of the system (with what erosion removed) within 0.5 %; energy balance
+    within 2 %."""
     assert summary["status"] == "completed", summary.get("failure")
     perf = summary["metrics"]["perforation"]
     assert perf["penetration_mm"] > 178.0 + 40.0
+    assert perf["exited"]
     p = np.array(summary["metrics"]["series"]["momentum_z"])
     assert np.abs(p / p[0] - 1.0).max() < 0.005
     assert abs(summary["energy"]["max_relative_error"]) < 0.02
