@@ -314,7 +314,9 @@ def _books_to_carry(writer, series, deck):
     peak axial forces of the rigid planes and of each body with their
     times [N, s], each gauge's peak pressure with its time [Pa, s], the
     last history row the forces are rates from (its time [s], the planes'
-    impulse and each body's axial momentum [N s]) and the snapshot series
+    impulse and each body's axial momentum [N s], at the time of its
+    half-step velocities, velocity_time [s]; a checkpoint from before it
+    has the row's time instead, which then stands for it) and the snapshot series
     (metrics.snapshot_series records) with the &metrics group it was
     recorded under, so that summary.json covers the whole run."""
     plane, bodies = writer.last_rates_row()
@@ -329,7 +331,7 @@ def _books_to_carry(writer, series, deck):
                                     "peak_pressure": list(peak)}
                         for g, peak in zip(writer.gauges, writer.gauge_peak)},
         "last_row": None if plane is None else {
-            "time": float(plane[0]), "plane_impulse_z": float(plane[1]),
+            "velocity_time": float(plane[0]), "plane_impulse_z": float(plane[1]),
             "body_momentum_z": None if bodies is None else [float(v) for v in bodies[1]]},
         "series": series}
 
@@ -339,7 +341,7 @@ _CARRIED = {"metrics": "the &metrics group", "max_energy_error": "a number",
             "max_energy_error_time": "a number",
             "plane_force_peak": "[force, time]", "body_force_peaks": "{body: [force, time]}",
             "gauge_peaks": "{gauge: {kind, point, peak_pressure}}",
-            "last_row": "null or {time, plane_impulse_z, body_momentum_z}",
+            "last_row": "null or {velocity_time, plane_impulse_z, body_momentum_z}",
             "series": "a list of snapshot records"}
 
 
@@ -365,7 +367,8 @@ def _carried_books_fit(books, writer):
             isinstance(g, dict) and isinstance(g.get("peak_pressure"), list)
             and len(g["peak_pressure"]) == 2 for g in gauges.values()),
         "last_row": row is None or (
-            isinstance(row, dict) and number(row.get("time")) and number(row.get("plane_impulse_z"))
+            isinstance(row, dict) and number(row.get("velocity_time", row.get("time")))
+            and number(row.get("plane_impulse_z"))
             and (row.get("body_momentum_z") is None
                  or (isinstance(row["body_momentum_z"], list)
                      and len(row["body_momentum_z"]) == len(writer.body_names)
@@ -400,7 +403,8 @@ def _carry_on(writer, books, restart, deck):
     row = books["last_row"]
     if row is not None:
         # the forces of the first rows after the restart are rates from this row
-        writer.continue_rates_from(row["time"], row["plane_impulse_z"], row["body_momentum_z"])
+        writer.continue_rates_from(row.get("velocity_time", row.get("time")), row["plane_impulse_z"],
+                                   row["body_momentum_z"])
     return books["series"] if books["metrics"] == _metrics_identity(deck) else None
 
 

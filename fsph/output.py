@@ -25,7 +25,8 @@ BODY_FIELDS = tuple(name for name, _, _ in layouts.BODY_COLUMNS)
 GAUGE_FIELDS = tuple(name for name, _, _ in layouts.GAUGE_COLUMNS)
 #: The body history dataset derived from its momentum (RunWriter._body_rows).
 BODY_FORCE = ("force_z", "N", "axial force on the body from everything outside it (contact, "
-              "rigid planes), averaged between history rows (the rate of momentum_z)")
+              "rigid planes), averaged between history rows (the rate of momentum_z over the "
+              "times of the rows' half-step velocities, time - dt/2)")
 #: Rows per chunk of the history datasets: a chunk is allocated whole at the
 #: first write (4 kB), so a short run's file stays small and its first
 #: snapshot's growth, on which the room check bases its estimate, is the
@@ -33,8 +34,8 @@ BODY_FORCE = ("force_z", "N", "axial force on the body from everything outside i
 HISTORY_CHUNK = 512
 #: The history dataset derived from the planes' impulse (RunWriter._plane_force).
 PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bodies, averaged "
-               "between history rows (the rate of plane_impulse_z); the bodies push the planes "
-               "with minus it")
+               "between history rows (the rate of plane_impulse_z over the times of the rows' "
+               "half-step velocities, time - dt/2); the bodies push the planes with minus it")
 #: the element fields of a snapshot (failed and melted: the material
 #: point's flags, 0/1, as the particles')
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
@@ -408,19 +409,21 @@ class RunWriter:
         force = self._plane_force(records)
         self._history.append(np.column_stack([records, force]))
         if self.body_names:
-            self._bodies.append(self._body_rows(records[:, HISTORY_FIELDS.index("time")], bodies))
+            self._bodies.append(self._body_rows(records[:, HISTORY_FIELDS.index("time")],
+                                                _velocity_times(records), bodies))
         if self.gauges:
             self._gauges.append(self._gauge_rows(records[:, HISTORY_FIELDS.index("time")], gauges))
 
     def last_rates_row(self):
         """The last history row the forces are rates from, for a
-        checkpoint: (time [s], the planes' axial impulse [N s]) and (time
-        [s], each body's axial momentum [N s]); None for one not yet met."""
+        checkpoint: (time [s] of its half-step velocities, the planes'
+        axial impulse [N s]) and (that time [s], each body's axial momentum
+        [N s]); None for one not yet met."""
         return self._plane_last, self._body_last
 
     def continue_rates_from(self, time, plane_impulse_z, body_momentum_z=None):
         """A restart's writer: the forces of its first history rows are
-        rates from the checkpoint's last row at `time` [s] (the planes'
+        rates from the checkpoint's last row, its velocities at `time` [s] (the planes'
         axial impulse [N s]; each body's axial momentum [N s], None where
         the checkpoint had no body rows)."""
         self._plane_last = (time, np.float64(plane_impulse_z))
@@ -464,12 +467,14 @@ class RunWriter:
             }
         return out
 
-    def _body_rows(self, t, bodies):
-        """The bodies' rows with their axial force [N] appended: the change
-        of each body's momentum since the row before over the time between
-        (0 at the first row)."""
+    def _body_rows(self, t, t_velocity, bodies):
+        """The bodies' rows at times t [s] with their axial force [N]
+        appended: the change of each body's momentum since the row before
+        over the time between the rows' half-step velocities t_velocity
+        [s] (0 at the first row)."""
         bodies = np.asarray(bodies, dtype=float).reshape(len(t), len(self.body_names), len(BODY_FIELDS))
-        force, self._body_last = _rate_between_rows(t, bodies[:, :, BODY_FIELDS.index("momentum_z")],
+        force, self._body_last = _rate_between_rows(t_velocity,
+                                                    bodies[:, :, BODY_FIELDS.index("momentum_z")],
                                                     self._body_last)
         worst = np.abs(force).argmax(axis=0)
         for b, k in enumerate(worst):
@@ -481,10 +486,12 @@ class RunWriter:
 
     def _plane_force(self, records):
         """The planes' axial force on the bodies [N] at each row: the change
-        of their impulse since the row before over the time between (0 at
-        the first row); tracks its largest magnitude."""
+        of their impulse since the row before over the time between the
+        rows' half-step velocities (0 at the first row); tracks its largest
+        magnitude."""
         t = records[:, HISTORY_FIELDS.index("time")]
-        force, self._plane_last = _rate_between_rows(t, records[:, HISTORY_FIELDS.index("plane_impulse_z")],
+        force, self._plane_last = _rate_between_rows(_velocity_times(records),
+                                                     records[:, HISTORY_FIELDS.index("plane_impulse_z")],
                                                      self._plane_last)
         worst = int(np.abs(force).argmax())
         if abs(force[worst]) > abs(self.plane_force_peak):
@@ -627,6 +634,16 @@ SNAPSHOT_UNITS = {
     "damage": "-", "material": "-", "body": "-", "id": "-", "mass": "kg", "h": "m", "radius": "m",
     "radius0": "m", "sound_speed": "m/s", "failed": "-", "melted": "-",
 }
+
+
+def _velocity_times(records):
+    """The times [s] of the velocities at history rows (k, HISTORY_FIELDS):
+    the half step before each row's time, t - dt/2 (the central difference
+    keeps velocities at half steps; the impulse and the momenta of a row
+    are of those velocities). Rates over these times stay exact where the
+    steps change, as the last ones that land on the end time."""
+    return (records[:, HISTORY_FIELDS.index("time")]
+            - 0.5 * records[:, HISTORY_FIELDS.index("dt")])
 
 
 def _rate_between_rows(t, values, last):

@@ -703,7 +703,8 @@ def histories(run_dir, output=None, dpi=150):
     energy of summary.json, else the first total), the quantity of
     summary.json's energy.relative_error; where a rigid plane acted, its
     axial force on the bodies (history plane_force_z, averaged between
-    history rows; a Taylor test's anvil force); where two or more bodies
+    history rows, over the times of their half-step velocities; a Taylor
+    test's anvil force); where two or more bodies
     are, the axial force on each (body_history force_z: a projectile's
     deceleration force); and the time step. The time-step
     curve leaves out the step of the first row (none) and, when the run
