@@ -1116,21 +1116,41 @@ def missing_fields(run_dir):
     return missing
 
 
-def _field_norm(field, lo, hi):
-    """The colour scale of a field from lo to hi (its least and largest
-    value over the panels): pressure diverging about zero where it takes
-    both signs; the plastic strain on a square-root scale (a few converted
-    particles strain ten times more than the rest); a field of one value
-    gets a small range about it."""
-    from matplotlib.colors import Normalize, PowerNorm, TwoSlopeNorm
+#: A pressure below this fraction of the largest of the other sign is
+#: round-off (an unloaded body's 1e-11 of the shock's), not a sign of its own
+PRESSURE_ROUND_OFF = 1e-6
+
+
+def _field_scale(field, lo, hi):
+    """The colour map and scale of a field from lo to hi (its least and
+    largest value over the panels): (cmap, norm). Pressure keeps zero at the
+    middle colour of its diverging map: diverging about zero where it takes
+    both signs, else the half of the map on its side, from zero to its
+    largest magnitude (a side within PRESSURE_ROUND_OFF of the other is
+    round-off and drawn as zero),
+    so no colour says tension or compression that is not there; the plastic
+    strain on a square-root scale (a few converted particles strain ten
+    times more than the rest); a field of one value gets a small range
+    about it."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap, Normalize, PowerNorm, TwoSlopeNorm
+    cmap = plt.get_cmap(FIELDS[field][4])
+    if field == "pressure":
+        largest = max(abs(lo), abs(hi))
+        lo = 0.0 if lo > -PRESSURE_ROUND_OFF * largest else lo
+        hi = 0.0 if hi < PRESSURE_ROUND_OFF * largest else hi
+        if lo < 0.0 < hi:
+            return cmap, TwoSlopeNorm(0.0, lo, hi)
+        if hi > 0.0 or lo < 0.0:
+            half = np.linspace(0.5, 1.0, 128) if hi > 0.0 else np.linspace(0.0, 0.5, 128)
+            return (ListedColormap(cmap(half), name=f"{cmap.name}_half"),
+                    Normalize(min(lo, 0.0), max(hi, 0.0)))
     if not hi > lo:
         pad = 0.01 * abs(lo) or 0.5
-        return Normalize(lo - pad, hi + pad)
-    if field == "pressure" and lo < 0.0 < hi:
-        return TwoSlopeNorm(0.0, lo, hi)
+        return cmap, Normalize(lo - pad, hi + pad)
     if field == "eps_p":
-        return PowerNorm(0.5, lo, hi)
-    return Normalize(lo, hi)
+        return cmap, PowerNorm(0.5, lo, hi)
+    return cmap, Normalize(lo, hi)
 
 
 def _without_model(h5, field):
@@ -1241,8 +1261,7 @@ def _field_figure(run_dir, field, times_us=None):
         values = [p[v][p[own]] for _, p in panels
                   for v, own in (("values", "own"), ("p_values", "p_own")) if v in p]
         values = [v for v in values if len(v)] or [np.zeros(1)]
-        cmap = plt.get_cmap(FIELDS[field][4])
-        norm = _field_norm(field, min(v.min() for v in values), max(v.max() for v in values))
+        cmap, norm = _field_scale(field, min(v.min() for v in values), max(v.max() for v in values))
 
     half, (z_low, z_high) = _field_extent(panels, frame)
     ratio = (z_high - z_low) / (2 * half)
@@ -1321,7 +1340,8 @@ def field_map(run_dir, field, times_us=None, output=None, dpi=150):
     with its snapshot's time: elements flat-coloured per triangle, particles
     as discs of their radius, mirrored about the axis (a section through the
     body), equal aspect, one colour scale over the picture from the field's
-    least to its largest value over the panels drawn, and a colour bar
+    least to its largest value over the panels drawn (_field_scale:
+    pressure keeps zero in the middle colour), and a colour bar
     naming the quantity and its unit; material: one colour per material of
     the deck, named in the legend. A perforation run is framed as in
     shapes.png (three hole diameters). Returns the PNG path (default

@@ -692,3 +692,33 @@ def test_debris_panel_frames_the_ejecta_up_to_their_height():
     half_width, (z_low, z_high) = _debris_extent(series, 0, {}, 0.0, -1.0, None, reach)
     assert 22.0 < half_width < 35.0
     assert z_high > 25.0 and z_low < -31.0
+
+
+def test_pressure_scale_keeps_zero_neutral_and_round_off_unsigned():
+    """The pressure picture's colour of zero is the diverging map's middle
+    (neither tension nor compression) whatever the range: a compressed body
+    whose unloaded part carries round-off tension (-3e-11 GPa against
+    1.1 GPa, as the elastic bar) draws that round-off as zero, on a colour
+    bar from 0 to the peak; a range with real tension stays diverging
+    about zero; a field in tension alone draws from its least value to 0."""
+    import matplotlib.pyplot as plt
+    from fsph.plot import _field_scale
+    middle = plt.get_cmap("coolwarm")(0.5)
+
+    def colour(scale, value):
+        cmap, norm = scale
+        return np.array(cmap(norm(np.array([value]))))[0]
+    compressed = _field_scale("pressure", -3e-11, 1.1)
+    assert compressed[1].vmin == 0.0 and compressed[1].vmax == 1.1
+    assert colour(compressed, -3e-11) == pytest.approx(colour(compressed, 0.0))
+    assert colour(compressed, 0.0) == pytest.approx(middle, abs=0.01)
+    assert colour(compressed, 1.1) == pytest.approx(plt.get_cmap("coolwarm")(1.0), abs=0.01)
+    both = _field_scale("pressure", -0.3, 1.1)
+    assert (both[1].vmin, both[1].vmax) == (-0.3, 1.1)
+    assert colour(both, 0.0) == pytest.approx(middle, abs=0.01)
+    assert colour(both, -0.3) == pytest.approx(plt.get_cmap("coolwarm")(0.0), abs=0.01)
+    stretched = _field_scale("pressure", -0.4, -0.1)
+    assert (stretched[1].vmin, stretched[1].vmax) == (-0.4, 0.0)
+    assert colour(stretched, 0.0) == pytest.approx(middle, abs=0.01)
+    # the other fields keep their least-to-largest scale
+    assert (_field_scale("mises", 0.2, 1.5)[1].vmin, _field_scale("mises", 0.2, 1.5)[1].vmax) == (0.2, 1.5)
