@@ -1221,16 +1221,20 @@ def _field_extent(panels, frame):
 #: whole picture its grid of panels comes closest to
 FIELD_PANEL_AREA = 12.0
 FIELD_ASPECT = 1.8
+#: inches: the narrowest room for a panel, wide enough for its title (the
+#: snapshot's time, '12.34 µs'); a slenderer body is drawn narrower in it
+FIELD_PANEL_MIN_WIDTH = 1.1
 
 
 def _field_grid(n, ratio):
     """(rows, columns) and (width, height) [inches] of the panels of a
     field picture: n panels of height / width `ratio` (a rod: one row; a
     plate or a debris cloud, wider than tall: a grid), each of about
-    FIELD_PANEL_AREA, at most 5.5 inches tall and 7 wide."""
+    FIELD_PANEL_AREA, at most 5.5 inches tall and 7 wide, at least
+    FIELD_PANEL_MIN_WIDTH wide."""
     width = min(max(np.sqrt(FIELD_PANEL_AREA / ratio), 1.3), 7.0)
     height = min(max(width * ratio, 1.5), 5.5)
-    width = min(width, height / ratio) if ratio > 0 else width
+    width = max(min(width, height / ratio), FIELD_PANEL_MIN_WIDTH) if ratio > 0 else width
     cols = min(range(1, n + 1), key=lambda c: abs(np.log(c * width / (-(-n // c) * height))
                                                   - np.log(FIELD_ASPECT)))
     return (-(-n // cols), cols), (width, height)

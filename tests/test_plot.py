@@ -722,3 +722,22 @@ def test_pressure_scale_keeps_zero_neutral_and_round_off_unsigned():
     assert colour(stretched, 0.0) == pytest.approx(middle, abs=0.01)
     # the other fields keep their least-to-largest scale
     assert (_field_scale("mises", 0.2, 1.5)[1].vmin, _field_scale("mises", 0.2, 1.5)[1].vmax) == (0.2, 1.5)
+
+
+def test_panel_titles_of_a_slender_rod_stand_apart(tmp_path, monkeypatch, capsys):
+    """A rod ten times longer than its diameter (the elastic bar's
+    proportions): the field picture's panel titles, the snapshots' times,
+    do not run into each other."""
+    deck = tmp_path / "bar.nml"
+    deck.write_text(rod_deck(control="", body="").replace("length = 4.0e-3", "length = 20.0e-3")
+                    .replace("n_axial = 12", "n_axial = 40").replace("end_time = 1.0e-6",
+                                                                    "end_time = 0.3e-6")
+                    .replace("n_snapshots = 2", "n_snapshots = 3"))
+    run(deck, tmp_path / "out", quiet=True)
+    code, _, figures = plot_cli(monkeypatch, capsys, tmp_path / "out", "--field", "pressure")
+    assert code == 0
+    fig = figures["field_pressure.png"]
+    renderer = fig.canvas.get_renderer()
+    titles = [ax.title.get_window_extent(renderer) for ax in fig.axes if ax.get_title()]
+    assert len(titles) == 4
+    assert all(a.x1 < b.x0 for a, b in zip(titles, titles[1:]))
