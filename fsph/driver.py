@@ -17,7 +17,7 @@ from . import layouts
 from . import metrics as metrics_module
 from . import references
 from .errors import CheckpointError, DeckError, FsphError, OutputError, SimulationError
-from .output import FolderLock, RunWriter, write_summary
+from .output import SNAPSHOT_UNITS, FolderLock, RunWriter, write_summary
 from .points import state_masses
 from .simulation import Simulation, threads
 
@@ -127,9 +127,9 @@ def _format_material_state(states):
 
 
 def _format_peaks(peaks):
-    """Printed lines of the peak fields (metrics.field_peaks)."""
-    units = {"plastic_strain": "", "temperature": " K", "internal_energy": " J/kg"}
-    return [f"  peak {name:<17s} {p['value']:10.4g}{units[name]}   at r {p['r_mm']:.3f} mm, "
+    """Printed lines of the peak fields (_peaks), each value with its unit."""
+    return [f"  peak {name:<17s} {p['value']:10.4g}"
+            f"{'' if p['unit'] == '-' else ' ' + p['unit']}   at r {p['r_mm']:.3f} mm, "
             f"z {p['z_mm']:.3f} mm ({p['in']} id {p['id']})" for name, p in peaks.items()]
 
 
@@ -704,7 +704,8 @@ def _peaks(last_good, deck):
     (metrics.field_peaks). The internal energy is there for every run: a
     temperature from plastic work alone does not show a point heated by
     viscous, hourglass or contact work (a plate particle riding on a
-    projectile at 4 MJ/kg and 918 K)."""
+    projectile at 4 MJ/kg and 918 K). Each peak carries the unit of its
+    value (`unit`: the snapshots' unit of the field)."""
     # temperature only changes where plastic work heats a material with a
     # specific heat, or where it comes from the internal energy; a run
     # without either reports no temperature peak rather than room temperature
@@ -715,7 +716,10 @@ def _peaks(last_good, deck):
     if any(b["material"] in heated for b in deck["body"]):
         peak_fields.append("temperature")
     peak_fields.append("internal_energy")
-    return metrics_module.field_peaks(last_good, peak_fields)
+    peaks = metrics_module.field_peaks(last_good, peak_fields)
+    for name, peak in peaks.items():
+        peak["unit"] = SNAPSHOT_UNITS[name]
+    return peaks
 
 
 def _energy_summary(sim, energies, writer):

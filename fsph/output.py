@@ -450,8 +450,9 @@ class RunWriter:
         """Each gauge's summary.json entry: kind, point (r, z) [m], the
         pressure [Pa] where |pressure| was largest and its time [s], when a
         material gauge moved from its element to a particle and when its
-        element was deleted [s] (None: never) and its last row by field
-        (None where NaN: no material there)."""
+        element was deleted [s] (None: never) and its last row by field,
+        each key naming its unit (key_with_unit: pressure_Pa, velocity_z_m_s;
+        None where NaN: no material there)."""
         out = {}
         for g, gauge in enumerate(self.gauges):
             peak, time = self.gauge_peak[g]
@@ -463,7 +464,8 @@ class RunWriter:
                 "switch_time_s": state.get("switch_time"), "lost_time_s": state.get("lost_time"),
                 "last_time_s": last_time,
                 "last": None if last is None else {
-                    name: (None if np.isnan(v) else float(v)) for name, v in zip(GAUGE_FIELDS, last)},
+                    key_with_unit(name, unit): (None if np.isnan(v) else float(v))
+                    for (name, unit, _), v in zip(layouts.GAUGE_COLUMNS, last)},
             }
         return out
 
@@ -634,6 +636,15 @@ SNAPSHOT_UNITS = {
     "damage": "-", "material": "-", "body": "-", "id": "-", "mass": "kg", "h": "m", "radius": "m",
     "radius0": "m", "sound_speed": "m/s", "failed": "-", "melted": "-",
 }
+
+
+def key_with_unit(name, unit):
+    """A summary.json key that names its unit, as the others do: name_unit
+    with '/' as '_' and no '^' (velocity_z_m_s, density_kg_m3,
+    internal_energy_J_kg); the name alone for a dimensionless '-'."""
+    if unit == "-":
+        return name
+    return f"{name}_{unit.replace('/', '_').replace('^', '').replace(' ', '_')}"
 
 
 def _velocity_times(records):

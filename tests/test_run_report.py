@@ -102,7 +102,7 @@ def test_consistent_mie_gruneisen_moduli_give_no_warning(write_deck):
 # ---- peaks -------------------------------------------------------------------------
 def test_peak_fields_in_summary_and_console(tmp_path):
     """summary.json and the printed summary give the peak plastic strain
-    and temperature with where they are; the peak is the largest value of
+    and temperature with their units and where they are; the peak is the largest value of
     the last snapshot's elements and particles."""
     import h5py
     out = tmp_path / "cu"
@@ -121,6 +121,8 @@ def test_peak_fields_in_summary_and_console(tmp_path):
         k = int(np.argmax(eps))
         centre = last["nodes"][...][last["connectivity"][...][k]].mean(axis=0)
     assert peaks["plastic_strain"]["value"] == pytest.approx(eps.max(), rel=1e-12)
+    assert [peaks[name]["unit"] for name in ("plastic_strain", "temperature", "internal_energy")] \
+        == ["-", "K", "J/kg"]
     assert peaks["plastic_strain"]["in"] == "element" and peaks["plastic_strain"]["index"] == k
     assert peaks["plastic_strain"]["r_mm"] == pytest.approx(centre[0] * 1e3, rel=1e-12)
     assert peaks["temperature"]["value"] == pytest.approx(temp.max(), rel=1e-12)
