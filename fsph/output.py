@@ -240,8 +240,9 @@ class RunWriter:
     same rows (kinetic [J], internal [J], axial momentum [N s], axial force
     on the body [N]); /gauge_history/<gauge>/<field> at the same rows
     (fsph.layouts GAUGE_COLUMNS, each with its `units` and `description`;
-    the group's attributes: kind, point (r, z) [m], switch_time and
-    lost_time [s], NaN where none); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
+    the group's attributes: kind, point (r, z) [m] with point_units,
+    switch_time and lost_time [s], NaN where none, with time_units);
+    /snapshots/NNNNN/ with nodes (n, 2) (r, z)
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
     fields; attributes time [s] and cycle; particles, if any, in
     /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
@@ -293,6 +294,7 @@ class RunWriter:
                 group.attrs["point_units"] = "m"
                 group.attrs["switch_time"] = np.nan
                 group.attrs["lost_time"] = np.nan
+                group.attrs["time_units"] = "s"     # of switch_time and lost_time
                 _history_datasets(group, layouts.GAUGE_COLUMNS)
             h5.create_group("snapshots")
         self.n_snapshots = 0

@@ -115,6 +115,9 @@ def test_material_gauge_is_its_element_point_and_empty_space_is_empty(tmp_path):
             group = h5[f"gauge_history/{name}"]
             assert group.attrs["kind"] == ("fixed" if name == "air" else "material")
             assert np.array_equal(group.attrs["point"], points[name])
+            # the group's numbers name their units as the datasets do
+            assert group.attrs["point_units"] == "m" and group.attrs["time_units"] == "s"
+            assert np.isnan(group.attrs["switch_time"]) and np.isnan(group.attrs["lost_time"])
             for f, unit, _ in layouts.GAUGE_COLUMNS:
                 assert group[f].shape == time.shape and group[f].attrs["units"] == unit
         snaps = [h5[f"snapshots/{k}"] for k in sorted(h5["snapshots"]) if k.isdigit()]
