@@ -127,10 +127,13 @@ def _format_material_state(states):
 
 
 def _format_peaks(peaks):
-    """Printed lines of the peak fields (_peaks), each value with its unit."""
+    """Printed lines of the peak fields (_peaks), each value with its unit
+    and where it is ('everywhere' for a field of one value)."""
     return [f"  peak {name:<17s} {p['value']:10.4g}"
-            f"{'' if p['unit'] == '-' else ' ' + p['unit']}   at r {p['r_mm']:.3f} mm, "
-            f"z {p['z_mm']:.3f} mm ({p['in']} id {p['id']})" for name, p in peaks.items()]
+            f"{'' if p['unit'] == '-' else ' ' + p['unit']}   "
+            + ("everywhere" if p["in"] is None else
+               f"at r {p['r_mm']:.3f} mm, z {p['z_mm']:.3f} mm ({p['in']} id {p['id']})")
+            for name, p in peaks.items()]
 
 
 def _warnings(ctrl, energies, writer):
