@@ -741,16 +741,23 @@ def _perforation_figure(run_dir):
     if not series or "velocity_z_m_s" not in series:
         return None
     t = series["time_us"]
-    speed = [abs(v) for v in series["velocity_z_m_s"]]
+    # along the striking direction (fsph.metrics: the sign of the first
+    # velocity, -z from rest): a projectile that rebounds goes below zero
+    velocity_z = series["velocity_z_m_s"]
+    direction = 1.0 if velocity_z[0] > 0.0 else -1.0
+    along = [direction * v for v in velocity_z]
     hole = [h if h is not None else float("nan") for h in series["hole_diameter_mm"]]
     fig, axes = plt.subplots(3, 1, figsize=(7, 7.4), sharex=True, layout="constrained")
-    axes[0].plot(t, speed, "o-", ms=3, label=f"fsph, {speed[-1]:.4g} m/s at the end")
+    axes[0].plot(t, along, "o-", ms=3, label=f"fsph, {along[-1]:.4g} m/s at the end"
+                 + (" (rebounded)" if along[-1] < 0.0 else ""))
+    if min(along) < 0.0:
+        axes[0].axhline(0.0, color="0.6", lw=0.6)
     experiment = _experiment_residual(summary)
     if experiment is not None:
         axes[0].axhline(experiment, color="k", ls="--", lw=0.8)
         axes[0].plot([t[-1]], [experiment], "k*", ms=11, ls="--", lw=0.8,
                      label=f"experiment: residual velocity {experiment:.4g} m/s")
-    axes[0].set_ylabel("projectile velocity [m/s]")
+    axes[0].set_ylabel("projectile velocity\nalong the strike [m/s]")
     axes[0].legend(frameon=False, fontsize="small")
     axes[1].plot(t, series["penetration_mm"], "o-", ms=3)
     axes[1].set_ylabel("penetration [mm]")
@@ -763,7 +770,8 @@ def _perforation_figure(run_dir):
 
 def perforation_histories(run_dir, output=None, dpi=150):
     """Write a PNG of a perforation run's histories at the snapshots
-    (projectile velocity, penetration depth, hole diameter) from
+    (projectile velocity along the striking direction, negative once it
+    rebounds; penetration depth, hole diameter) from
     summary.json, titled with the case; the experiment's residual velocity
     the run is compared with (summary.json reference.comparison.perforation)
     is a star at the end time on a dashed line, with its legend entry.

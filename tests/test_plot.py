@@ -340,7 +340,8 @@ def test_perforation_draws_the_experimental_residual_velocity(block_run, monkeyp
     assert code == 0
     fig = figures["perforation.png"]
     assert fig._suptitle.get_text() == "test rod"
-    velocity = next(ax for ax in fig.axes if ax.get_ylabel() == "projectile velocity [m/s]")
+    velocity = next(ax for ax in fig.axes
+                    if ax.get_ylabel() == "projectile velocity\nalong the strike [m/s]")
     assert "experiment: residual velocity 555 m/s" in _legend_texts(fig)
     marks = [line for line in velocity.get_lines() if line.get_label().startswith("experiment")]
     assert len(marks) == 1 and list(marks[0].get_ydata()) == [555.0]
@@ -741,3 +742,27 @@ def test_panel_titles_of_a_slender_rod_stand_apart(tmp_path, monkeypatch, capsys
     titles = [ax.title.get_window_extent(renderer) for ax in fig.axes if ax.get_title()]
     assert len(titles) == 4
     assert all(a.x1 < b.x0 for a, b in zip(titles, titles[1:]))
+
+
+def test_perforation_velocity_of_a_rebounding_projectile_goes_below_zero(tmp_path):
+    """perforation.png draws the projectile's velocity along the striking
+    direction, as the residual velocity is measured: a projectile striking
+    at 300 m/s towards -z that stops and flies back at 40 m/s ends at
+    -40 m/s, not at +40 m/s as if it went on, and the legend says it
+    rebounded; one striking towards +z is drawn positive."""
+    import json
+    from fsph.plot import _perforation_figure
+    for velocity_z, last in (([-300.0, -120.0, 0.0, 40.0], -40.0), ([250.0, 200.0], 200.0)):
+        n = len(velocity_z)
+        (tmp_path / "summary.json").write_text(json.dumps({
+            "status": "completed", "title": "rebound",
+            "metrics": {"series": {"time_us": [10.0 * k for k in range(n)],
+                                   "velocity_z_m_s": velocity_z,
+                                   "penetration_mm": [0.0] * n,
+                                   "hole_diameter_mm": [None] * n}}}))
+        fig = _perforation_figure(tmp_path)
+        (ax,) = [ax for ax in fig.axes if ax.get_ylabel().startswith("projectile velocity")]
+        assert ax.get_ylabel().endswith("[m/s]")
+        drawn = ax.get_lines()[0].get_ydata()
+        assert drawn[0] == abs(velocity_z[0]) and drawn[-1] == last
+        assert ("rebounded" in _legend_texts(fig)[0]) == (last < 0.0)
