@@ -664,7 +664,10 @@ def _history_figure(run_dir):
     ax_e.plot(t, hist["kinetic"], label="kinetic")
     ax_e.plot(t, hist["internal"], label="internal")
     if "contact" in hist and hist["contact"].any():
-        ax_e.plot(t, hist["contact"], label="contact work")
+        # the energy the contact corrections removed (summary.json
+        # contact_dissipation_J), as the other terms removed are named;
+        # not the work each body received through contact (bodies.png)
+        ax_e.plot(t, hist["contact"], label="removed by contact")
     if "eroded" in hist and hist["eroded"].any():
         ax_e.plot(t, hist["eroded"], label="removed by erosion")
     if "plane" in hist and hist["plane"].any():

@@ -499,7 +499,9 @@ def test_history_draws_each_bodys_force(block_run, monkeypatch, capsys):
     """history.png of a two-body run: a panel of the axial force on each
     body, one curve per body; nothing else acts on them, so the impulses
     under the two curves are equal and opposite within 0.5 % (the bar of
-    the momentum balance of the perforation runs)."""
+    the momentum balance of the perforation runs). The energy the contact
+    corrections removed is labelled as removed, as erosion's and the
+    planes'."""
     code, _, figures = plot_cli(monkeypatch, capsys, block_run)
     assert code == 0
     axes = {ax.get_ylabel(): ax for ax in figures["history.png"].axes}
@@ -507,6 +509,10 @@ def test_history_draws_each_bodys_force(block_run, monkeypatch, capsys):
               for line in axes["axial force on\neach body [kN]"].get_lines()
               if not line.get_label().startswith("_")}
     assert set(curves) == {"rod", "block"}
+    # the energy the contact removed is named as the other energies removed,
+    # apart from the work each body received through contact (bodies.png)
+    energies = _legend_texts(figures["history.png"])
+    assert "removed by contact" in energies and "contact work" not in energies
     impulse = {name: np.sum(f[1:] * np.diff(t)) for name, (t, f) in curves.items()}
     assert impulse["rod"] > 0.0
     assert abs(impulse["rod"] + impulse["block"]) <= 0.005 * impulse["rod"]
