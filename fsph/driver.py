@@ -17,7 +17,7 @@ from . import layouts
 from . import metrics as metrics_module
 from . import references
 from .errors import CheckpointError, DeckError, FsphError, OutputError, SimulationError
-from .output import FolderLock, RunWriter, write_summary
+from .output import SNAPSHOT_UNITS, FolderLock, RunWriter, write_summary
 from .points import state_masses
 from .simulation import Simulation, threads
 
@@ -127,10 +127,13 @@ def _format_material_state(states):
 
 
 def _format_peaks(peaks):
-    """Printed lines of the peak fields (metrics.field_peaks)."""
-    units = {"plastic_strain": "", "temperature": " K", "internal_energy": " J/kg"}
-    return [f"  peak {name:<17s} {p['value']:10.4g}{units[name]}   at r {p['r_mm']:.3f} mm, "
-            f"z {p['z_mm']:.3f} mm ({p['in']} id {p['id']})" for name, p in peaks.items()]
+    """Printed lines of the peak fields (_peaks), each value with its unit
+    and where it is ('everywhere' for a field of one value)."""
+    return [f"  peak {name:<17s} {p['value']:10.4g}"
+            f"{'' if p['unit'] == '-' else ' ' + p['unit']}   "
+            + ("everywhere" if p["in"] is None else
+               f"at r {p['r_mm']:.3f} mm, z {p['z_mm']:.3f} mm ({p['in']} id {p['id']})")
+            for name, p in peaks.items()]
 
 
 def _warnings(ctrl, energies, writer):
@@ -314,7 +317,9 @@ def _books_to_carry(writer, series, deck):
     peak axial forces of the rigid planes and of each body with their
     times [N, s], each gauge's peak pressure with its time [Pa, s], the
     last history row the forces are rates from (its time [s], the planes'
-    impulse and each body's axial momentum [N s]) and the snapshot series
+    impulse and each body's axial momentum [N s], at the time of its
+    half-step velocities, velocity_time [s]; a checkpoint from before it
+    has the row's time instead, which then stands for it) and the snapshot series
     (metrics.snapshot_series records) with the &metrics group it was
     recorded under, so that summary.json covers the whole run."""
     plane, bodies = writer.last_rates_row()
@@ -329,7 +334,7 @@ def _books_to_carry(writer, series, deck):
                                     "peak_pressure": list(peak)}
                         for g, peak in zip(writer.gauges, writer.gauge_peak)},
         "last_row": None if plane is None else {
-            "time": float(plane[0]), "plane_impulse_z": float(plane[1]),
+            "velocity_time": float(plane[0]), "plane_impulse_z": float(plane[1]),
             "body_momentum_z": None if bodies is None else [float(v) for v in bodies[1]]},
         "series": series}
 
@@ -339,7 +344,7 @@ _CARRIED = {"metrics": "the &metrics group", "max_energy_error": "a number",
             "max_energy_error_time": "a number",
             "plane_force_peak": "[force, time]", "body_force_peaks": "{body: [force, time]}",
             "gauge_peaks": "{gauge: {kind, point, peak_pressure}}",
-            "last_row": "null or {time, plane_impulse_z, body_momentum_z}",
+            "last_row": "null or {velocity_time, plane_impulse_z, body_momentum_z}",
             "series": "a list of snapshot records"}
 
 
@@ -365,7 +370,8 @@ def _carried_books_fit(books, writer):
             isinstance(g, dict) and isinstance(g.get("peak_pressure"), list)
             and len(g["peak_pressure"]) == 2 for g in gauges.values()),
         "last_row": row is None or (
-            isinstance(row, dict) and number(row.get("time")) and number(row.get("plane_impulse_z"))
+            isinstance(row, dict) and number(row.get("velocity_time", row.get("time")))
+            and number(row.get("plane_impulse_z"))
             and (row.get("body_momentum_z") is None
                  or (isinstance(row["body_momentum_z"], list)
                      and len(row["body_momentum_z"]) == len(writer.body_names)
@@ -400,7 +406,8 @@ def _carry_on(writer, books, restart, deck):
     row = books["last_row"]
     if row is not None:
         # the forces of the first rows after the restart are rates from this row
-        writer.continue_rates_from(row["time"], row["plane_impulse_z"], row["body_momentum_z"])
+        writer.continue_rates_from(row.get("velocity_time", row.get("time")), row["plane_impulse_z"],
+                                   row["body_momentum_z"])
     return books["series"] if books["metrics"] == _metrics_identity(deck) else None
 
 
@@ -700,7 +707,8 @@ def _peaks(last_good, deck):
     (metrics.field_peaks). The internal energy is there for every run: a
     temperature from plastic work alone does not show a point heated by
     viscous, hourglass or contact work (a plate particle riding on a
-    projectile at 4 MJ/kg and 918 K)."""
+    projectile at 4 MJ/kg and 918 K). Each peak carries the unit of its
+    value (`unit`: the snapshots' unit of the field)."""
     # temperature only changes where plastic work heats a material with a
     # specific heat, or where it comes from the internal energy; a run
     # without either reports no temperature peak rather than room temperature
@@ -711,7 +719,10 @@ def _peaks(last_good, deck):
     if any(b["material"] in heated for b in deck["body"]):
         peak_fields.append("temperature")
     peak_fields.append("internal_energy")
-    return metrics_module.field_peaks(last_good, peak_fields)
+    peaks = metrics_module.field_peaks(last_good, peak_fields)
+    for name, peak in peaks.items():
+        peak["unit"] = SNAPSHOT_UNITS[name]
+    return peaks
 
 
 def _energy_summary(sim, energies, writer):

@@ -133,13 +133,16 @@ def field_peaks(snap, fields=("plastic_strain", "temperature", "internal_energy"
     centroid or particle centre), whether an element or a particle, its
     index in the snapshot, its id (the snapshots' `id` field, which stays
     with it: elements are removed and particles renumbered) and body
-    (0-based)."""
+    (0-based). A field of one value everywhere (the plastic strain of a
+    body that never yielded) has no peak to locate: its value, and None
+    for where."""
     peaks = {}
     for field in fields:
-        best = None
+        best, least = None, np.inf
         if "conn" in snap and len(snap["conn"]):
             values = snap[field]
             k = int(np.argmax(values))
+            least = min(least, float(np.min(values)))
             where = snap["x"][snap["conn"][k]].mean(axis=0)
             best = (float(values[k]), where, "element", k, int(snap["id"][k]), int(snap["body"][k]))
         if "particles" in snap:
@@ -147,6 +150,7 @@ def field_peaks(snap, fields=("plastic_strain", "temperature", "internal_energy"
             values = part[field]
             if len(values):
                 k = int(np.argmax(values))
+                least = min(least, float(np.min(values)))
                 if best is None or values[k] > best[0]:
                     best = (float(values[k]), part["x"][k], "particle", k, int(part["id"][k]),
                             int(part["body"][k]))
@@ -154,6 +158,8 @@ def field_peaks(snap, fields=("plastic_strain", "temperature", "internal_energy"
             value, where, kind, index, ident, body = best
             peaks[field] = {"value": value, "r_mm": float(where[0] * 1e3), "z_mm": float(where[1] * 1e3),
                             "in": kind, "index": index, "id": ident, "body": body}
+            if value == least:
+                peaks[field].update({key: None for key in ("r_mm", "z_mm", "in", "index", "id", "body")})
     return peaks
 
 

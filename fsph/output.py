@@ -25,7 +25,8 @@ BODY_FIELDS = tuple(name for name, _, _ in layouts.BODY_COLUMNS)
 GAUGE_FIELDS = tuple(name for name, _, _ in layouts.GAUGE_COLUMNS)
 #: The body history dataset derived from its momentum (RunWriter._body_rows).
 BODY_FORCE = ("force_z", "N", "axial force on the body from everything outside it (contact, "
-              "rigid planes), averaged between history rows (the rate of momentum_z)")
+              "rigid planes), averaged between history rows (the rate of momentum_z over the "
+              "times of the rows' half-step velocities, time - dt/2)")
 #: Rows per chunk of the history datasets: a chunk is allocated whole at the
 #: first write (4 kB), so a short run's file stays small and its first
 #: snapshot's growth, on which the room check bases its estimate, is the
@@ -33,8 +34,8 @@ BODY_FORCE = ("force_z", "N", "axial force on the body from everything outside i
 HISTORY_CHUNK = 512
 #: The history dataset derived from the planes' impulse (RunWriter._plane_force).
 PLANE_FORCE = ("plane_force_z", "N", "axial force of the rigid planes on the bodies, averaged "
-               "between history rows (the rate of plane_impulse_z); the bodies push the planes "
-               "with minus it")
+               "between history rows (the rate of plane_impulse_z over the times of the rows' "
+               "half-step velocities, time - dt/2); the bodies push the planes with minus it")
 #: the element fields of a snapshot (failed and melted: the material
 #: point's flags, 0/1, as the particles')
 SNAPSHOT_CELL_FIELDS = ("stress", "pressure", "q", "plastic_strain", "density",
@@ -239,8 +240,9 @@ class RunWriter:
     same rows (kinetic [J], internal [J], axial momentum [N s], axial force
     on the body [N]); /gauge_history/<gauge>/<field> at the same rows
     (fsph.layouts GAUGE_COLUMNS, each with its `units` and `description`;
-    the group's attributes: kind, point (r, z) [m], switch_time and
-    lost_time [s], NaN where none); /snapshots/NNNNN/ with nodes (n, 2) (r, z)
+    the group's attributes: kind, point (r, z) [m] with point_units,
+    switch_time and lost_time [s], NaN where none, with time_units);
+    /snapshots/NNNNN/ with nodes (n, 2) (r, z)
     [m], velocity (n, 2) [m/s], connectivity (m, 3) 0-based and element
     fields; attributes time [s] and cycle; particles, if any, in
     /snapshots/NNNNN/particles/ (x, x0, velocity, mass, h, radius, stress,
@@ -292,6 +294,7 @@ class RunWriter:
                 group.attrs["point_units"] = "m"
                 group.attrs["switch_time"] = np.nan
                 group.attrs["lost_time"] = np.nan
+                group.attrs["time_units"] = "s"     # of switch_time and lost_time
                 _history_datasets(group, layouts.GAUGE_COLUMNS)
             h5.create_group("snapshots")
         self.n_snapshots = 0
@@ -408,19 +411,21 @@ class RunWriter:
         force = self._plane_force(records)
         self._history.append(np.column_stack([records, force]))
         if self.body_names:
-            self._bodies.append(self._body_rows(records[:, HISTORY_FIELDS.index("time")], bodies))
+            self._bodies.append(self._body_rows(records[:, HISTORY_FIELDS.index("time")],
+                                                _velocity_times(records), bodies))
         if self.gauges:
             self._gauges.append(self._gauge_rows(records[:, HISTORY_FIELDS.index("time")], gauges))
 
     def last_rates_row(self):
         """The last history row the forces are rates from, for a
-        checkpoint: (time [s], the planes' axial impulse [N s]) and (time
-        [s], each body's axial momentum [N s]); None for one not yet met."""
+        checkpoint: (time [s] of its half-step velocities, the planes'
+        axial impulse [N s]) and (that time [s], each body's axial momentum
+        [N s]); None for one not yet met."""
         return self._plane_last, self._body_last
 
     def continue_rates_from(self, time, plane_impulse_z, body_momentum_z=None):
         """A restart's writer: the forces of its first history rows are
-        rates from the checkpoint's last row at `time` [s] (the planes'
+        rates from the checkpoint's last row, its velocities at `time` [s] (the planes'
         axial impulse [N s]; each body's axial momentum [N s], None where
         the checkpoint had no body rows)."""
         self._plane_last = (time, np.float64(plane_impulse_z))
@@ -447,8 +452,9 @@ class RunWriter:
         """Each gauge's summary.json entry: kind, point (r, z) [m], the
         pressure [Pa] where |pressure| was largest and its time [s], when a
         material gauge moved from its element to a particle and when its
-        element was deleted [s] (None: never) and its last row by field
-        (None where NaN: no material there)."""
+        element was deleted [s] (None: never) and its last row by field,
+        each key naming its unit (key_with_unit: pressure_Pa, velocity_z_m_s;
+        None where NaN: no material there)."""
         out = {}
         for g, gauge in enumerate(self.gauges):
             peak, time = self.gauge_peak[g]
@@ -460,16 +466,19 @@ class RunWriter:
                 "switch_time_s": state.get("switch_time"), "lost_time_s": state.get("lost_time"),
                 "last_time_s": last_time,
                 "last": None if last is None else {
-                    name: (None if np.isnan(v) else float(v)) for name, v in zip(GAUGE_FIELDS, last)},
+                    key_with_unit(name, unit): (None if np.isnan(v) else float(v))
+                    for (name, unit, _), v in zip(layouts.GAUGE_COLUMNS, last)},
             }
         return out
 
-    def _body_rows(self, t, bodies):
-        """The bodies' rows with their axial force [N] appended: the change
-        of each body's momentum since the row before over the time between
-        (0 at the first row)."""
+    def _body_rows(self, t, t_velocity, bodies):
+        """The bodies' rows at times t [s] with their axial force [N]
+        appended: the change of each body's momentum since the row before
+        over the time between the rows' half-step velocities t_velocity
+        [s] (0 at the first row)."""
         bodies = np.asarray(bodies, dtype=float).reshape(len(t), len(self.body_names), len(BODY_FIELDS))
-        force, self._body_last = _rate_between_rows(t, bodies[:, :, BODY_FIELDS.index("momentum_z")],
+        force, self._body_last = _rate_between_rows(t_velocity,
+                                                    bodies[:, :, BODY_FIELDS.index("momentum_z")],
                                                     self._body_last)
         worst = np.abs(force).argmax(axis=0)
         for b, k in enumerate(worst):
@@ -481,10 +490,12 @@ class RunWriter:
 
     def _plane_force(self, records):
         """The planes' axial force on the bodies [N] at each row: the change
-        of their impulse since the row before over the time between (0 at
-        the first row); tracks its largest magnitude."""
+        of their impulse since the row before over the time between the
+        rows' half-step velocities (0 at the first row); tracks its largest
+        magnitude."""
         t = records[:, HISTORY_FIELDS.index("time")]
-        force, self._plane_last = _rate_between_rows(t, records[:, HISTORY_FIELDS.index("plane_impulse_z")],
+        force, self._plane_last = _rate_between_rows(_velocity_times(records),
+                                                     records[:, HISTORY_FIELDS.index("plane_impulse_z")],
                                                      self._plane_last)
         worst = int(np.abs(force).argmax())
         if abs(force[worst]) > abs(self.plane_force_peak):
@@ -627,6 +638,25 @@ SNAPSHOT_UNITS = {
     "damage": "-", "material": "-", "body": "-", "id": "-", "mass": "kg", "h": "m", "radius": "m",
     "radius0": "m", "sound_speed": "m/s", "failed": "-", "melted": "-",
 }
+
+
+def key_with_unit(name, unit):
+    """A summary.json key that names its unit, as the others do: name_unit
+    with '/' as '_' and no '^' (velocity_z_m_s, density_kg_m3,
+    internal_energy_J_kg); the name alone for a dimensionless '-'."""
+    if unit == "-":
+        return name
+    return f"{name}_{unit.replace('/', '_').replace('^', '').replace(' ', '_')}"
+
+
+def _velocity_times(records):
+    """The times [s] of the velocities at history rows (k, HISTORY_FIELDS):
+    the half step before each row's time, t - dt/2 (the central difference
+    keeps velocities at half steps; the impulse and the momenta of a row
+    are of those velocities). Rates over these times stay exact where the
+    steps change, as the last ones that land on the end time."""
+    return (records[:, HISTORY_FIELDS.index("time")]
+            - 0.5 * records[:, HISTORY_FIELDS.index("dt")])
 
 
 def _rate_between_rows(t, values, last):

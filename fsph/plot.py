@@ -664,7 +664,10 @@ def _history_figure(run_dir):
     ax_e.plot(t, hist["kinetic"], label="kinetic")
     ax_e.plot(t, hist["internal"], label="internal")
     if "contact" in hist and hist["contact"].any():
-        ax_e.plot(t, hist["contact"], label="contact work")
+        # the energy the contact corrections removed (summary.json
+        # contact_dissipation_J), as the other terms removed are named;
+        # not the work each body received through contact (bodies.png)
+        ax_e.plot(t, hist["contact"], label="removed by contact")
     if "eroded" in hist and hist["eroded"].any():
         ax_e.plot(t, hist["eroded"], label="removed by erosion")
     if "plane" in hist and hist["plane"].any():
@@ -703,7 +706,8 @@ def histories(run_dir, output=None, dpi=150):
     energy of summary.json, else the first total), the quantity of
     summary.json's energy.relative_error; where a rigid plane acted, its
     axial force on the bodies (history plane_force_z, averaged between
-    history rows; a Taylor test's anvil force); where two or more bodies
+    history rows, over the times of their half-step velocities; a Taylor
+    test's anvil force); where two or more bodies
     are, the axial force on each (body_history force_z: a projectile's
     deceleration force); and the time step. The time-step
     curve leaves out the step of the first row (none) and, when the run
@@ -740,16 +744,23 @@ def _perforation_figure(run_dir):
     if not series or "velocity_z_m_s" not in series:
         return None
     t = series["time_us"]
-    speed = [abs(v) for v in series["velocity_z_m_s"]]
+    # along the striking direction (fsph.metrics: the sign of the first
+    # velocity, -z from rest): a projectile that rebounds goes below zero
+    velocity_z = series["velocity_z_m_s"]
+    direction = 1.0 if velocity_z[0] > 0.0 else -1.0
+    along = [direction * v for v in velocity_z]
     hole = [h if h is not None else float("nan") for h in series["hole_diameter_mm"]]
     fig, axes = plt.subplots(3, 1, figsize=(7, 7.4), sharex=True, layout="constrained")
-    axes[0].plot(t, speed, "o-", ms=3, label=f"fsph, {speed[-1]:.4g} m/s at the end")
+    axes[0].plot(t, along, "o-", ms=3, label=f"fsph, {along[-1]:.4g} m/s at the end"
+                 + (" (rebounded)" if along[-1] < 0.0 else ""))
+    if min(along) < 0.0:
+        axes[0].axhline(0.0, color="0.6", lw=0.6)
     experiment = _experiment_residual(summary)
     if experiment is not None:
         axes[0].axhline(experiment, color="k", ls="--", lw=0.8)
         axes[0].plot([t[-1]], [experiment], "k*", ms=11, ls="--", lw=0.8,
                      label=f"experiment: residual velocity {experiment:.4g} m/s")
-    axes[0].set_ylabel("projectile velocity [m/s]")
+    axes[0].set_ylabel("projectile velocity\nalong the strike [m/s]")
     axes[0].legend(frameon=False, fontsize="small")
     axes[1].plot(t, series["penetration_mm"], "o-", ms=3)
     axes[1].set_ylabel("penetration [mm]")
@@ -762,7 +773,8 @@ def _perforation_figure(run_dir):
 
 def perforation_histories(run_dir, output=None, dpi=150):
     """Write a PNG of a perforation run's histories at the snapshots
-    (projectile velocity, penetration depth, hole diameter) from
+    (projectile velocity along the striking direction, negative once it
+    rebounds; penetration depth, hole diameter) from
     summary.json, titled with the case; the experiment's residual velocity
     the run is compared with (summary.json reference.comparison.perforation)
     is a star at the end time on a dashed line, with its legend entry.
@@ -1115,21 +1127,41 @@ def missing_fields(run_dir):
     return missing
 
 
-def _field_norm(field, lo, hi):
-    """The colour scale of a field from lo to hi (its least and largest
-    value over the panels): pressure diverging about zero where it takes
-    both signs; the plastic strain on a square-root scale (a few converted
-    particles strain ten times more than the rest); a field of one value
-    gets a small range about it."""
-    from matplotlib.colors import Normalize, PowerNorm, TwoSlopeNorm
+#: A pressure below this fraction of the largest of the other sign is
+#: round-off (an unloaded body's 1e-11 of the shock's), not a sign of its own
+PRESSURE_ROUND_OFF = 1e-6
+
+
+def _field_scale(field, lo, hi):
+    """The colour map and scale of a field from lo to hi (its least and
+    largest value over the panels): (cmap, norm). Pressure keeps zero at the
+    middle colour of its diverging map: diverging about zero where it takes
+    both signs, else the half of the map on its side, from zero to its
+    largest magnitude (a side within PRESSURE_ROUND_OFF of the other is
+    round-off and drawn as zero),
+    so no colour says tension or compression that is not there; the plastic
+    strain on a square-root scale (a few converted particles strain ten
+    times more than the rest); a field of one value gets a small range
+    about it."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap, Normalize, PowerNorm, TwoSlopeNorm
+    cmap = plt.get_cmap(FIELDS[field][4])
+    if field == "pressure":
+        largest = max(abs(lo), abs(hi))
+        lo = 0.0 if lo > -PRESSURE_ROUND_OFF * largest else lo
+        hi = 0.0 if hi < PRESSURE_ROUND_OFF * largest else hi
+        if lo < 0.0 < hi:
+            return cmap, TwoSlopeNorm(0.0, lo, hi)
+        if hi > 0.0 or lo < 0.0:
+            half = np.linspace(0.5, 1.0, 128) if hi > 0.0 else np.linspace(0.0, 0.5, 128)
+            return (ListedColormap(cmap(half), name=f"{cmap.name}_half"),
+                    Normalize(min(lo, 0.0), max(hi, 0.0)))
     if not hi > lo:
         pad = 0.01 * abs(lo) or 0.5
-        return Normalize(lo - pad, hi + pad)
-    if field == "pressure" and lo < 0.0 < hi:
-        return TwoSlopeNorm(0.0, lo, hi)
+        return cmap, Normalize(lo - pad, hi + pad)
     if field == "eps_p":
-        return PowerNorm(0.5, lo, hi)
-    return Normalize(lo, hi)
+        return cmap, PowerNorm(0.5, lo, hi)
+    return cmap, Normalize(lo, hi)
 
 
 def _without_model(h5, field):
@@ -1200,16 +1232,20 @@ def _field_extent(panels, frame):
 #: whole picture its grid of panels comes closest to
 FIELD_PANEL_AREA = 12.0
 FIELD_ASPECT = 1.8
+#: inches: the narrowest room for a panel, wide enough for its title (the
+#: snapshot's time, '12.34 µs'); a slenderer body is drawn narrower in it
+FIELD_PANEL_MIN_WIDTH = 1.1
 
 
 def _field_grid(n, ratio):
     """(rows, columns) and (width, height) [inches] of the panels of a
     field picture: n panels of height / width `ratio` (a rod: one row; a
     plate or a debris cloud, wider than tall: a grid), each of about
-    FIELD_PANEL_AREA, at most 5.5 inches tall and 7 wide."""
+    FIELD_PANEL_AREA, at most 5.5 inches tall and 7 wide, at least
+    FIELD_PANEL_MIN_WIDTH wide."""
     width = min(max(np.sqrt(FIELD_PANEL_AREA / ratio), 1.3), 7.0)
     height = min(max(width * ratio, 1.5), 5.5)
-    width = min(width, height / ratio) if ratio > 0 else width
+    width = max(min(width, height / ratio), FIELD_PANEL_MIN_WIDTH) if ratio > 0 else width
     cols = min(range(1, n + 1), key=lambda c: abs(np.log(c * width / (-(-n // c) * height))
                                                   - np.log(FIELD_ASPECT)))
     return (-(-n // cols), cols), (width, height)
@@ -1240,8 +1276,7 @@ def _field_figure(run_dir, field, times_us=None):
         values = [p[v][p[own]] for _, p in panels
                   for v, own in (("values", "own"), ("p_values", "p_own")) if v in p]
         values = [v for v in values if len(v)] or [np.zeros(1)]
-        cmap = plt.get_cmap(FIELDS[field][4])
-        norm = _field_norm(field, min(v.min() for v in values), max(v.max() for v in values))
+        cmap, norm = _field_scale(field, min(v.min() for v in values), max(v.max() for v in values))
 
     half, (z_low, z_high) = _field_extent(panels, frame)
     ratio = (z_high - z_low) / (2 * half)
@@ -1320,7 +1355,8 @@ def field_map(run_dir, field, times_us=None, output=None, dpi=150):
     with its snapshot's time: elements flat-coloured per triangle, particles
     as discs of their radius, mirrored about the axis (a section through the
     body), equal aspect, one colour scale over the picture from the field's
-    least to its largest value over the panels drawn, and a colour bar
+    least to its largest value over the panels drawn (_field_scale:
+    pressure keeps zero in the middle colour), and a colour bar
     naming the quantity and its unit; material: one colour per material of
     the deck, named in the legend. A perforation run is framed as in
     shapes.png (three hole diameters). Returns the PNG path (default

@@ -115,6 +115,9 @@ def test_material_gauge_is_its_element_point_and_empty_space_is_empty(tmp_path):
             group = h5[f"gauge_history/{name}"]
             assert group.attrs["kind"] == ("fixed" if name == "air" else "material")
             assert np.array_equal(group.attrs["point"], points[name])
+            # the group's numbers name their units as the datasets do
+            assert group.attrs["point_units"] == "m" and group.attrs["time_units"] == "s"
+            assert np.isnan(group.attrs["switch_time"]) and np.isnan(group.attrs["lost_time"])
             for f, unit, _ in layouts.GAUGE_COLUMNS:
                 assert group[f].shape == time.shape and group[f].attrs["units"] == unit
         snaps = [h5[f"snapshots/{k}"] for k in sorted(h5["snapshots"]) if k.isdigit()]
@@ -150,8 +153,15 @@ def test_material_gauge_is_its_element_point_and_empty_space_is_empty(tmp_path):
     k = int(np.argmax(np.abs(rows["inner"]["pressure"])))
     assert inner["peak_pressure_Pa"] == rows["inner"]["pressure"][k] != 0.0
     assert inner["peak_pressure_time_s"] == time[k]
-    assert inner["last"]["z"] == rows["inner"]["z"][-1] and inner["switch_time_s"] is None
-    assert summary["air"]["last"]["pressure"] is None and summary["air"]["peak_pressure_Pa"] is None
+    assert inner["last"]["z_m"] == rows["inner"]["z"][-1] and inner["switch_time_s"] is None
+    assert summary["air"]["last"]["pressure_Pa"] is None and summary["air"]["peak_pressure_Pa"] is None
+    # every last value's key names its unit, as fsph.h5's `units` does
+    units = {name: unit for name, unit, _ in layouts.GAUGE_COLUMNS}
+    assert set(inner["last"]) == {name if units[name] == "-" else
+                                  f"{name}_{units[name].replace('/', '_').replace('^', '')}"
+                                  for name in FIELDS}
+    assert {"velocity_z_m_s", "density_kg_m3", "internal_energy_J_kg", "temperature_K",
+            "plastic_strain"} <= set(inner["last"])
 
 
 # ---- 3. the Taylor rod: an element that converts --------------------------

@@ -321,12 +321,14 @@ def test_history_has_title_energy_error_and_no_landing_step(elastic_run, monkeyp
     assert error[-1] == pytest.approx(100 * summary["energy"]["relative_error"], rel=1e-9)
     with h5py.File(elastic_run / "fsph.h5", "r") as h5:
         time = h5["history/time"][...] * 1e6
+        velocity_time = h5["history/time"][...] - 0.5 * h5["history/dt"][...]
     assert time[-1] == pytest.approx(1.0)
     steps = axes["time step [ns]"].get_lines()[0].get_xdata()
     assert list(steps) == list(time[1:-1])        # no first row (no step), no landing
-    # the rod stands on a rigid plane: its force, which integrates to the impulse
+    # the rod stands on a rigid plane: its force, which integrates to the
+    # impulse over the times of the half-step velocities
     force = axes["rigid-plane force [kN]"].get_lines()[0].get_ydata() * 1e3
-    assert np.sum(force[1:] * np.diff(time * 1e-6)) == pytest.approx(
+    assert np.sum(force[1:] * np.diff(velocity_time)) == pytest.approx(
         summary["rigid_planes"]["impulse_z_N_s"], rel=1e-9)
     assert summary["rigid_planes"]["impulse_z_N_s"] > 0.0
 
@@ -338,7 +340,8 @@ def test_perforation_draws_the_experimental_residual_velocity(block_run, monkeyp
     assert code == 0
     fig = figures["perforation.png"]
     assert fig._suptitle.get_text() == "test rod"
-    velocity = next(ax for ax in fig.axes if ax.get_ylabel() == "projectile velocity [m/s]")
+    velocity = next(ax for ax in fig.axes
+                    if ax.get_ylabel() == "projectile velocity\nalong the strike [m/s]")
     assert "experiment: residual velocity 555 m/s" in _legend_texts(fig)
     marks = [line for line in velocity.get_lines() if line.get_label().startswith("experiment")]
     assert len(marks) == 1 and list(marks[0].get_ydata()) == [555.0]
@@ -496,7 +499,9 @@ def test_history_draws_each_bodys_force(block_run, monkeypatch, capsys):
     """history.png of a two-body run: a panel of the axial force on each
     body, one curve per body; nothing else acts on them, so the impulses
     under the two curves are equal and opposite within 0.5 % (the bar of
-    the momentum balance of the perforation runs)."""
+    the momentum balance of the perforation runs). The energy the contact
+    corrections removed is labelled as removed, as erosion's and the
+    planes'."""
     code, _, figures = plot_cli(monkeypatch, capsys, block_run)
     assert code == 0
     axes = {ax.get_ylabel(): ax for ax in figures["history.png"].axes}
@@ -504,6 +509,10 @@ def test_history_draws_each_bodys_force(block_run, monkeypatch, capsys):
               for line in axes["axial force on\neach body [kN]"].get_lines()
               if not line.get_label().startswith("_")}
     assert set(curves) == {"rod", "block"}
+    # the energy the contact removed is named as the other energies removed,
+    # apart from the work each body received through contact (bodies.png)
+    energies = _legend_texts(figures["history.png"])
+    assert "removed by contact" in energies and "contact work" not in energies
     impulse = {name: np.sum(f[1:] * np.diff(t)) for name, (t, f) in curves.items()}
     assert impulse["rod"] > 0.0
     assert abs(impulse["rod"] + impulse["block"]) <= 0.005 * impulse["rod"]
@@ -690,3 +699,76 @@ def test_debris_panel_frames_the_ejecta_up_to_their_height():
     half_width, (z_low, z_high) = _debris_extent(series, 0, {}, 0.0, -1.0, None, reach)
     assert 22.0 < half_width < 35.0
     assert z_high > 25.0 and z_low < -31.0
+
+
+def test_pressure_scale_keeps_zero_neutral_and_round_off_unsigned():
+    """The pressure picture's colour of zero is the diverging map's middle
+    (neither tension nor compression) whatever the range: a compressed body
+    whose unloaded part carries round-off tension (-3e-11 GPa against
+    1.1 GPa, as the elastic bar) draws that round-off as zero, on a colour
+    bar from 0 to the peak; a range with real tension stays diverging
+    about zero; a field in tension alone draws from its least value to 0."""
+    import matplotlib.pyplot as plt
+    from fsph.plot import _field_scale
+    middle = plt.get_cmap("coolwarm")(0.5)
+
+    def colour(scale, value):
+        cmap, norm = scale
+        return np.array(cmap(norm(np.array([value]))))[0]
+    compressed = _field_scale("pressure", -3e-11, 1.1)
+    assert compressed[1].vmin == 0.0 and compressed[1].vmax == 1.1
+    assert colour(compressed, -3e-11) == pytest.approx(colour(compressed, 0.0))
+    assert colour(compressed, 0.0) == pytest.approx(middle, abs=0.01)
+    assert colour(compressed, 1.1) == pytest.approx(plt.get_cmap("coolwarm")(1.0), abs=0.01)
+    both = _field_scale("pressure", -0.3, 1.1)
+    assert (both[1].vmin, both[1].vmax) == (-0.3, 1.1)
+    assert colour(both, 0.0) == pytest.approx(middle, abs=0.01)
+    assert colour(both, -0.3) == pytest.approx(plt.get_cmap("coolwarm")(0.0), abs=0.01)
+    stretched = _field_scale("pressure", -0.4, -0.1)
+    assert (stretched[1].vmin, stretched[1].vmax) == (-0.4, 0.0)
+    assert colour(stretched, 0.0) == pytest.approx(middle, abs=0.01)
+    # the other fields keep their least-to-largest scale
+    assert (_field_scale("mises", 0.2, 1.5)[1].vmin, _field_scale("mises", 0.2, 1.5)[1].vmax) == (0.2, 1.5)
+
+
+def test_panel_titles_of_a_slender_rod_stand_apart(tmp_path, monkeypatch, capsys):
+    """A rod ten times longer than its diameter (the elastic bar's
+    proportions): the field picture's panel titles, the snapshots' times,
+    do not run into each other."""
+    deck = tmp_path / "bar.nml"
+    deck.write_text(rod_deck(control="", body="").replace("length = 4.0e-3", "length = 20.0e-3")
+                    .replace("n_axial = 12", "n_axial = 40").replace("end_time = 1.0e-6",
+                                                                    "end_time = 0.3e-6")
+                    .replace("n_snapshots = 2", "n_snapshots = 3"))
+    run(deck, tmp_path / "out", quiet=True)
+    code, _, figures = plot_cli(monkeypatch, capsys, tmp_path / "out", "--field", "pressure")
+    assert code == 0
+    fig = figures["field_pressure.png"]
+    renderer = fig.canvas.get_renderer()
+    titles = [ax.title.get_window_extent(renderer) for ax in fig.axes if ax.get_title()]
+    assert len(titles) == 4
+    assert all(a.x1 < b.x0 for a, b in zip(titles, titles[1:]))
+
+
+def test_perforation_velocity_of_a_rebounding_projectile_goes_below_zero(tmp_path):
+    """perforation.png draws the projectile's velocity along the striking
+    direction, as the residual velocity is measured: a projectile striking
+    at 300 m/s towards -z that stops and flies back at 40 m/s ends at
+    -40 m/s, not at +40 m/s as if it went on, and the legend says it
+    rebounded; one striking towards +z is drawn positive."""
+    import json
+    from fsph.plot import _perforation_figure
+    for velocity_z, last in (([-300.0, -120.0, 0.0, 40.0], -40.0), ([250.0, 200.0], 200.0)):
+        n = len(velocity_z)
+        (tmp_path / "summary.json").write_text(json.dumps({
+            "status": "completed", "title": "rebound",
+            "metrics": {"series": {"time_us": [10.0 * k for k in range(n)],
+                                   "velocity_z_m_s": velocity_z,
+                                   "penetration_mm": [0.0] * n,
+                                   "hole_diameter_mm": [None] * n}}}))
+        fig = _perforation_figure(tmp_path)
+        (ax,) = [ax for ax in fig.axes if ax.get_ylabel().startswith("projectile velocity")]
+        assert ax.get_ylabel().endswith("[m/s]")
+        drawn = ax.get_lines()[0].get_ydata()
+        assert drawn[0] == abs(velocity_z[0]) and drawn[-1] == last
+        assert ("rebounded" in _legend_texts(fig)[0]) == (last < 0.0)

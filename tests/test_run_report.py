@@ -51,7 +51,8 @@ def test_energy_error_beyond_the_warning_level_is_reported(write_deck, tmp_path)
 def test_balanced_run_has_no_warning_and_no_untracked_temperature(tmp_path):
     """The elastic bar keeps its energy balance: no warning. Its material
     does not heat (no Johnson-Cook), so no temperature peak is reported
-    that would read as a measured room temperature."""
+    that would read as a measured room temperature; nor does it yield, so
+    its plastic strain, zero everywhere, has no place named for its peak."""
     proc = fsph_cli(["run", str(CASES / "elastic_bar.nml"), "-o", str(tmp_path / "bar"),
                      "--progress", "lines"], tmp_path)
     assert proc.returncode == 0, proc.stderr
@@ -59,6 +60,11 @@ def test_balanced_run_has_no_warning_and_no_untracked_temperature(tmp_path):
     assert summary["warnings"] == []
     assert list(summary["peaks"]) == ["plastic_strain", "internal_energy"]
     assert "peak temperature" not in proc.stdout
+    strain = summary["peaks"]["plastic_strain"]
+    assert strain["value"] == 0.0 and strain["r_mm"] is None and strain["in"] is None
+    (line,) = [line for line in proc.stdout.splitlines() if "peak plastic_strain" in line]
+    assert line.split()[-1] == "everywhere" and " at r " not in line
+    assert summary["peaks"]["internal_energy"]["r_mm"] is not None
 
 
 # ---- material consistency --------------------------------------------------------
@@ -102,7 +108,7 @@ def test_consistent_mie_gruneisen_moduli_give_no_warning(write_deck):
 # ---- peaks -------------------------------------------------------------------------
 def test_peak_fields_in_summary_and_console(tmp_path):
     """summary.json and the printed summary give the peak plastic strain
-    and temperature with where they are; the peak is the largest value of
+    and temperature with their units and where they are; the peak is the largest value of
     the last snapshot's elements and particles."""
     import h5py
     out = tmp_path / "cu"
@@ -121,6 +127,8 @@ def test_peak_fields_in_summary_and_console(tmp_path):
         k = int(np.argmax(eps))
         centre = last["nodes"][...][last["connectivity"][...][k]].mean(axis=0)
     assert peaks["plastic_strain"]["value"] == pytest.approx(eps.max(), rel=1e-12)
+    assert [peaks[name]["unit"] for name in ("plastic_strain", "temperature", "internal_energy")] \
+        == ["-", "K", "J/kg"]
     assert peaks["plastic_strain"]["in"] == "element" and peaks["plastic_strain"]["index"] == k
     assert peaks["plastic_strain"]["r_mm"] == pytest.approx(centre[0] * 1e3, rel=1e-12)
     assert peaks["temperature"]["value"] == pytest.approx(temp.max(), rel=1e-12)
