@@ -31,18 +31,20 @@ def _targets(t_end, n_snapshots, n_progress):
 
 
 def _format_metrics(comparison, metrics):
-    lines = []
+    """The printed metric lines: each float metric, or one compared with
+    the reference, its name padded to the longest printed so the values
+    stand in one column, then its comparison."""
+    rows = []
     for group, values in metrics.items():
         for key, val in values.items():
             cmp = comparison.get(group, {}).get(key)
             if not isinstance(val, float) and not cmp:
                 continue
             # the compared value: none where the run did not measure it
-            text = f"  {group}.{key:<14s} " + _value_text(cmp["computed"] if cmp else val)
-            if cmp:
-                text += _reference_text(cmp)
-            lines.append(text)
-    return lines
+            rows.append((f"{group}.{key}", cmp["computed"] if cmp else val, cmp))
+    width = max((len(name) for name, _, _ in rows), default=0)
+    return [f"  {name:<{width}s} " + _value_text(value) + (_reference_text(cmp) if cmp else "")
+            for name, value, cmp in rows]
 
 
 def _value_text(value):

@@ -673,3 +673,16 @@ def test_a_run_that_failed_is_not_compared_with_its_reference(tmp_path):
     assert ref["not_applied_because"].startswith("the run failed and its last good snapshot is at t = ")
     assert ref["not_applied_because"].endswith("before its end time 3 us")
     assert not re.search(r"reference \S+ +error", proc.stdout) and "not compared" in proc.stdout
+
+
+def test_printed_metrics_stand_in_one_column():
+    """The printed metric lines pad every name to the longest, so the
+    values line up (a name longer than 14 characters pushed its value
+    out of line: 'taylor.detached_mass_kg          0')."""
+    from fsph.driver import _format_metrics
+    metrics = {"taylor": {"L_mm": 19.87, "detached_mass_kg": 0.0, "n_detached_particles": 0}}
+    comparison = {"taylor": {"L_mm": {"computed": 19.87, "reference": 19.8, "error_percent": 0.35}}}
+    lines = _format_metrics(comparison, metrics)
+    assert [line.split()[0] for line in lines] == ["taylor.L_mm", "taylor.detached_mass_kg"]
+    ends = {len(line.split("   reference")[0]) for line in lines}
+    assert len(ends) == 1, lines
