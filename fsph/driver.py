@@ -17,7 +17,7 @@ from . import layouts
 from . import metrics as metrics_module
 from . import references
 from .errors import CheckpointError, DeckError, FsphError, OutputError, SimulationError
-from .output import SNAPSHOT_UNITS, FolderLock, RunWriter, write_summary
+from .output import SNAPSHOT_UNITS, FolderLock, RunWriter, key_with_unit, write_summary
 from .points import state_masses
 from .simulation import Simulation, threads
 
@@ -320,8 +320,7 @@ def _books_to_carry(writer, series, deck):
     times [N, s], each gauge's peak pressure with its time [Pa, s], the
     last history row the forces are rates from (its time [s], the planes'
     impulse and each body's axial momentum [N s], at the time of its
-    half-step velocities, velocity_time [s]; a checkpoint from before it
-    has the row's time instead, which then stands for it) and the snapshot series
+    half-step velocities, velocity_time [s]) and the snapshot series
     (metrics.snapshot_series records) with the &metrics group it was
     recorded under, so that summary.json covers the whole run."""
     plane, bodies = writer.last_rates_row()
@@ -372,7 +371,7 @@ def _carried_books_fit(books, writer):
             isinstance(g, dict) and isinstance(g.get("peak_pressure"), list)
             and len(g["peak_pressure"]) == 2 for g in gauges.values()),
         "last_row": row is None or (
-            isinstance(row, dict) and number(row.get("velocity_time", row.get("time")))
+            isinstance(row, dict) and number(row.get("velocity_time"))
             and number(row.get("plane_impulse_z"))
             and (row.get("body_momentum_z") is None
                  or (isinstance(row["body_momentum_z"], list)
@@ -408,7 +407,7 @@ def _carry_on(writer, books, restart, deck):
     row = books["last_row"]
     if row is not None:
         # the forces of the first rows after the restart are rates from this row
-        writer.continue_rates_from(row.get("velocity_time", row.get("time")), row["plane_impulse_z"],
+        writer.continue_rates_from(row["velocity_time"], row["plane_impulse_z"],
                                    row["body_momentum_z"])
     return books["series"] if books["metrics"] == _metrics_identity(deck) else None
 
@@ -762,7 +761,7 @@ def _body_summary(writer):
     for b, name in enumerate(writer.body_names):
         books = writer.body_books.get(name, {})
         force, time = writer.body_force_peak[b]
-        out[name] = {f"{key}_{unit.replace(' ', '_')}": books.get(key) for key, unit, _ in layouts.BODY_COLUMNS}
+        out[name] = {key_with_unit(key, unit): books.get(key) for key, unit, _ in layouts.BODY_COLUMNS}
         out[name].update(peak_force_z_N=force, peak_force_time_s=time)
     return out
 
