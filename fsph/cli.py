@@ -237,10 +237,11 @@ def _plot(args):
     return EXIT_OK
 
 
-def _report_exit(statuses):
-    """Exit code of `fsph report` from its runs' statuses: 4 where one was
-    interrupted, 3 where one did not complete (the report is written all
-    the same and names them), else 0."""
+def _exit_of_runs(statuses):
+    """Exit code of `fsph report` and `fsph sweep` from their runs'
+    statuses: 4 where one was interrupted, 3 where one did not complete
+    (the report and the sweep's table are written all the same and name
+    them), else 0."""
     statuses = list(statuses)
     if "interrupted" in statuses:
         return EXIT_INTERRUPTED
@@ -372,9 +373,7 @@ def main(argv=None, exit_at_interrupt=False):
             frame = sweep(args.deck, args.sets, args.output, scheduler=args.scheduler,
                           workers=args.workers, threads=args.threads, free_p=args.free_p,
                           rerun=args.rerun, quiet=args.quiet, max_variants=max_variants)
-            if (frame["status"] == "interrupted").any():
-                return EXIT_INTERRUPTED
-            return EXIT_OK if (frame["status"] == "completed").all() else EXIT_RUN_FAILED
+            return _exit_of_runs(frame["status"])
         if args.command == "plot":
             return _plot(args)
         if args.command == "report":
@@ -392,7 +391,7 @@ def main(argv=None, exit_at_interrupt=False):
                     raise InputError(f"{cases}: expected a deck {name}.nml (--decks)")
             path, statuses = make_report(cases, args.output, decks, args.rerun, say=print)
             print(path)
-            return _report_exit(statuses.values())
+            return _exit_of_runs(statuses.values())
         if args.command == "decks-reference":
             from .deck import reference_markdown
             text = reference_markdown()
