@@ -46,7 +46,7 @@ def refined_deck(deck, outdir):
 
 def row(summary, experiment):
     v_r = summary["metrics"]["perforation"]["residual_velocity_m_s"]
-    p = np.array(summary["metrics"]["series"]["momentum_z"])
+    p = np.array(summary["metrics"]["series"]["momentum_z_N_s"])
     return {"status": summary["status"], "v_r": v_r,
             "error_percent": 100.0 * (v_r - experiment) / experiment,
             "wall_s": summary["wall_time_s"], "cycles": summary["cycles"],

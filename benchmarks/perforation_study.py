@@ -49,7 +49,7 @@ def main(argv=None):
     for v in VELOCITIES:
         s = summaries[v]
         perf = s["metrics"]["perforation"]
-        p = np.array(s["metrics"]["series"]["momentum_z"])
+        p = np.array(s["metrics"]["series"]["momentum_z_N_s"])
         row = {"v_s": float(v), "v_r": perf["residual_velocity_m_s"],
                "fit": float(recht_ipson(v, fit["v_bl"])), "wall_s": s["wall_time_s"],
                "cycles": s["cycles"], "energy_error": s["energy"]["max_relative_error"],

@@ -27,13 +27,17 @@ from .simulation import STATUS_OK, _api
 #: neighbour lists' books (/lists: a restart builds its lists when the run
 #: did, and counts the builds of the whole run) and the driver's books as a
 #: dataset (/books: also the peak forces, the last history row and the
-#: snapshot series, which outgrow an attribute)
-FORMAT = 6
+#: snapshot series, which outgrow an attribute); 7: the momenta and the
+#: contact's overlap of the metric series under keys naming their units
+#: (momentum_z_N_s, contact_overlap_max_mm)
+FORMAT = 7
 
 #: What each format before FORMAT lacks: a restart from it is refused
 #: rather than continued with a summary of the continuation alone.
 _LACKS = {5: "the books a restarted run reports for the whole run (the neighbour lists' builds, "
-             "the peak forces, the snapshot series and the debris metrics measured on it)"}
+             "the peak forces, the snapshot series and the debris metrics measured on it)",
+          6: "the metric series keys of this fsph (momentum_z_N_s, contact_overlap_max_mm), "
+             "which the run's series would mix with its own"}
 
 #: What a restart may change in the deck: these keys of &control, and the
 #: whole of &output, &metrics and the &gauge groups (gauges only read the

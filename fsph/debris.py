@@ -49,8 +49,8 @@ def _units():
                   "ejecta_height_mm": "mm", "intersection_radius_mm": "mm",
                   "hole_diameter_mm": "mm",
                   "flyer_cloud_mass_kg": "kg", "target_cloud_mass_kg": "kg", "ejecta_mass_kg": "kg",
-                  "flyer_cloud_momentum_z": "kg m/s", "target_cloud_momentum_z": "kg m/s",
-                  "flyer_mass_kg": "kg", "target_mass_kg": "kg", "momentum_z": "kg m/s",
+                  "flyer_cloud_momentum_z_N_s": "N s", "target_cloud_momentum_z_N_s": "N s",
+                  "flyer_mass_kg": "kg", "target_mass_kg": "kg", "momentum_z_N_s": "N s",
                   "flyer_failed_mass_kg": "kg", "target_failed_mass_kg": "kg",
                   "flyer_melted_mass_kg": "kg", "target_melted_mass_kg": "kg",
                   "flyer_interface_pressure_GPa": "GPa", "target_interface_pressure_GPa": "GPa",
@@ -463,10 +463,10 @@ def debris(snap, case):
         "flyer_cloud_mass_kg": float(flyer_cloud.mass.sum()),
         "target_cloud_mass_kg": float(target_cloud.mass.sum()),
         "ejecta_mass_kg": float(sum(p.mass.sum() for p in ejecta)),
-        "flyer_cloud_momentum_z": float(flyer_cloud.mass @ flyer_cloud.v[:, 1]),
-        "target_cloud_momentum_z": float(target_cloud.mass @ target_cloud.v[:, 1]),
+        "flyer_cloud_momentum_z_N_s": float(flyer_cloud.mass @ flyer_cloud.v[:, 1]),
+        "target_cloud_momentum_z_N_s": float(target_cloud.mass @ target_cloud.v[:, 1]),
         "flyer_mass_kg": float(flyer.mass.sum()), "target_mass_kg": float(target.mass.sum()),
-        "momentum_z": _momentum_z(snap)})
+        "momentum_z_N_s": _momentum_z(snap)})
     for body, index in (("flyer", case.flyer), ("target", case.target)):
         state = state_masses(snap, index)
         record[f"{body}_failed_mass_kg"] = state["failed_mass_kg"]

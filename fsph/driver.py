@@ -2,6 +2,7 @@
 interval, write history, snapshots and summary, report metrics."""
 
 import json
+import math
 import shutil
 import signal
 import sys
@@ -93,10 +94,10 @@ def _format_debris(metrics, comparison):
         if cmp:
             text += _reference_text(cmp)
         lines.append(text)
-    lines.append(f"  cloud mass [g] / axial momentum [kg m/s]: {rec['flyer']} "
-                 f"{1e3 * rec['flyer_cloud_mass_kg']:.4g} / {rec['flyer_cloud_momentum_z']:.4g}, "
+    lines.append(f"  cloud mass [g] / axial momentum [N s]: {rec['flyer']} "
+                 f"{1e3 * rec['flyer_cloud_mass_kg']:.4g} / {rec['flyer_cloud_momentum_z_N_s']:.4g}, "
                  f"{rec['target']} {1e3 * rec['target_cloud_mass_kg']:.4g} / "
-                 f"{rec['target_cloud_momentum_z']:.4g}; ejecta {1e3 * rec['ejecta_mass_kg']:.4g} g")
+                 f"{rec['target_cloud_momentum_z_N_s']:.4g}; ejecta {1e3 * rec['ejecta_mass_kg']:.4g} g")
     match = metrics.get("impedance_match")
     if match:
         text = (f"  impedance match: {match['pressure_GPa']:.4g} GPa, "
@@ -346,14 +347,14 @@ _CARRIED = {"metrics": "the &metrics group", "max_energy_error": "a number",
             "plane_force_peak": "[force, time]", "body_force_peaks": "{body: [force, time]}",
             "gauge_peaks": "{gauge: {kind, point, peak_pressure}}",
             "last_row": "null or {velocity_time, plane_impulse_z, body_momentum_z}",
-            "series": "a list of snapshot records"}
+            "series": "a list of snapshot records with the same keys"}
 
 
 def _carried_books_fit(books, writer):
     """The name of the first of the checkpoint's books that is missing or
     not of its form (_CARRIED) for this run's bodies, None if all fit."""
     def number(v):
-        return isinstance(v, (int, float)) and not isinstance(v, bool)
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
     def pair(v):
         return isinstance(v, list) and len(v) == 2 and all(number(x) for x in v)
@@ -377,8 +378,10 @@ def _carried_books_fit(books, writer):
                  or (isinstance(row["body_momentum_z"], list)
                      and len(row["body_momentum_z"]) == len(writer.body_names)
                      and all(number(v) for v in row["body_momentum_z"])))),
+        # records of one form: summary.json's series are columns of them
         "series": isinstance(books.get("series"), list)
-        and all(isinstance(r, dict) for r in books["series"]),
+        and all(isinstance(r, dict) for r in books["series"])
+        and len({tuple(sorted(r)) for r in books["series"]}) <= 1,
     }
     return next((key for key, ok in fits.items() if not ok), None)
 

@@ -355,9 +355,9 @@ def perforation(snap, projectile, target, direction=-1.0):
     along = direction * velocity
     return {"velocity_z_m_s": velocity, "residual_velocity_m_s": max(along, 0.0),
             "rebounded": bool(along < 0.0),
-            "momentum_z": float(total),
-            "penetration_depth_max_mm": float(snap.get("contact_penetration", 0.0) * 1e3),
-            "penetration_relative_max": float(snap.get("contact_penetration_relative", 0.0)),
+            "momentum_z_N_s": float(total),
+            "contact_overlap_max_mm": float(snap.get("contact_penetration", 0.0) * 1e3),
+            "contact_overlap_relative_max": float(snap.get("contact_penetration_relative", 0.0)),
             "penetration_mm": float((top0 - tip) * 1e3),
             "exited": _exited(snap, projectile, direction, top0, bottom0),
             "hole_diameter_mm": float(hole * 1e3) if np.isfinite(hole) else None,

@@ -193,13 +193,13 @@ def test_masses_and_momenta_of_the_clouds():
     """Cloud masses and axial momenta by body, the ejecta's mass, each
     body's total mass and the momentum of everything."""
     rec = debris(_debris_set(), _case())
-    assert rec["flyer_cloud_momentum_z"] == pytest.approx(100 * 3e-5 * -5000.0, rel=1e-12)
-    assert rec["target_cloud_momentum_z"] == pytest.approx(150e-6 * -7000.0, rel=1e-12)
+    assert rec["flyer_cloud_momentum_z_N_s"] == pytest.approx(100 * 3e-5 * -5000.0, rel=1e-12)
+    assert rec["target_cloud_momentum_z_N_s"] == pytest.approx(150e-6 * -7000.0, rel=1e-12)
     assert rec["ejecta_mass_kg"] == pytest.approx(10e-6 + 3e-5, rel=1e-12)
     assert rec["flyer_mass_kg"] == pytest.approx(102 * 3e-5, rel=1e-12)
     assert rec["target_mass_kg"] == pytest.approx(N_COLUMNS * N_ROWS * 1e-6, rel=1e-12)
     total = 101 * 3e-5 * -5000.0 + 3e-5 * 300.0 + 150e-6 * -7000.0 + 10e-6 * 1000.0
-    assert rec["momentum_z"] == pytest.approx(total, rel=1e-12)
+    assert rec["momentum_z_N_s"] == pytest.approx(total, rel=1e-12)
 
 
 def test_ejecta_height_counts_only_material_moving_back():
@@ -443,7 +443,7 @@ def test_coarse_run_keeps_mass_exactly_and_momentum(coarse):
         assert np.abs(mass / mass[0] - 1.0).max() < 1e-13
     assert series["flyer_mass_kg"][0] == pytest.approx(8930.0 * np.pi * 5.565e-3**2 * 3.45e-3,
                                                        rel=1e-3)
-    momentum = np.array(series["momentum_z"])
+    momentum = np.array(series["momentum_z_N_s"])
     assert momentum[0] == pytest.approx(series["flyer_mass_kg"][0] * -5550.0, rel=1e-12)
     assert np.abs(momentum / momentum[0] - 1.0).max() < 5e-4
 

@@ -1,6 +1,8 @@
 """Checkpoint and restart: a run restarted from a checkpoint continues bit
 for bit like the uninterrupted run, across conversion events."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -467,6 +469,18 @@ def _replace(h5, name, values):
     h5[name] = values
 
 
+def _books_with(h5, **changes):
+    """Books of the form a run's checkpoint holds for the short Taylor
+    deck's one body (no history row, no series yet), with `changes` made,
+    as /books JSON."""
+    body = json.loads(h5.attrs["deck"])["body"][0]["name"]
+    books = {"metrics": {}, "max_energy_error": 0.0, "max_energy_error_time": 0.0,
+             "plane_force_peak": [0.0, 0.0], "body_force_peaks": {body: [0.0, 0.0]},
+             "gauge_peaks": {}, "last_row": None, "series": []}
+    books.update(changes)
+    return json.dumps(books)
+
+
 #: other damage: (what it does to the open checkpoint, what the line says)
 CONN = "state/elements/conn"
 MALFORMED = {
@@ -491,7 +505,15 @@ MALFORMED = {
     "books_incomplete": (lambda h5: _replace(h5, "books", '{"max_energy_error": 0.0}'),
                          ["dataset /books", "the books of the run before the checkpoint, 'metrics'"]),
     "format_5": (lambda h5: h5.attrs.__setitem__("format", 5),
-                 ["of format 6 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
+                 ["of format 7 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
+    "format_6": (lambda h5: h5.attrs.__setitem__("format", 6),
+                 ["of format 7 (format 6 was written by an earlier fsph and lacks the metric series keys",
+                  "got 6"]),
+    "books_nan": (lambda h5: _replace(h5, "books", _books_with(h5, max_energy_error=float("nan"))),
+                  ["dataset /books", "'max_energy_error' a number"]),
+    "books_series_mixed": (lambda h5: _replace(h5, "books", _books_with(
+        h5, series=[{"time_us": 1.0, "momentum_z": 0.0}, {"time_us": 2.0, "momentum_z_N_s": 0.0}])),
+                           ["dataset /books", "'series' a list of snapshot records with the same keys"]),
 }
 
 

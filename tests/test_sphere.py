@@ -118,7 +118,7 @@ def test_sphere_onto_a_bumper_keeps_mass_momentum_and_energy(tmp_path):
     rho0 = 2703.0
     volume = mesh.ring_volume(mesh.sphere(3.175e-3, 8))
     assert series["flyer_mass_kg"][0] == pytest.approx(rho0 * volume, rel=1e-12)
-    momentum = np.array(series["momentum_z"])
+    momentum = np.array(series["momentum_z_N_s"])
     assert momentum[0] == pytest.approx(rho0 * volume * -6500.0, rel=1e-12)
     assert np.abs(momentum / momentum[0] - 1.0).max() < 1e-6
     assert "impedance_match" not in summary["metrics"]
