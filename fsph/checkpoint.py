@@ -29,7 +29,8 @@ from .simulation import STATUS_OK, _api
 #: dataset (/books: also the peak forces, the last history row and the
 #: snapshot series, which outgrow an attribute); 7: the momenta and the
 #: contact's overlap of the metric series under keys naming their units
-#: (momentum_z_N_s, contact_overlap_max_mm)
+#: (momentum_z_N_s, contact_overlap_max_mm), and the gauges' states in
+#: the books (a material gauge's particle and switch time)
 FORMAT = 7
 
 #: What each format before FORMAT lacks: a restart from it is refused
@@ -430,8 +431,9 @@ def _read_lists(h5, path, sizes):
     group = _group(h5, path, "lists")
     skin, scale = (_attribute(group, path, name, "real").item() for name in _LIST_SCALARS[:2])
     builds, uses, n = (_attribute(group, path, name, "int").item() for name in _LIST_SCALARS[2:])
-    if not (skin >= 0.0 and 1.0 <= scale <= 3.0 and builds >= 0 and uses >= 0 and n in (0, np_)):
-        raise CheckpointError(path, "group /lists", f"a skin >= 0, its scale in [1, 3], counts "
+    scale_max = float(_api.get_skin_scale_max())
+    if not (skin >= 0.0 and 1.0 <= scale <= scale_max and builds >= 0 and uses >= 0 and n in (0, np_)):
+        raise CheckpointError(path, "group /lists", f"a skin >= 0, its scale in [1, {scale_max:g}], counts "
                               f">= 0 and 0 or {np_} particles listed",
                               dict(zip(_LIST_SCALARS, [skin, scale, builds, uses, n])))
     shapes = ((2, n), (2, nn if n else 0), (ne if n else 0,), (None,))
@@ -505,10 +507,9 @@ def restore(sim, path):
     shape, kind, finite values, indices within what they index): a
     CheckpointError names the file, the dataset or attribute and what was
     expected, and nothing of the checkpoint reaches the solver. The
-    gauges are not in a checkpoint: they are located again from the deck
-    (Simulation.locate_gauges), so a material gauge whose element had
-    converted follows the particle that started nearest its point, and its
-    switch time is not carried over. Returns the books given to save."""
+    gauges are located again from the deck (Simulation.locate_gauges);
+    what a material gauge followed is in the books (the driver's
+    _resume_books gives it back). Returns the books given to save."""
     path = Path(path)
     try:
         with h5py.File(path, "r") as h5:

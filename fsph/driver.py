@@ -314,43 +314,49 @@ def _metrics_identity(deck):
     return json.loads(json.dumps(deck["metrics"], default=repr))
 
 
-def _books_to_carry(writer, series, deck):
+def _books_to_carry(writer, series, sim):
     """What a restart carries on from the run before its checkpoint (the
     checkpoint's books, JSON): the largest energy error and its time, the
     peak axial forces of the rigid planes and of each body with their
-    times [N, s], each gauge's peak pressure with its time [Pa, s], the
-    last history row the forces are rates from (its time [s], the planes'
+    times [N, s], each gauge's peak pressure with its time [Pa, s] and what
+    it follows (Simulation.gauge_state of `sim`: a material gauge's
+    particle since its switch time), the last history row the forces are rates from (its time [s], the planes'
     impulse and each body's axial momentum [N s], at the time of its
     half-step velocities, velocity_time [s]) and the snapshot series
     (metrics.snapshot_series records) with the &metrics group it was
     recorded under, so that summary.json covers the whole run."""
     plane, bodies = writer.last_rates_row()
+    states = sim.gauge_state()
     return {
-        "metrics": _metrics_identity(deck),
+        "metrics": _metrics_identity(sim.deck),
         "max_energy_error": writer.max_energy_error,
         "max_energy_error_time": writer.max_energy_error_time,
         "plane_force_peak": [writer.plane_force_peak, writer.plane_force_peak_time],
         "body_force_peaks": {name: list(peak) for name, peak in zip(writer.body_names,
                                                                    writer.body_force_peak)},
-        "gauge_peaks": {g["name"]: {"kind": g["kind"], "point": [float(v) for v in g["point"]],
-                                    "peak_pressure": list(peak)}
-                        for g, peak in zip(writer.gauges, writer.gauge_peak)},
+        "gauges": {g["name"]: {"kind": g["kind"], "point": [float(v) for v in g["point"]],
+                               "peak_pressure": list(peak),
+                               **{key: states[g["name"]][key] for key in _GAUGE_STATE}}
+                   for g, peak in zip(writer.gauges, writer.gauge_peak)},
         "last_row": None if plane is None else {
             "velocity_time": float(plane[0]), "plane_impulse_z": float(plane[1]),
             "body_momentum_z": None if bodies is None else [float(v) for v in bodies[1]]},
         "series": series}
 
 
+#: What a checkpoint's books keep of each gauge's state (Simulation.gauge_state).
+_GAUGE_STATE = ("on", "index", "switch_time", "lost_time")
+
 #: The books a restart carries on (_books_to_carry), with what each must be.
 _CARRIED = {"metrics": "the &metrics group", "max_energy_error": "a number",
             "max_energy_error_time": "a number",
             "plane_force_peak": "[force, time]", "body_force_peaks": "{body: [force, time]}",
-            "gauge_peaks": "{gauge: {kind, point, peak_pressure}}",
+            "gauges": "{gauge: {kind, point, peak_pressure, on, index, switch_time, lost_time}}",
             "last_row": "null or {velocity_time, plane_impulse_z, body_momentum_z}",
             "series": "a list of snapshot records with the same keys"}
 
 
-def _carried_books_fit(books, writer):
+def _carried_books_fit(books, body_names):
     """The name of the first of the checkpoint's books that is missing or
     not of its form (_CARRIED) for this run's bodies, None if all fit."""
     def number(v):
@@ -359,7 +365,7 @@ def _carried_books_fit(books, writer):
     def pair(v):
         return isinstance(v, list) and len(v) == 2 and all(number(x) for x in v)
 
-    gauges = books.get("gauge_peaks")
+    gauges = books.get("gauges")
     row = books.get("last_row")
     fits = {
         "metrics": isinstance(books.get("metrics"), dict),
@@ -367,16 +373,19 @@ def _carried_books_fit(books, writer):
         "max_energy_error_time": number(books.get("max_energy_error_time")),
         "plane_force_peak": pair(books.get("plane_force_peak")),
         "body_force_peaks": isinstance(books.get("body_force_peaks"), dict)
-        and all(pair(books["body_force_peaks"].get(name)) for name in writer.body_names),
-        "gauge_peaks": isinstance(gauges, dict) and all(
+        and all(pair(books["body_force_peaks"].get(name)) for name in body_names),
+        "gauges": isinstance(gauges, dict) and all(
             isinstance(g, dict) and isinstance(g.get("peak_pressure"), list)
-            and len(g["peak_pressure"]) == 2 for g in gauges.values()),
+            and len(g["peak_pressure"]) == 2 and g.get("on") in layouts.GAUGE_SOURCES
+            and isinstance(g.get("index"), int) and not isinstance(g["index"], bool)
+            and all(g.get(key) is None or number(g[key]) for key in ("switch_time", "lost_time"))
+            for g in gauges.values()),
         "last_row": row is None or (
             isinstance(row, dict) and number(row.get("velocity_time"))
             and number(row.get("plane_impulse_z"))
             and (row.get("body_momentum_z") is None
                  or (isinstance(row["body_momentum_z"], list)
-                     and len(row["body_momentum_z"]) == len(writer.body_names)
+                     and len(row["body_momentum_z"]) == len(body_names)
                      and all(number(v) for v in row["body_momentum_z"])))),
         # records of one form: summary.json's series are columns of them
         "series": isinstance(books.get("series"), list)
@@ -386,33 +395,60 @@ def _carried_books_fit(books, writer):
     return next((key for key, ok in fits.items() if not ok), None)
 
 
-def _carry_on(writer, books, restart, deck):
-    """Put the books of the run before the checkpoint `restart` into
-    `writer` (_books_to_carry); returns its snapshot series, None where
-    the deck's &metrics differs from the one it was recorded under (a
-    restart may change &metrics: the series then begins at the restart).
-    A gauge's peak carries on where the deck has a gauge of that name,
-    kind and point (a restart may change the gauges). Books from a
-    checkpoint written without them (checkpoint.save through the Python
-    API: no outputs before it) are empty and not read."""
-    bad = _carried_books_fit(books, writer)
+def _resume_books(books, restart, sim):
+    """Check the books of the run before the checkpoint `restart`
+    (_books_to_carry) and give `sim` what of them it holds: a gauge
+    carries on where the deck has a gauge of that name, kind and point (a
+    restart may change the gauges), and a material gauge follows again
+    what it followed (the particle its element turned into, since when).
+    Before the output folder is touched: a checkpoint refused leaves it
+    as it was. Books from a checkpoint written without them
+    (checkpoint.save through the Python API: no outputs before it) are
+    empty and not read."""
+    if not books:
+        return
+    bad = _carried_books_fit(books, sim.body_names)
     if bad:
         raise CheckpointError(restart, "dataset /books", f"the books of the run before the "
                               f"checkpoint, '{bad}' {_CARRIED[bad]}", books.get(bad))
+    states = {g["name"]: books["gauges"][g["name"]] for g in sim.deck["gauge"]
+              if _same_gauge(books["gauges"].get(g["name"], {}), g)}
+    try:
+        sim.resume_gauges(states)
+    except FsphError:
+        raise CheckpointError(restart, "dataset /books", "gauges that follow particles of their "
+                              "own bodies in this checkpoint's state",
+                              {name: {key: s[key] for key in _GAUGE_STATE}
+                               for name, s in states.items()}) from None
+
+
+def _same_gauge(before, gauge):
+    """Whether the books' gauge `before` is the deck's `gauge` (its kind
+    and point)."""
+    return [before.get("kind"), before.get("point")] == [gauge["kind"], [float(v) for v in gauge["point"]]]
+
+
+def _carry_on(writer, books, sim):
+    """Put the books of the run before the checkpoint, checked
+    (_resume_books), into `writer`: the largest energy error, the peak
+    forces and gauge pressures, the last history row; returns its
+    snapshot series, None where the deck's &metrics differs from the one
+    it was recorded under (a restart may change &metrics: the series then
+    begins at the restart)."""
     writer.max_energy_error = books["max_energy_error"]
     writer.max_energy_error_time = books["max_energy_error_time"]
     writer.plane_force_peak, writer.plane_force_peak_time = books["plane_force_peak"]
     writer.body_force_peak = [tuple(books["body_force_peaks"][name]) for name in writer.body_names]
     for g, gauge in enumerate(writer.gauges):
-        before = books["gauge_peaks"].get(gauge["name"], {})
-        if [before.get("kind"), before.get("point")] == [gauge["kind"], [float(v) for v in gauge["point"]]]:
+        before = books["gauges"].get(gauge["name"], {})
+        if _same_gauge(before, gauge):
             writer.gauge_peak[g] = tuple(before["peak_pressure"])
     row = books["last_row"]
     if row is not None:
         # the forces of the first rows after the restart are rates from this row
         writer.continue_rates_from(row["velocity_time"], row["plane_impulse_z"],
                                    row["body_momentum_z"])
-    return books["series"] if books["metrics"] == _metrics_identity(deck) else None
+    return books["series"] if books["metrics"] == _metrics_identity(sim.deck) else None
 
 
 def _set_up(deck_path, outdir, restart):
@@ -428,6 +464,7 @@ def _set_up(deck_path, outdir, restart):
     books = {}
     if restart is not None:
         outdir, books = _restart(sim, deck, restart, outdir)
+        _resume_books(books, restart, sim)
     estimate.check_reachable(sim)
     outdir = Path(outdir) if outdir else Path("out") / deck_path.stem
     lock = FolderLock(outdir)
@@ -441,7 +478,7 @@ def _set_up(deck_path, outdir, restart):
         lock.release()
         raise
     writer.energy0 = sim.initial_energy
-    series = _carry_on(writer, books, restart, deck) if books else None
+    series = _carry_on(writer, books, sim) if books else None
     return _Setup(deck_path, deck, reference, why, outdir, lock, sim, writer,
                   references.run_inputs(deck_text, reference), series)
 
@@ -556,8 +593,7 @@ class _Checkpoints:
     def save(self, sim):
         # the writer's books first take the history up to this cycle
         _drain_history(sim, self.writer)
-        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series,
-                                                               sim.deck))
+        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series, sim))
         self.last = wallclock.perf_counter()
 
 

@@ -465,6 +465,33 @@ class Simulation:
                        "lost_time": float(lost[k]) if lost[k] >= 0.0 else None}
                 for k, name in enumerate(self.gauge_names)}
 
+    def resume_gauges(self, states):
+        """A restart: the material gauges named in `states` (name: a
+        state as gauge_state gives it) that had left their elements when
+        the checkpoint was written follow again what they followed, a
+        particle since its switch_time or nothing since its lost_time,
+        in place of what the restart located in the initial
+        configuration. FsphError where a state does not fit the run (a
+        particle index beyond its particles or of another body)."""
+        n = len(self.gauge_names)
+        if n == 0:
+            return
+        kinds = {g["name"]: g["kind"] for g in self.deck["gauge"]}
+        on, index = np.full(n, -1, dtype=np.int32), np.zeros(n, dtype=np.int32)
+        switch, lost = np.full(n, -1.0), np.full(n, -1.0)
+        for k, name in enumerate(self.gauge_names):
+            state = states.get(name)
+            if state is None or kinds[name] != "material" or state["on"] == "element":
+                continue
+            if state["on"] == "nothing" and state["lost_time"] is None:
+                continue                      # outside every body from the start
+            on[k] = layouts.GAUGE_SOURCES.index(state["on"])
+            index[k] = fortran_index(state["index"]) if state["on"] == "particle" else 0
+            switch[k] = -1.0 if state["switch_time"] is None else state["switch_time"]
+            lost[k] = -1.0 if state["lost_time"] is None else state["lost_time"]
+        if _api.resume_gauges(self._run, on, index, switch, lost) != STATUS_OK:
+            raise FsphError("gauge states that do not fit this run's particles")
+
     def drain_history(self):
         """Time-history records (k, len(fsph.layouts.HISTORY_COLUMNS))
         recorded by the cycle since the last call: time [s], cycle, dt [s],

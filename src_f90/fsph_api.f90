@@ -18,11 +18,11 @@ module fsph_api
   public :: set_conversion, set_contact, set_erosion, get_erosion_stats, get_debris_count
   public :: get_contact_stats, get_conversion_stats, begin_checkpoint, checkpoint_sizes, get_real_state
   public :: get_int_state, set_real_state, set_int_state, get_scalar_state, restore_begin, restore_end
-  public :: get_list_sizes, get_list_books, set_list_books
+  public :: get_skin_scale_max, get_list_sizes, get_list_books, set_list_books
   public :: set_formulation
   public :: kernel_values, get_list_rebuilds, set_materials, set_mesh, add_rigid_plane, initialise, advance
   public :: get_sizes, get_snapshot, get_snapshot_scalars, get_clock, get_energy_budget, history_count
-  public :: drain_history, get_body_history, set_gauges, get_gauge_history, get_gauge_state
+  public :: drain_history, get_body_history, set_gauges, get_gauge_history, get_gauge_state, resume_gauges
   public :: tlsph_neighbour_count, tlsph_neighbours, tlsph_kernel_gradients, tlsph_correction
   public :: tlsph_scalar_gradient, tlsph_deformation, tlsph_piola, tlsph_ring_forces, tlsph_stencil
 
@@ -537,6 +537,14 @@ contains
     call finish_restore(sim)
   end subroutine restore_end
 
+  !> The largest scale of the lists' skin over the deck's (fsph_verlet
+  !> skin_scale_max) [-]: the range a checkpoint's books are checked in.
+  subroutine get_skin_scale_max(scale_max)
+    use fsph_verlet, only: skin_scale_max
+    real(wp), intent(out) :: scale_max
+    scale_max = skin_scale_max
+  end subroutine get_skin_scale_max
+
   !> Columns of the neighbour lists' books in a checkpoint (fsph_verlet
   !> listed_sizes): real particles, nodes, elements and coupled nodes at
   !> the lists' build; all 0 where the next cycle rebuilds the lists.
@@ -957,6 +965,39 @@ contains
     switch_time = sim%gauges%switch_time
     lost_time = sim%gauges%lost_time
   end subroutine get_gauge_state
+
+  !> After set_gauges on a restart: the material gauges k with on(k) >= 0
+  !> take up what they followed when the checkpoint was written (as
+  !> get_gauge_state gave it: a particle, 1-based index(k), since
+  !> switch_time(k), or nothing since lost_time(k) [s]; fsph_gauges
+  !> gauges_resume); on(k) = -1 keeps what set_gauges located. ierr
+  !> status_bad_input where a state does not fit (the gauges before it
+  !> taken up).
+  subroutine resume_gauges(run, n, on, index, switch_time, lost_time, ierr)
+    use fsph_gauges, only: gauges_resume
+    use fsph_status, only: status_ok, status_bad_input
+    integer, intent(in) :: run             !< handle of the run (fsph_runs)
+    integer, intent(in) :: n
+    integer, intent(in) :: on(n), index(n)
+    real(wp), intent(in) :: switch_time(n), lost_time(n)
+    integer, intent(out) :: ierr
+    type(simulation_t), pointer :: sim
+    integer, allocatable :: bodies(:)
+    logical :: ok
+    integer :: k
+    sim => run_state(run)
+    ierr = status_bad_input
+    if (n /= sim%gauges%n) return
+    allocate (bodies(sim%particles%n))
+    if (sim%particles%n > 0) bodies = sim%particles%body(1:sim%particles%n)
+    do k = 1, n
+      if (on(k) < 0) cycle
+      call gauges_resume(sim%gauges, k, on(k), index(k), switch_time(k), lost_time(k), size(bodies), &
+                         bodies, ok)
+      if (.not. ok) return
+    end do
+    ierr = status_ok
+  end subroutine resume_gauges
 
   ! ---- total-Lagrangian particles (fsph_tlsph): its kernels on given
   ! arrays, for the tests (no run's state). x0 reference positions (R, Z)

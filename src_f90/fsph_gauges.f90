@@ -51,7 +51,7 @@ module fsph_gauges
 
   public :: gauges_define, gauges_unlocate, gauges_locate_elements, gauges_locate_particles, gauges_track, gauges_refind
   public :: gauges_switch, gauges_lose, gauges_renumber, gauges_begin_record, gauges_find_elements, gauges_find_particles
-  public :: gauges_element_rows, gauges_particle_rows
+  public :: gauges_element_rows, gauges_particle_rows, gauges_resume
   public :: barycentric_weights, containing_element, nearest_particle, gauge_row
 
 contains
@@ -310,6 +310,38 @@ contains
       if (g%kind(k) == gauge_kind_material .and. g%on(k) == gauge_on_particle) g%index(k) = place(g%index(k))
     end do
   end subroutine gauges_renumber
+
+  !> A restart: material gauge k takes up again what it followed when the
+  !> checkpoint was written, in place of what gauges_locate_* found in the
+  !> initial configuration: particle ip (of np, bodies part_body) since
+  !> switch_time [s], or nothing since lost_time [s] (its element eroded,
+  !> or converted with no particle of its body left). ok false, nothing
+  !> changed, where that does not fit: not a material gauge, a particle
+  !> beyond the particles or of another body, a time below 0.
+  pure subroutine gauges_resume(g, k, on, ip, switch_time, lost_time, np, part_body, ok)
+    type(gauge_set_t), intent(inout) :: g
+    integer, intent(in) :: k, on, ip, np, part_body(np)
+    real(wp), intent(in) :: switch_time, lost_time
+    logical, intent(out) :: ok
+    ok = .false.
+    if (k < 1 .or. k > g%n) return
+    if (g%kind(k) /= gauge_kind_material) return
+    select case (on)
+    case (gauge_on_particle)
+      if (ip < 1 .or. ip > np .or. switch_time < 0.0_wp) return
+      if (part_body(ip) /= g%body(k)) return
+      g%on(k) = gauge_on_particle
+      g%index(k) = ip
+      g%switch_time(k) = switch_time
+    case (gauge_on_nothing)
+      if (lost_time < 0.0_wp) return
+      g%switch_time(k) = max(switch_time, -1.0_wp)
+      call lose(g, k, lost_time)
+    case default
+      return
+    end select
+    ok = .true.
+  end subroutine gauges_resume
 
   !> The gauges whose element was deleted (gone; erosion) are in no
   !> material from `time` [s] on.

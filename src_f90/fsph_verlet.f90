@@ -31,7 +31,7 @@ module fsph_verlet
   private
 
   public :: lists_still_valid, record_lists, invalidate_lists, list_skin, adapt_skin
-  public :: listed_sizes, restore_lists, restored_skin
+  public :: listed_sizes, restore_lists, restored_skin, skin_scale_max
 
   !> Bounds of the skin's scale over the deck's `neighbour_skin` [-], the
   !> lives (cycles) of lists below and above which it grows and shrinks,

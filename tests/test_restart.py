@@ -207,7 +207,9 @@ def test_a_restarted_run_reports_what_the_whole_run_does(tmp_path):
     from fsph.driver import run
     deck = _short_taylor(tmp_path, "every", "  checkpoint_cycles = 100\n")
     deck.write_text(deck.read_text() + "&gauge\n  name = 'face'\n  kind = 'fixed'\n"
-                                       "  point = 1.0e-3, 1.0e-3\n/\n")
+                                       "  point = 1.0e-3, 1.0e-3\n/\n"
+                                       "&gauge\n  name = 'edge'\n  kind = 'material'\n"
+                                       "  point = 3.5e-3, 0.3e-3\n/\n")
     full, seen = _run_watching_checkpoints(deck, tmp_path / "full", keep=tmp_path)
     assert seen[0] == 100 and full["status"] == "completed"
     restored = fsph.Simulation.from_deck(deck)
@@ -219,6 +221,10 @@ def test_a_restarted_run_reports_what_the_whole_run_does(tmp_path):
     assert full["rigid_planes"]["peak_force_time_s"] < restored.time
     assert full["bodies"]["rod"]["peak_force_time_s"] < restored.time
     assert full["gauges"]["face"]["peak_pressure_time_s"] < restored.time
+    # the material gauge's element converted before the checkpoint: it
+    # follows the particle the whole run follows, from the same time on
+    assert full["gauges"]["edge"]["switch_time_s"] < restored.time
+    assert resumed["gauges"]["edge"] == full["gauges"]["edge"]
     assert 0 < restored.list_rebuilds < full["neighbour_list_builds"]
     for part in ("rigid_planes", ("bodies", "rod"), ("gauges", "face"), "energy"):
         a, b = full, resumed
@@ -236,6 +242,28 @@ def test_a_restarted_run_reports_what_the_whole_run_does(tmp_path):
     assert whole["history/plane_force_z"][first] != 0.0
     for name in whole:
         assert np.array_equal(whole[name][first:], after[name], equal_nan=True), name
+
+
+def test_a_gauge_state_that_does_not_fit_is_refused(tmp_path, capsys):
+    """A checkpoint whose books put a material gauge on a particle the
+    state does not have, or on one of another body, is refused with one
+    line (exit 2); unchanged, it restarts."""
+    import h5py
+    deck = _short_taylor(tmp_path, "gauge", "  checkpoint_cycles = 100\n")
+    deck.write_text(deck.read_text() + "&gauge\n  name = 'edge'\n  kind = 'material'\n"
+                                       "  point = 3.5e-3, 0.3e-3\n/\n")
+    _, seen = _run_watching_checkpoints(deck, tmp_path / "full", keep=tmp_path)
+    original = tmp_path / f"ckpt_{seen[0]}.h5"
+    with h5py.File(original) as h5:
+        books = json.loads(h5["books"][()])
+    assert books["gauges"]["edge"]["on"] == "particle"
+    for index in (10**6, -5):
+        books["gauges"]["edge"]["index"] = index
+        path = _copy(original, tmp_path)
+        with h5py.File(path, "r+") as h5:
+            _replace(h5, "books", json.dumps(books))
+        line = _restart_refused(deck, path, tmp_path, capsys)
+        assert "dataset /books" in line and "gauges that follow particles" in line and "edge" in line
 
 
 def test_a_restarted_debris_run_keeps_its_series_and_measured_state(tmp_path):
@@ -476,7 +504,7 @@ def _books_with(h5, **changes):
     body = json.loads(h5.attrs["deck"])["body"][0]["name"]
     books = {"metrics": {}, "max_energy_error": 0.0, "max_energy_error_time": 0.0,
              "plane_force_peak": [0.0, 0.0], "body_force_peaks": {body: [0.0, 0.0]},
-             "gauge_peaks": {}, "last_row": None, "series": []}
+             "gauges": {}, "last_row": None, "series": []}
     books.update(changes)
     return json.dumps(books)
 
