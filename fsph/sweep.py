@@ -634,7 +634,11 @@ def _client(scheduler, workers):
     (closed afterwards). The local scheduler has no dashboard, and its HTTP
     server (which it starts all the same) listens on a free port of
     127.0.0.1 rather than 8787, so that sweeps running side by side do not
-    warn of the port in use."""
+    warn of the port in use. The local cluster's logs below ERROR stay
+    quiet after it has closed too: its INFO lines while it stops (a
+    worker's "Batched Comm Closed" when the machine is loaded) would
+    reach stderr once the cluster's own silencing has ended, so the
+    level of the 'distributed' logger stays at ERROR."""
     from distributed import Client, LocalCluster
     if scheduler:
         try:
@@ -646,6 +650,7 @@ def _client(scheduler, workers):
             yield client
         return
     import logging
+    logging.getLogger("distributed").setLevel(logging.ERROR)
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=False,
                       dashboard_address=None, silence_logs=logging.ERROR,
                       scheduler_kwargs={"dashboard": False,
