@@ -631,7 +631,9 @@ SCHEMA = {
         "containing the point (nodal velocities interpolated), else of the nearest particle "
         "within its kernel support (no smoothing); where neither, inside = 0 and the fields "
         "are NaN (docs/method.md, Gauges). Gauges only read the state; a restart locates "
-        "them again from the deck (they may be added or changed on restart).",
+        "them again from the deck (they may be added or changed on restart), and a gauge "
+        "of the same name, kind and point carries on: its peak, and for a material gauge "
+        "the particle it followed and its switch time.",
         {
             "name": Key("str", REQUIRED, "-", "Gauge name, unique, without '/' (an HDF5 group)."),
             "point": Key("float2", REQUIRED, "m",
