@@ -223,19 +223,28 @@ contains
   !> f = |div v|/(|div v| + |D'| + 1e-4 c/h), from the strain rates d
   !> (rr, zz, rz, tt) of the particle's last update [1/s]: 1 in a uniform
   !> compression, about 0.55 in a uniaxial-strain shock, 0 in an
-  !> isochoric (plastic) flow.
+  !> isochoric (plastic) flow, and 0 for a particle with no strain rate and
+  !> no sound speed (a molten particle expanded until its EOS gives none:
+  !> 0/0 there made the switch, and the viscosity of the particle's pairs,
+  !> NaN: a copper particle left alone on the axis, at the spall floor, in
+  !> case 1 of the debris clouds at 0.2 mm with &sph artificial_stress 0.3).
   subroutine compression_switch(n, d, c, h, f)
     integer, intent(in) :: n
     real(wp), intent(in) :: d(4, n), c(n), h(n)
     real(wp), intent(out) :: f(n)
     integer :: i
-    real(wp) :: div, dev
-    !$omp parallel do default(none) shared(n, d, c, h, f) private(i, div, dev)
+    real(wp) :: div, dev, den
+    !$omp parallel do default(none) shared(n, d, c, h, f) private(i, div, dev, den)
     do i = 1, n
       div = d(1, i) + d(2, i) + d(4, i)
       dev = sqrt((d(1, i) - div/3.0_wp)**2 + (d(2, i) - div/3.0_wp)**2 + (d(4, i) - div/3.0_wp)**2 &
                  + 2.0_wp*d(3, i)**2)
-      f(i) = abs(div)/(abs(div) + dev + switch_floor*c(i)/h(i))
+      den = abs(div) + dev + switch_floor*c(i)/h(i)
+      if (den > 0.0_wp) then
+        f(i) = abs(div)/den
+      else
+        f(i) = 0.0_wp
+      end if
     end do
     !$omp end parallel do
   end subroutine compression_switch
