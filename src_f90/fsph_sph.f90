@@ -86,7 +86,7 @@
 !> turned back (artificial_stress). A pair then adds f_ij^n (w_i R_i +
 !> w_j R_j) to its pair stress S, in the force and in the energy equation
 !> alike (each particle's own share w R, as its stress's), with f_ij =
-!> W(r_ij, h_ij)/W(dp_ij, h_ij) and n = 4, eps = 0.3 GMS's values for
+!> W(r_ij, h_ij)/W(dp_ij, h_ij); n = 4 and eps = 0.3 are Gray et al.'s for
 !> solids. dp is the particles' initial spacing: every particle's h is
 !> alpha_h times its spacing at set-up (the lattice's, or sqrt of the area
 !> of the element it was made from), and h never changes, so dp_ij =
