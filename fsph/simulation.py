@@ -127,7 +127,7 @@ class Simulation:
         _api.set_sph_control(self._run, sph["c_q"], sph["c_l"], sph["hourglass"],
                              layouts.index_of([n for n, _ in layouts.PARTICLE_CONTACTS], sph["particle_contact"]),
                              sph["contact_penalty"], touch, slope, sph["debris_density"], sph["neighbour_skin"],
-                             sph["eigenerosion_factor"], sph["spatial_order_min"])
+                             sph["eigenerosion_factor"], sph["spatial_order_min"], sph["artificial_stress"])
         props, strength, eos = property_table(materials)
         self._call(_api.set_materials(self._run, props, strength, eos), "material table")
 

@@ -153,9 +153,10 @@ contains
   !> filling at touching and its rate per spacing of approach [-]; the
   !> debris density fraction [-]; the neighbour lists' skin as a fraction
   !> of the smallest kernel support (0: lists rebuilt every cycle) [-]; the
-  !> fewest particles kept in spatial order (0: never; fsph_spatial).
+  !> fewest particles kept in spatial order (0: never; fsph_spatial); the
+  !> coefficient of the artificial stress (0: off; fsph_sph) [-].
   subroutine set_sph_control(run, c_q, c_l, c_hg, particle_contact, contact_penalty, contact_touch, contact_slope, &
-                             debris_ratio, neighbour_skin, eigenerosion_factor, spatial_order_min)
+                             debris_ratio, neighbour_skin, eigenerosion_factor, spatial_order_min, artificial_stress)
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: particle_contact !< contact between particle bodies (fsph.layouts PARTICLE_CONTACTS, 1-based)
@@ -165,6 +166,7 @@ contains
     real(wp), intent(in) :: neighbour_skin
     real(wp), intent(in) :: eigenerosion_factor !< geometric factor lambda of the eigenerosion release rate [-]
     integer, intent(in) :: spatial_order_min
+    real(wp), intent(in) :: artificial_stress !< coefficient eps of the artificial stress [-]
     sim => run_state(run)
     sim%control%spatial_order_min = spatial_order_min
     sim%control%neighbour_skin = max(neighbour_skin, 0.0_wp)
@@ -172,6 +174,7 @@ contains
     sim%control%sph_c_q = c_q
     sim%control%sph_c_l = c_l
     sim%control%sph_c_hg = c_hg
+    sim%control%sph_artificial_stress = max(artificial_stress, 0.0_wp)
     sim%control%particle_contact = particle_contact
     sim%control%contact_penalty = contact_penalty
     sim%control%contact_touch = contact_touch

@@ -11,7 +11,7 @@ module fsph_kernel
   !> Support radius in units of h [-].
   real(wp), parameter, public :: kernel_support = 2.0_wp
 
-  public :: kernel_w, kernel_dwdr, kernel_gradient_factor, in_support
+  public :: kernel_w, kernel_shape, kernel_dwdr, kernel_gradient_factor, in_support
 
 contains
 
@@ -30,6 +30,14 @@ contains
     end if
     w = w*kernel_norm_2d/(h*h)
   end function kernel_w
+
+  !> Shape of the spline, W(q h, h) h^2/kernel_norm_2d at q = dist/h [-]
+  !> (1 at q = 0, 0 from q = 2).
+  pure elemental function kernel_shape(q) result(w)
+    real(wp), intent(in) :: q
+    real(wp) :: w
+    w = merge(1.0_wp - 1.5_wp*q*q + 0.75_wp*q*q*q, 0.25_wp*max(2.0_wp - q, 0.0_wp)**3, q < 1.0_wp)
+  end function kernel_shape
 
   !> dW/d(dist) [1/m^3]; the gradient with respect to x_i of W(|x_i - x_j|)
   !> is kernel_dwdr * (x_i - x_j)/dist.

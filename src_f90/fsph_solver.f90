@@ -26,7 +26,7 @@ module fsph_solver
   use fsph_neighbours, only: build_neighbours
   use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
                       axis_resultant, &
-                      pair_weights, compression_switch
+                      pair_weights, compression_switch, artificial_stress, artificial_reference
   use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
                          mirror_fill_stress, mirror_reaction_z
   use fsph_particles, only: particle_state_update, particle_energy_update, &
@@ -459,10 +459,14 @@ contains
         call timer_start(sim%timers, phase_sph_sums)
         call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
         call compression_switch(n, pt%d, pt%c, pt%h, pt%switch)
+        if (sim%control%sph_artificial_stress > 0.0_wp) &
+          call artificial_stress(n, ntot, pt%n_imag, pt%sig, sim%control%sph_artificial_stress, pt%art_stress)
         call sph_accelerations(n, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                                pt%grad_v, pt%switch, pt%hist(hist_contact_corrected, 1:n), pt%mirror_of, pt%nbr_ptr, &
                                pt%nbr_list, pt%low_ptr, &
                                pt%low_pair, pt%low_other, sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
+                               sim%control%sph_artificial_stress, pt%art_stress, &
+                               artificial_reference(sim%conversion%alpha_h), &
                                pt%acc, pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, &
                                pt%acc_axis)
         ! total-Lagrangian particles: their own forces (no SPH sums)
@@ -557,6 +561,7 @@ contains
       call reserve(pt%pair_hg, 2, size(pt%nbr_list))
       call reserve(pt%pair_work, 3, size(pt%nbr_list))
       call reserve(pt%pair_in, size(pt%nbr_list))
+      call reserve(pt%art_stress, 3, ntot)
       call reserve(pt%cnt_force, 2, size(pt%cnt_list))
       call reserve(pt%acc_axis, n)
       call reserve(pt%cnt_vstar, 2, size(pt%cnt_list))
@@ -878,10 +883,15 @@ contains
         if (pt%n_mirror > 0) call mirror_fill_stress(n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%rho_mid, &
                                                      pt%sig_mid)
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
-        call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%sig_mid, &
+        ! the artificial stress of the mid-step stress, whose work the
+        ! energy equation charges as that of the stress itself
+        if (sim%control%sph_artificial_stress > 0.0_wp) &
+          call artificial_stress(n, ntot, pt%n_imag, pt%sig_mid, sim%control%sph_artificial_stress, pt%art_stress)
+        call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%h, pt%sig_mid, &
                              pt%wgt, pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
                              pt%low_other, &
-                             pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, pt%de, &
+                             pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, sim%control%sph_artificial_stress, &
+                             pt%art_stress, artificial_reference(sim%conversion%alpha_h), pt%pair_work, pt%de, &
                              pt%de_parts)
         pt%de_parts(3, 1:n) = 0.0_wp
         if (total_active(sim%total)) &

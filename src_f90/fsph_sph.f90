@@ -75,16 +75,52 @@
 !> added as 2 pi m_j (w_i + w_j) P_ij to the acceleration (the idea of
 !> hourglass viscosity for under-integrated elements, Flanagan &
 !> Belytschko 1981, IJNME 17:679, applied to the pair sums).
+!>
+!> Artificial stress (&sph artificial_stress = eps > 0; off by default):
+!> the corrective stress of Monaghan 2000 (J. Comput. Phys. 159:290) in
+!> the form for solids of Gray, Monaghan & Swift 2001 (Comput. Methods
+!> Appl. Mech. Engrg. 190:6641) against the tensile instability, by which
+!> particles in tension clump. Per particle, the in-plane stress (rr, zz,
+!> rz) is taken to its principal axes; each tensile principal stress
+!> sigma' > 0 gives R' = -eps sigma' (a compressive one 0), and R is R'
+!> turned back (artificial_stress). A pair then adds f_ij^n (w_i R_i +
+!> w_j R_j) to its pair stress S, in the force and in the energy equation
+!> alike (each particle's own share w R, as its stress's), with f_ij =
+!> W(r_ij, h_ij)/W(dp_ij, h_ij); n = 4 and eps = 0.3 are Gray et al.'s for
+!> solids. dp is the particles' initial spacing: every particle's h is
+!> alpha_h times its spacing at set-up (the lattice's, or sqrt of the area
+!> of the element it was made from), and h never changes, so dp_ij =
+!> h_ij/alpha_h. With alpha_h = 1.3, f^4 is 1 at r = dp, 0.03 at sqrt(2)
+!> dp and 1e-5 at 2 dp, but 10.7 at dp/2 and 23.6 at r -> 0: a repulsion
+!> between particles in tension that grows steeply as they close in below
+!> their spacing (a uniform R on a regular lattice adds no net force).
+!> Where a large plastic strain has squashed the lattice below dp and the
+!> stress turns tensile it drives the particles instead (the foot of a
+!> Taylor rod: docs/method.md); hence off by default. No hoop component:
+!> sigma_tt enters the momentum equation through the particle's own term
+!> -sigma_tt/(rho r), no pair term, and so has no pairing instability; an
+!> artificial R_tt there would act at any spacing (no f_ij) and only take
+!> 30 % off the hoop tension. (The codes found that carry the correction,
+!> plane or 3D, apply it to the components of the pair sums.)
+!> Ghosts (-j) take R_j's odd extension (R_rz reversed, as sigma_rz, and
+!> the ghost's signed weight), so their force, whose work a ghost entry
+!> books as heat from pair_force, and their axial resultant (acc_axis)
+!> include it; mirror images across a plane compute it from their own
+!> mirrored stress. An element's imaginary particle takes no part: the
+!> element is not a particle lattice, and the reaction of its pairs
+!> reaches the nodes through the coupling tractions of the particles'
+!> stress (fsph_coupling), which know nothing of R, so a force there
+!> would have no reaction.
 module fsph_sph
   use fsph_kinds, only: wp, pi, two_pi
-  use fsph_kernel, only: kernel_gradient_factor, in_support
+  use fsph_kernel, only: kernel_gradient_factor, in_support, kernel_shape
   use fsph_ordered, only: merge_minimum
   use fsph_groups, only: root
   implicit none
   private
 
   public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
-  public :: compression_switch, ghost_work, entry_sign, axis_resultant
+  public :: compression_switch, ghost_work, entry_sign, axis_resultant, artificial_stress, artificial_reference
 
   !> Softening of the pairwise strain rate, times h^2 [-].
   real(wp), parameter :: visc_softening = 0.01_wp
@@ -95,6 +131,9 @@ module fsph_sph
   !> Floor of the compression switch's denominator, times c/h (Balsara
   !> 1995 uses 1e-4 c/h) [-].
   real(wp), parameter :: switch_floor = 1.0e-4_wp
+  !> Exponent n of the artificial stress's pair factor f_ij^n (Gray,
+  !> Monaghan & Swift 2001 for solids) [-].
+  integer, parameter :: artificial_exponent = 4
 
 contains
 
@@ -177,6 +216,80 @@ contains
         stot(3)*dvji(2)*grad(1) + stot(2)*dvji(2)*grad(2)
   end function pair_work
 
+  !> Pair artificial stress w_i R_i + w_j R_j (rr, zz, rz; tt 0: no hoop
+  !> component, module header) [Pa m^5/kg^2], for a neighbour seen with
+  !> sign sg (R_rz and w of a ghost change sign; wj is passed with its
+  !> sign), in the layout of pair_stress.
+  pure function pair_artificial(wi, r_i, wj, r_j, sg) result(stot)
+    real(wp), intent(in) :: wi, r_i(3), wj, r_j(3), sg
+    real(wp) :: stot(4)
+    stot(1) = wi*r_i(1) + wj*r_j(1)
+    stot(2) = wi*r_i(2) + wj*r_j(2)
+    stot(3) = wi*r_i(3) + wj*sg*r_j(3)
+    stot(4) = 0.0_wp
+  end function pair_artificial
+
+  !> The artificial stress's pair factor f^n = (W(r, h_ij)/W(dp_ij,
+  !> h_ij))^n [-] of a pair at squared distance dist2 [m^2] with 1/h_ij
+  !> given [1/m]; w_ref = 1/W(dp/h, 1) in units of the kernel's
+  !> normalisation (artificial_reference) [-].
+  pure real(wp) function artificial_factor(dist2, inv_h, w_ref) result(fn)
+    real(wp), intent(in) :: dist2, inv_h, w_ref
+    fn = (kernel_shape(sqrt(dist2)*inv_h)*w_ref)**artificial_exponent
+  end function artificial_factor
+
+  !> 1/W(dp/h, 1) [-], in units of the kernel's normalisation, for
+  !> particles whose smoothing length is alpha_h [-] times their initial
+  !> spacing dp (the reference of artificial_factor).
+  pure real(wp) function artificial_reference(alpha_h) result(w_ref)
+    real(wp), intent(in) :: alpha_h
+    w_ref = 1.0_wp/kernel_shape(1.0_wp/alpha_h)
+  end function artificial_reference
+
+  !> Artificial stress R (rr, zz, rz) [Pa] of a total stress sig (rr, zz,
+  !> rz, tt) [Pa] (module header): in the principal axes of the in-plane
+  !> stress, R' = -eps sigma' where sigma' > 0, else 0, turned back. With
+  !> c, d the mean and half difference of sig_rr and sig_zz and rad =
+  !> sqrt(d^2 + sig_rz^2), the principal stresses are c +- rad, and a
+  !> tensor of principal values r1, r2 on the same axes is
+  !> (r1 + r2)/2 I + (r1 - r2)/(2 rad) (d, -d, sig_rz).
+  pure function tensile_correction(sig, eps) result(r)
+    real(wp), intent(in) :: sig(4), eps
+    real(wp) :: r(3), c, d, rad, r1, r2, mean, slope
+    c = 0.5_wp*(sig(1) + sig(2))
+    d = 0.5_wp*(sig(1) - sig(2))
+    rad = sqrt(d*d + sig(3)*sig(3))
+    r1 = -eps*max(c + rad, 0.0_wp)
+    r2 = -eps*max(c - rad, 0.0_wp)
+    mean = 0.5_wp*(r1 + r2)
+    slope = 0.0_wp
+    if (rad > 0.0_wp) slope = 0.5_wp*(r1 - r2)/rad
+    r(1) = mean + slope*d
+    r(2) = mean - slope*d
+    r(3) = slope*sig(3)
+  end function tensile_correction
+
+  !> Artificial stress R (rr, zz, rz) [Pa] of every entry 1..ntot from the
+  !> total stress sig [Pa] the pair sums use (tensile_correction with the
+  !> coefficient eps [-]); imaginary particles (entries n+1..n+n_imag)
+  !> take none (module header). Mirror images across planes carry their
+  !> mirrored stress, and so their mirrored R.
+  subroutine artificial_stress(n, ntot, n_imag, sig, eps, art)
+    integer, intent(in) :: n, ntot, n_imag
+    real(wp), intent(in) :: sig(4, ntot), eps
+    real(wp), intent(out) :: art(3, ntot)
+    integer :: i
+    !$omp parallel do default(none) shared(n, ntot, n_imag, sig, eps, art) private(i)
+    do i = 1, ntot
+      if (i > n .and. i <= n + n_imag) then
+        art(:, i) = 0.0_wp
+      else
+        art(:, i) = tensile_correction(sig(:, i), eps)
+      end if
+    end do
+    !$omp end parallel do
+  end subroutine artificial_stress
+
   !> Velocity gradient G(a, b) = d v_a / d x_b of entry j, (1, 2) = (r, z),
   !> from the stored (dv_r/dr, dv_z/dr, dv_r/dz, dv_z/dz); a ghost (sg =
   !> -1) has the mirrored gradient (the off-diagonal terms change sign).
@@ -223,19 +336,28 @@ contains
   !> f = |div v|/(|div v| + |D'| + 1e-4 c/h), from the strain rates d
   !> (rr, zz, rz, tt) of the particle's last update [1/s]: 1 in a uniform
   !> compression, about 0.55 in a uniaxial-strain shock, 0 in an
-  !> isochoric (plastic) flow.
+  !> isochoric (plastic) flow, and 0 for a particle with no strain rate and
+  !> no sound speed (a molten particle expanded until its EOS gives none:
+  !> 0/0 there made the switch, and the viscosity of the particle's pairs,
+  !> NaN: a copper particle left alone on the axis, at the spall floor, in
+  !> case 1 of the debris clouds at 0.2 mm with &sph artificial_stress 0.3).
   subroutine compression_switch(n, d, c, h, f)
     integer, intent(in) :: n
     real(wp), intent(in) :: d(4, n), c(n), h(n)
     real(wp), intent(out) :: f(n)
     integer :: i
-    real(wp) :: div, dev
-    !$omp parallel do default(none) shared(n, d, c, h, f) private(i, div, dev)
+    real(wp) :: div, dev, den
+    !$omp parallel do default(none) shared(n, d, c, h, f) private(i, div, dev, den)
     do i = 1, n
       div = d(1, i) + d(2, i) + d(4, i)
       dev = sqrt((d(1, i) - div/3.0_wp)**2 + (d(2, i) - div/3.0_wp)**2 + (d(4, i) - div/3.0_wp)**2 &
                  + 2.0_wp*d(3, i)**2)
-      f(i) = abs(div)/(abs(div) + dev + switch_floor*c(i)/h(i))
+      den = abs(div) + dev + switch_floor*c(i)/h(i)
+      if (den > 0.0_wp) then
+        f(i) = abs(div)/den
+      else
+        f(i) = 0.0_wp
+      end if
     end do
     !$omp end parallel do
   end subroutine compression_switch
@@ -258,9 +380,13 @@ contains
   !> grad_v holds the velocity gradients of the real particles (entries
   !> 1..n) for the hourglass term and switch their compression switches;
   !> imaginary particles and mirror images (entries > n) carry neither.
+  !> With eps_art > 0 the pairs of particles (real, ghosts, images across
+  !> planes; not imaginary ones) add the artificial stress f^n (w_i R_i +
+  !> w_j R_j) to S (module header), R from artificial_stress of sig (art)
+  !> and f from w_ref; with eps_art = 0 neither is read.
   subroutine sph_accelerations(n, ntot, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, &
-                               corrected, mirror_of, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, &
-                               pair_force, pair_hg, pair_in, acc_imag, acc_axis)
+                               corrected, mirror_of, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, c_q, c_l, c_hg, &
+                               eps_art, art, w_ref, acc, pair_q, pair_force, pair_hg, pair_in, acc_imag, acc_axis)
     integer, intent(in) :: n             !< real particles (rows computed)
     integer, intent(in) :: ntot          !< real, imaginary and mirror entries (neighbours)
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
@@ -278,6 +404,9 @@ contains
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: c_q, c_l     !< viscosity coefficients [-]
     real(wp), intent(in) :: c_hg         !< hourglass coefficient [-]
+    real(wp), intent(in) :: eps_art      !< artificial stress coefficient (0: off) [-]
+    real(wp), intent(in) :: art(3, ntot) !< artificial stress R (rr, zz, rz) of each entry [Pa]
+    real(wp), intent(in) :: w_ref        !< 1/W(dp/h, 1), of the kernel at the initial spacing (artificial_factor) [-]
     real(wp), intent(out) :: acc(2, n)
     real(wp), intent(out) :: pair_q(*)   !< viscous pressure of each entry [Pa]
     real(wp), intent(out) :: pair_force(2, *) !< acceleration of i per unit mass of entry k [m/(kg s^2)]
@@ -291,13 +420,15 @@ contains
     real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2), a_axis
     real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2), xi(2), vi(2), hi, rhoi, ci, sigi(4), inti, switch_i
     real(wp) :: corrected_i
+    logical :: with_art, tense_i
+    with_art = eps_art > 0.0_wp
     !$omp parallel default(none) &
     !$omp shared(n, n_imag, x, v, mass, rho, h, c, sig, wgt, intact, grad_v, switch, corrected, mirror_of) &
     !$omp shared(nbr_ptr, nbr_list) &
     !$omp shared(low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in) &
-    !$omp shared(acc_imag, acc_axis) &
+    !$omp shared(acc_imag, acc_axis, with_art, art, w_ref) &
     !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi) &
-    !$omp private(a_axis, src, xi, vi, hi, rhoi, ci, sigi, inti, switch_i, corrected_i)
+    !$omp private(a_axis, src, xi, vi, hi, rhoi, ci, sigi, inti, switch_i, corrected_i, tense_i)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       ! the row's own values in locals: the stores to the pair arrays
@@ -314,6 +445,9 @@ contains
       switch_i = switch(i)
       corrected_i = corrected(i)
       gi = entry_gradient(grad_v(:, i), 1.0_wp)
+      ! R /= 0 exactly when its trace is negative (a tensile principal stress)
+      tense_i = .false.
+      if (with_art) tense_i = art(1, i) + art(2, i) < 0.0_wp
       a(1) = -sig(4, i)/(rho(i)*x(1, i))
       a(2) = 0.0_wp
       a_imag = 0.0_wp
@@ -359,6 +493,15 @@ contains
         pair_hg(:, k) = p_hg
         stot = pair_stress(acts_on(inti, intact(j))*wi, sigi, &
                            acts_on(intact(j), inti)*sg*wgt(j), sig(:, j), sg)
+        ! the artificial stress, part of the pair stress, between particles
+        ! (src /= 0: not with an element's imaginary particle), where
+        ! either has one
+        if (with_art .and. src /= 0) then
+          if (tense_i .or. art(1, j) + art(2, j) < 0.0_wp) &
+            stot = stot + artificial_factor(dist2, 1.0_wp/hij, w_ref)* &
+                   pair_artificial(acts_on(inti, intact(j))*wi, art(:, i), acts_on(intact(j), inti)*sg*wgt(j), &
+                                   art(:, j), sg)
+        end if
         ! stress with the signed ring mass, viscosity and hourglass with m_j
         f(1) = two_pi*(sg*(stot(1)*grad(1) + stot(3)*grad(2)) + (wi + wgt(j))*(p_hg(1) - q*grad(1)))
         f(2) = two_pi*(sg*(stot(3)*grad(1) + stot(2)*grad(2)) + (wi + wgt(j))*(p_hg(2) - q*grad(2)))
@@ -545,22 +688,30 @@ contains
   !>  - a ghost: minus the work m_j pair_force . v_visc,i its force does on
   !>    the particle;
   !>  - the hoop work sig_tt v_r/(rho r).
+  !> With eps_art > 0 the artificial stress is part of each particle's own
+  !> stress in its pairs with particles (real ones and images across
+  !> planes: f^n w_i R_i with R of sig, art, and f at these positions;
+  !> module header), and a ghost's heat follows from its force as before.
   !> de_parts(1:2) [J/(kg s)] are the parts of de that the viscous
   !> pressure and the hourglass term make (bookkeeping: each particle's
   !> share of its pairs' work, a ghost's at its force's viscous and
   !> hourglass parts with the weights given; de itself is summed as
   !> without them).
-  subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, &
-                             low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, pair_work_k, de, &
-                             de_parts)
+  subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, h, sig, wgt, intact, tie, nbr_ptr, &
+                             nbr_list, low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, eps_art, art, &
+                             w_ref, pair_work_k, de, de_parts)
     integer, intent(in) :: n, ntot
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
+    real(wp), intent(in) :: h(ntot)      !< smoothing lengths [m]
     real(wp), intent(in) :: sig(4, ntot), wgt(ntot)
     real(wp), intent(in) :: intact(ntot) !< 1 intact, 0 failed: whose stress acts on whom (acts_on) [-]
     integer, intent(in) :: tie(n)        !< first node of the edge a particle is tied to (0: free)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: pair_q(*), pair_hg(2, *), pair_force(2, *), grad(2, *)
+    real(wp), intent(in) :: eps_art      !< artificial stress coefficient (0: off) [-]
+    real(wp), intent(in) :: art(3, ntot) !< artificial stress R (rr, zz, rz) of each entry [Pa]
+    real(wp), intent(in) :: w_ref        !< 1/W(dp/h, 1) (artificial_factor) [-]
     !> the partner's work rate per unit mass of i, then its viscous and
     !> hourglass parts [m^2/(kg s^3)]
     real(wp), intent(out) :: pair_work_k(3, *)
@@ -568,20 +719,24 @@ contains
     real(wp), intent(inout) :: de_parts(3, n) !< rows 1, 2 out: the viscous and hourglass parts of de [J/(kg s)]
     integer :: i, k, j, m, o
     real(wp) :: dvji(2), vq(2), wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work, sum_visc, sum_hg, &
-                f_part(2)
-    real(wp), parameter :: zero4(4) = 0.0_wp
+                f_part(2), fn, a_ij, a_ji
+    real(wp), parameter :: zero3(3) = 0.0_wp, zero4(4) = 0.0_wp
+    logical :: with_art, tense_i, tense_j
+    with_art = eps_art > 0.0_wp
     !$omp parallel default(none) &
-    !$omp shared(n, n_imag, x, v, v_visc, mass, rho, sig, wgt, intact, tie, nbr_ptr, nbr_list, low_ptr, low_pair) &
-    !$omp shared(low_other) &
+    !$omp shared(n, n_imag, x, v, v_visc, mass, rho, h, sig, wgt, intact, tie, nbr_ptr, nbr_list, low_ptr) &
+    !$omp shared(low_pair, low_other, with_art, art, w_ref) &
     !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de, de_parts) &
     !$omp private(i, k, j, m, o, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work) &
-    !$omp private(sum_visc, sum_hg, f_part)
+    !$omp private(sum_visc, sum_hg, f_part, fn, a_ij, a_ji, tense_i, tense_j)
     !$omp do schedule(dynamic, 64)
     do i = 1, n
       wi = wgt(i)
       sum_e = 0.0_wp
       sum_visc = 0.0_wp
       sum_hg = 0.0_wp
+      tense_i = .false.
+      if (with_art) tense_i = art(1, i) + art(2, i) < 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         j = abs(nbr_list(k))
         if (nbr_list(k) < 0) then
@@ -608,10 +763,22 @@ contains
         q_work = visc_work + pair_hg(1, k)*vq(1) + pair_hg(2, k)*vq(2)
         sum_visc = sum_visc + two_pi*mass(j)*wi*visc_work
         sum_hg = sum_hg + two_pi*mass(j)*wi*hg_work
-        w_own = pair_work(pair_stress(acts_on(intact(i), intact(j))*wi, sig(:, i), 0.0_wp, zero4, 1.0_wp), &
-                          dvji, grad(:, k)) + wi*q_work
-        w_partner = pair_work(pair_stress(acts_on(intact(j), intact(i))*wj, sig(:, j), 0.0_wp, zero4, 1.0_wp), &
-                              dvji, grad(:, k)) + wj*q_work
+        a_ij = acts_on(intact(i), intact(j))
+        a_ji = acts_on(intact(j), intact(i))
+        w_own = pair_work(pair_stress(a_ij*wi, sig(:, i), 0.0_wp, zero4, 1.0_wp), dvji, grad(:, k)) + wi*q_work
+        w_partner = pair_work(pair_stress(a_ji*wj, sig(:, j), 0.0_wp, zero4, 1.0_wp), dvji, grad(:, k)) + wj*q_work
+        ! each particle's artificial stress, as its own stress, in its pairs
+        ! with particles (not with an element's imaginary particle)
+        if (with_art .and. (j <= n .or. j > n + n_imag)) then
+          tense_j = art(1, j) + art(2, j) < 0.0_wp
+          if (tense_i .or. tense_j) then
+            fn = artificial_factor((x(1, i) - x(1, j))**2 + (x(2, i) - x(2, j))**2, 2.0_wp/(h(i) + h(j)), w_ref)
+            if (tense_i) w_own = w_own + fn*pair_work(pair_artificial(a_ij*wi, art(:, i), 0.0_wp, zero3, 1.0_wp), &
+                                                      dvji, grad(:, k))
+            if (tense_j) w_partner = w_partner + fn*pair_work(pair_artificial(a_ji*wj, art(:, j), 0.0_wp, zero3, &
+                                                                              1.0_wp), dvji, grad(:, k))
+          end if
+        end if
         pair_work_k(:, k) = two_pi*[w_partner, wj*visc_work, wj*hg_work]
         sum_e = sum_e + two_pi*mass(j)*w_own
       end do

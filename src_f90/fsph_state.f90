@@ -145,6 +145,9 @@ module fsph_state
     real(wp), allocatable :: nbr_grad(:, :) !< kernel gradient per neighbour entry at mid-step [1/m^3]
     real(wp), allocatable :: wgt(:)       !< work: stress weight 1/(4 pi^2 r rho^2) per entry [m^5/kg^2]
     real(wp), allocatable :: planar_area(:) !< work: planar area m/(2 pi r rho) per entry [m^2]
+    !> work: artificial stress R (rr, zz, rz) per entry, of the stress the
+    !> pair sums use at that stage (fsph_sph artificial_stress) [Pa]
+    real(wp), allocatable :: art_stress(:, :)
   end type particle_set_t
 
   !> Coupling-interface edges of the element region: node pairs oriented as
@@ -239,6 +242,8 @@ module fsph_state
     real(wp) :: sph_c_q = 1.0_wp      !< SPH quadratic viscosity coefficient [-]
     real(wp) :: sph_c_l = 0.2_wp      !< SPH linear viscosity coefficient [-]
     real(wp) :: sph_c_hg = 0.1_wp     !< SPH hourglass viscosity coefficient [-]
+    !> coefficient eps of the SPH artificial stress (fsph_sph; 0: off) [-]
+    real(wp) :: sph_artificial_stress = 0.0_wp
     integer :: particle_contact = 1   !< contact between particle bodies (fsph_layouts particle_contact_*)
     real(wp) :: contact_penalty = 0.03_wp !< particle contact: approach fraction pushed back per step [-]
     real(wp) :: contact_touch = 0.2367_wp !< particle contact: other-body filling C at touching [-]

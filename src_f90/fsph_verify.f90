@@ -27,7 +27,7 @@ contains
   subroutine get_particle_rates(run, np, acc, drho, de, d, spin, ierr)
     use fsph_status, only: status_ok, status_bad_input
     use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, pair_weights, compression_switch, &
-                        axis_resultant
+                        axis_resultant, artificial_stress, artificial_reference
     use fsph_solver, only: prepare_particle_sums
     use fsph_layouts, only: hist_contact_corrected
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
@@ -45,6 +45,8 @@ contains
     allocate (grad_v(4, np), switch(np))
     associate (pt => sim%particles)
       call pair_weights(ntot, pt%x, pt%mass, pt%rho, pt%wgt, pt%planar_area)
+      if (sim%control%sph_artificial_stress > 0.0_wp) &
+        call artificial_stress(np, ntot, pt%n_imag, pt%sig, sim%control%sph_artificial_stress, pt%art_stress)
       ! the pairs of this state (pair_in), then its velocity gradient and
       ! compression switch, then the accelerations with them
       grad_v = 0.0_wp
@@ -52,8 +54,8 @@ contains
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                              grad_v, switch, pt%hist(hist_contact_corrected, 1:np), pt%mirror_of, pt%nbr_ptr, &
                              pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
-                             sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, acc, pt%pair_q, pt%pair_force, &
-                             pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
+                             sim%control%sph_c_q, sim%control%sph_c_l, 0.0_wp, 0.0_wp, pt%art_stress, 1.0_wp, acc, &
+                             pt%pair_q, pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
       call sph_rates(np, ntot, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%planar_area, pt%intact, pt%nbr_ptr, &
                      pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_in, pt%nbr_grad, pt%rate_sums, &
                      drho, d, spin, grad_v)
@@ -61,13 +63,16 @@ contains
       call sph_accelerations(np, ntot, pt%n_imag, pt%x, pt%v, pt%mass, pt%rho, pt%h, pt%c, pt%sig, pt%wgt, pt%intact, &
                              grad_v, switch, pt%hist(hist_contact_corrected, 1:np), pt%mirror_of, pt%nbr_ptr, &
                              pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
-                             sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, acc, pt%pair_q, &
+                             sim%control%sph_c_q, sim%control%sph_c_l, sim%control%sph_c_hg, &
+                             sim%control%sph_artificial_stress, pt%art_stress, &
+                             artificial_reference(sim%conversion%alpha_h), acc, pt%pair_q, &
                              pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
       call axis_resultant(np, pt%mass, pt%nbr_ptr, pt%half_end, pt%nbr_list, pt%pair_in, pt%acc_axis, acc)
       ! the energy equation with the stress, viscosity and velocities of this state
-      call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%sig, pt%wgt, pt%intact, &
-                           pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, pt%pair_q, &
-                           pt%pair_hg, pt%pair_force, pt%nbr_grad, pt%pair_work, de, pt%de_parts)
+      call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%wgt, &
+                           pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                           pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, sim%control%sph_artificial_stress, &
+                           pt%art_stress, artificial_reference(sim%conversion%alpha_h), pt%pair_work, de, pt%de_parts)
     end associate
     ierr = status_ok
   end subroutine get_particle_rates

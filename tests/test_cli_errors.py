@@ -62,6 +62,12 @@ BAD_DECKS = {
     "total_hourglass_too_high": (rod_deck(control="mode = 'sph'", body="formulation = 'total'")
                                  + "&sph total_hourglass = 50 /\n",
                                  ["&sph", "'total_hourglass'", "[0, 10]"]),
+    "artificial_stress_negative": (rod_deck(control="mode = 'sph'") + "&sph artificial_stress = -0.3 /\n",
+                                   ["&sph", "'artificial_stress'", "[0, 1]"]),
+    "artificial_stress_too_high": (rod_deck(control="mode = 'sph'") + "&sph artificial_stress = 3.0 /\n",
+                                   ["&sph", "'artificial_stress'", "[0, 1]"]),
+    "artificial_stress_not_a_number": (rod_deck(control="mode = 'sph'") + "&sph artificial_stress = 'on' /\n",
+                                       ["&sph", "'artificial_stress'", "a real number", "'on'"]),
     "missing_model_constant": (rod_deck(material="name='steel'\n strength='epp'\n eos='linear'\n"
                                         " density=7850.0\n youngs_modulus=2e11\n poisson_ratio=0.3"),
                                ["&material #1", "'yield_stress'", "missing key"]),

@@ -62,6 +62,19 @@ def test_thread_count_and_determinism(tmp_path, deck, t_end):
     assert_same_fields(one, two)
 
 
+def test_artificial_stress_does_not_depend_on_the_thread_count(tmp_path):
+    """The sphere onto the bumper with &sph artificial_stress = 0.3 (its
+    per-particle tensor, the pair factor and its work in the energy
+    equation): bit-identical particles on 1 and 2 threads to 2 us, when
+    the cloud is in tension."""
+    deck = tmp_path / "sphere_artificial_stress.nml"
+    deck.write_text((CASES / "sphere_al_bumper.nml").read_text() + "&sph\n  artificial_stress = 0.3\n/\n")
+    one = run_with_threads(1, tmp_path / "one.npz", tmp_path, deck, "2e-6")
+    two = run_with_threads(2, tmp_path / "two.npz", tmp_path, deck, "2e-6")
+    assert int(one["threads"]) == 1 and int(two["threads"]) == 2
+    assert_same_fields(one, two)
+
+
 def test_adaptive_policy_switching_every_cycle_changes_nothing(tmp_path):
     """The governor with zero probe and exploitation times switches between
     1 and 2 threads every cycle or two; the adaptive run (conversion,
