@@ -437,6 +437,12 @@ def _experiment_marks(ax, experiment, z_face, direction, half_width):
     ax.set_xlim(-half_width, half_width)
 
 
+#: Height of the box of _debris_table, its margin from the panel's edge
+#: included [pt]: seven lines of 6.5 pt text, spaced 1.2, and the box's
+#: padding.
+DEBRIS_TABLE_PT = 72.0
+
+
 def _debris_table(ax, rec, experiment, direction):
     """A box of the run's values beside the experiment's [mm], in the
     panel's uprange corner (behind the plate, where only the ejecta are:
@@ -577,7 +583,13 @@ def debris_cloud(run_dir, times_us=None, output=None, dpi=150):
             half_width, (z_low, z_high) = _debris_extent(series, index, marks, z_face, direction,
                                                           start, ejecta_radius)
             # about four fifths of the panel's width is the axes' [pt/mm]
-            _draw_bodies(ax, g, colours, 72.0 * 0.8 * panel_inches / (2.0 * half_width))
+            pt_per_mm = 72.0 * 0.8 * panel_inches / (2.0 * half_width)
+            if at_metrics:
+                # room for the box of values beyond the uprange end, so
+                # that it covers neither the plate nor the ejecta
+                room = DEBRIS_TABLE_PT / pt_per_mm
+                z_low, z_high = (z_low, z_high + room) if direction < 0.0 else (z_low - room, z_high)
+            _draw_bodies(ax, g, colours, pt_per_mm)
             if marks:
                 _experiment_marks(ax, marks, z_face, direction, half_width)
             if at_metrics:
