@@ -308,6 +308,11 @@ def _start(argv, exit_at_interrupt):
                           else previous[sig])
 
 
+#: How long after a Ctrl-C dropped in a clean-up _unraisable raises it
+#: again [s]: long enough for the clean-up to have returned.
+UNRAISABLE_INTERRUPT_DELAY_S = 0.01
+
+
 def _unraisable(info):
     """sys.unraisablehook of the program: a Ctrl-C (KeyboardInterrupt)
     that came while Python ran a clean-up that cannot raise (a weak
@@ -317,9 +322,15 @@ def _unraisable(info):
     anything else as Python reports it."""
     if issubclass(info.exc_type, KeyboardInterrupt):
         import _thread
-        # SIGINT again, handled once this returns (signal.raise_signal
-        # would raise it here, where it would be dropped again)
-        _thread.interrupt_main()
+        import threading
+        # SIGINT again, from another thread a moment later, so that it is
+        # handled once this has returned: raised here (signal.raise_signal,
+        # or _thread.interrupt_main called in this thread, whose pending
+        # SIGINT Python handles right after the call) it would be dropped
+        # again
+        again = threading.Timer(UNRAISABLE_INTERRUPT_DELAY_S, _thread.interrupt_main)
+        again.daemon = True
+        again.start()
         return
     sys.__unraisablehook__(info)
 

@@ -636,6 +636,32 @@ def test_ctrl_c_at_any_moment_of_the_start_is_one_line_and_exit_4(entry, signal_
         assert said in ([], ["fsph: interrupted"]), (delay, said)
 
 
+def test_a_ctrl_c_dropped_in_a_clean_up_is_raised_again_in_the_program(tmp_path):
+    """A KeyboardInterrupt raised where Python cannot raise it (a __del__,
+    a weak reference's callback) reaches the program's own code through
+    its unraisable hook (fsph.cli._unraisable), not dropped: interrupting
+    the main thread from within the hook raised it inside the hook, where
+    Python dropped it again and the run went on (SIGTERM at 0.2 s into
+    `fsph run`, exit 0)."""
+    code = ("import sys, time\n"
+            "from fsph import cli\n"
+            "sys.unraisablehook = cli._unraisable\n"
+            "class Dropped:\n"
+            "    def __del__(self):\n"
+            "        raise KeyboardInterrupt\n"
+            "try:\n"
+            "    x = Dropped(); del x\n"
+            "    end = time.monotonic() + 5.0\n"
+            "    while time.monotonic() < end:\n"
+            "        pass\n"
+            "    print('went on')\n"
+            "except KeyboardInterrupt:\n"
+            "    print('interrupted')\n")
+    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=120)
+    assert res.stdout.strip() == "interrupted" and res.stderr == "", (res.stdout, res.stderr)
+
+
 def test_the_package_loads_the_solver_on_first_use(tmp_path):
     """`import fsph` (the command line's first step) loads neither numpy
     nor the solver; Simulation, threads and sweep come on first use, and

@@ -68,7 +68,9 @@ def test_artificial_stress_does_not_depend_on_the_thread_count(tmp_path):
     equation): bit-identical particles on 1 and 2 threads to 2 us, when
     the cloud is in tension."""
     deck = tmp_path / "sphere_artificial_stress.nml"
-    deck.write_text((CASES / "sphere_al_bumper.nml").read_text() + "&sph\n  artificial_stress = 0.3\n/\n")
+    text = (CASES / "sphere_al_bumper.nml").read_text()
+    assert "  artificial_stress = 0.1\n" in text          # the deck's own
+    deck.write_text(text.replace("  artificial_stress = 0.1\n", "  artificial_stress = 0.3\n"))
     one = run_with_threads(1, tmp_path / "one.npz", tmp_path, deck, "2e-6")
     two = run_with_threads(2, tmp_path / "two.npz", tmp_path, deck, "2e-6")
     assert int(one["threads"]) == 1 and int(two["threads"]) == 2
