@@ -223,10 +223,7 @@ contains
   pure function pair_artificial(wi, r_i, wj, r_j, sg) result(stot)
     real(wp), intent(in) :: wi, r_i(3), wj, r_j(3), sg
     real(wp) :: stot(4)
-    stot(1) = wi*r_i(1) + wj*r_j(1)
-    stot(2) = wi*r_i(2) + wj*r_j(2)
-    stot(3) = wi*r_i(3) + wj*sg*r_j(3)
-    stot(4) = 0.0_wp
+    stot = pair_stress(wi, [r_i, 0.0_wp], wj, [r_j, 0.0_wp], sg)
   end function pair_artificial
 
   !> The artificial stress's pair factor f^n = (W(r, h_ij)/W(dp_ij,
