@@ -452,7 +452,8 @@ SCHEMA = {
                                      "without; in a Taylor rod's foot, whose lattice the plastic "
                                      "flow has squashed below dp, it drives the particles apart "
                                      "(0.3: D -3.6 %, tension to -16 GPa; 0.1: D -1.1 %) "
-                                     "(docs/method.md, docs/validation.md). Values above 1 are not "
+                                     "(docs/method.md, docs/validation.md). The debris and sphere "
+                                     "decks set 0.1. Values above 1 are not "
                                      "accepted: untested.",
                                      lower=0.0, upper=1.0),
             "total_hourglass": Key("float", 1.0, "-",
