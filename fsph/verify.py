@@ -143,6 +143,18 @@ def contact_pair(delta, dt, m_s, m_1, m_2, r_1, r_2):
     return _verify.contact_pair_values(delta, dt, m_s, m_1, m_2, r_1, r_2)
 
 
+def riemann_pair(normal, v_i, rho_i, c_i, sig_i, v_j, rho_j, c_j, sig_j, sign=1.0):
+    """The acoustic Riemann problem of one particle contact pair across the
+    unit normal (from i to j): velocities (2,) [m/s], densities [kg/m^3],
+    sound speeds [m/s], stresses (rr, zz, rz, tt) [Pa], j seen with
+    `sign` (-1: a mirror image across the axis). Returns (p_eq, p_star
+    [Pa], u_star [m/s])."""
+    vec = lambda a: np.asarray(a, dtype=float)
+    return tuple(float(x) for x in _verify.riemann_pair_values(
+        vec(normal), vec(v_i), float(rho_i), float(c_i), vec(sig_i), vec(v_j), float(rho_j), float(c_j),
+        vec(sig_j), float(sign)))
+
+
 def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
     """One constitutive step of a single point of a validated material dict.
     `state` holds s (4,), p, eps_p, e, temp and optionally damage and mu_max

@@ -22,7 +22,7 @@ module fsph_particles
   real(wp), parameter :: normal_floor = 1.0e-6_wp
 
   public :: riemann_contact_accelerations, riemann_contact_heat, riemann_contact_density_rate, contact_normals, &
-            contact_pairs_in
+            contact_pairs_in, riemann_pair
 
 contains
 
@@ -398,7 +398,12 @@ contains
   !> Z_j p_i)/(Z_i + Z_j) and the interface velocity
   !>   u* = [Z_i u_i + Z_j u_j + (p_i - p_j)]/(Z_i + Z_j).
   !> Written so that the pair seen from j (normal -n) gives the same p* and
-  !> -u* to the last bit.
+  !> -u* to the last bit. Two sides without impedance (molten particles
+  !> expanded until their EOS gives no sound speed: c = 0 on both) make
+  !> these 0/0; there the limit of two equal impedances going to zero
+  !> stands for them, p_eq the mean of p_i and p_j and u* the mean of u_i
+  !> and u_j (the pressure's limit; the velocity's has no limit, and no
+  !> wave carries one side's velocity to the other).
   pure subroutine riemann_pair(nij, vi, rho_i, c_i, sig_i, vj, rho_j, c_j, sig_j, sg, p_eq, p_star, u_star)
     real(wp), intent(in) :: nij(2), vi(2), rho_i, c_i, sig_i(4), vj(2), rho_j, c_j, sig_j(4), sg
     real(wp), intent(out) :: p_eq, p_star, u_star
@@ -409,9 +414,15 @@ contains
     uj = sg*vj(1)*nij(1) + vj(2)*nij(2)
     pi_n = -normal_stress(sig_i, 1.0_wp, nij)
     pj_n = -normal_stress(sig_j, sg, nij)
-    p_eq = (zi*pj_n + zj*pi_n)/(zi + zj)
-    p_star = max(p_eq + zi*zj*(ui - uj)/(zi + zj), 0.0_wp)
-    u_star = (zi*ui + zj*uj + (pi_n - pj_n))/(zi + zj)
+    if (zi + zj > 0.0_wp) then
+      p_eq = (zi*pj_n + zj*pi_n)/(zi + zj)
+      p_star = max(p_eq + zi*zj*(ui - uj)/(zi + zj), 0.0_wp)
+      u_star = (zi*ui + zj*uj + (pi_n - pj_n))/(zi + zj)
+    else
+      p_eq = 0.5_wp*(pi_n + pj_n)
+      p_star = max(p_eq, 0.0_wp)
+      u_star = 0.5_wp*(ui + uj)
+    end if
   end subroutine riemann_pair
 
   !> Normal stress e.sig.e [Pa] of an in-plane direction e for a stress

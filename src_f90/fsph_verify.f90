@@ -14,7 +14,8 @@ module fsph_verify
   implicit none
   private
   public :: get_particle_rates, get_principal_strains, triangle_principal_strain
-  public :: hjc_point_pressure, contact_pair_values, get_particle_ties, convert_now, set_stress_state
+  public :: hjc_point_pressure, contact_pair_values, riemann_pair_values, get_particle_ties, convert_now
+  public :: set_stress_state
   public :: get_forces, set_neighbour_width, get_neighbour_count, get_neighbours
   public :: get_strain_rates, material_point, material_point_functions, spatial_order_of, renumber_due_at
 
@@ -151,6 +152,18 @@ contains
     real(wp), intent(out) :: dv_s, dv_1, dv_2
     call pair_correction(delta, dt, m_s, m_1, m_2, r_1, r_2, dv_s, dv_1, dv_2)
   end subroutine contact_pair_values
+
+  !> The acoustic Riemann problem of one particle contact pair
+  !> (fsph_particles riemann_pair), for verification: unit normal nij
+  !> from i to j, velocities [m/s], densities [kg/m^3], sound speeds
+  !> [m/s], stresses (rr, zz, rz, tt) [Pa], sg the sign j is seen with;
+  !> p_eq, p_star [Pa] and u_star [m/s].
+  subroutine riemann_pair_values(nij, vi, rho_i, c_i, sig_i, vj, rho_j, c_j, sig_j, sg, p_eq, p_star, u_star)
+    use fsph_particles, only: riemann_pair
+    real(wp), intent(in) :: nij(2), vi(2), rho_i, c_i, sig_i(4), vj(2), rho_j, c_j, sig_j(4), sg
+    real(wp), intent(out) :: p_eq, p_star, u_star
+    call riemann_pair(nij, vi, rho_i, c_i, sig_i, vj, rho_j, c_j, sig_j, sg, p_eq, p_star, u_star)
+  end subroutine riemann_pair_values
 
   !> Ties and associations of the particles: tied edge nodes (0: free),
   !> position along the edge, and the node pairs of up to two associated

@@ -167,3 +167,31 @@ def test_hard_impact_keeps_its_energy(write_deck):
     energies = sim.energies()
     assert abs(energies["total"] - e0) <= 0.005 * e0
     assert energies["internal"] > 0.1 * e0
+
+
+def test_riemann_pair_of_two_sides_without_sound_speed():
+    """The contact pressure of two particles whose EOS gives no sound speed
+    (molten and expanded: c = 0 on both sides) was 0/0, NaN, which stops a
+    run. It is the limit of two equal impedances going to zero: p* the
+    mean of the two normal pressures (never below 0), u* the mean of the
+    two normal velocities; seen from j the same p* and -u*. With impedance
+    on one side only it is the acoustic solution as before: p* the
+    pressure of the side without impedance (3 GPa), u* finite."""
+    import math
+    from fsph import verify
+    n = [0.0, 1.0]
+    sig_i, sig_j = [0.0, -3.0e9, 0.0, 0.0], [0.0, -1.0e9, 0.0, 0.0]
+    p_eq, p_star, u_star = verify.riemann_pair(n, [0.0, 50.0], 2700.0, 0.0, sig_i,
+                                               [0.0, -30.0], 8930.0, 0.0, sig_j)
+    assert (p_eq, p_star, u_star) == (2.0e9, 2.0e9, 10.0)
+    back = verify.riemann_pair([0.0, -1.0], [0.0, -30.0], 8930.0, 0.0, sig_j, [0.0, 50.0], 2700.0, 0.0, sig_i)
+    assert back == (p_eq, p_star, -u_star)
+    # stretched on both sides: no pull
+    assert verify.riemann_pair(n, [0.0, 0.0], 2700.0, 0.0, [0.0, 1e9, 0.0, 0.0],
+                               [0.0, 0.0], 8930.0, 0.0, [0.0, 1e9, 0.0, 0.0])[1] == 0.0
+    # one side with impedance: the acoustic formulas, finite
+    z_j = 8930.0 * 3940.0
+    p_eq, p_star, u_star = verify.riemann_pair(n, [0.0, 50.0], 2700.0, 0.0, sig_i,
+                                               [0.0, -30.0], 8930.0, 3940.0, sig_j)
+    assert p_eq == pytest.approx(3.0e9) and p_star == pytest.approx(3.0e9)
+    assert u_star == pytest.approx(-30.0 + 2.0e9 / z_j) and math.isfinite(u_star)
