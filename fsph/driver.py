@@ -320,9 +320,10 @@ def _books_to_carry(writer, series, sim):
     peak axial forces of the rigid planes and of each body with their
     times [N, s], each gauge's peak pressure with its time [Pa, s] and what
     it follows (Simulation.gauge_state of `sim`: a material gauge's
-    particle since its switch time), the last history row the forces are rates from (its time [s], the planes'
-    impulse and each body's axial momentum [N s], at the time of its
-    half-step velocities, velocity_time [s]) and the snapshot series
+    particle since its switch time), the last history row the forces are
+    rates from (its time [s], the planes' impulse and each body's axial
+    momentum [N s], at the time of its half-step velocities,
+    velocity_time [s]) and the snapshot series
     (metrics.snapshot_series records) with the &metrics group it was
     recorded under, so that summary.json covers the whole run."""
     plane, bodies = writer.last_rates_row()

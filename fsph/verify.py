@@ -149,10 +149,9 @@ def riemann_pair(normal, v_i, rho_i, c_i, sig_i, v_j, rho_j, c_j, sig_j, sign=1.
     sound speeds [m/s], stresses (rr, zz, rz, tt) [Pa], j seen with
     `sign` (-1: a mirror image across the axis). Returns (p_eq, p_star
     [Pa], u_star [m/s])."""
-    vec = lambda a: np.asarray(a, dtype=float)
+    normal, v_i, sig_i, v_j, sig_j = (np.asarray(a, dtype=float) for a in (normal, v_i, sig_i, v_j, sig_j))
     return tuple(float(x) for x in _verify.riemann_pair_values(
-        vec(normal), vec(v_i), float(rho_i), float(c_i), vec(sig_i), vec(v_j), float(rho_j), float(c_j),
-        vec(sig_j), float(sign)))
+        normal, v_i, float(rho_i), float(c_i), sig_i, v_j, float(rho_j), float(c_j), sig_j, float(sign)))
 
 
 def material_point_update(material, dt, d, spin, rho_old, rho_new, q, state):
