@@ -30,15 +30,19 @@ from .simulation import STATUS_OK, _api
 #: snapshot series, which outgrow an attribute); 7: the momenta and the
 #: contact's overlap of the metric series under keys naming their units
 #: (momentum_z_N_s, contact_overlap_max_mm), and the gauges' states in
-#: the books (a material gauge's particle and switch time)
-FORMAT = 7
+#: the books (a material gauge's particle and switch time); 8: the run's
+#: wall time, phase times and cycles by thread count in the books, so that
+#: a restarted run's summary gives the whole run's
+FORMAT = 8
 
 #: What each format before FORMAT lacks: a restart from it is refused
 #: rather than continued with a summary of the continuation alone.
 _LACKS = {5: "the books a restarted run reports for the whole run (the neighbour lists' builds, "
              "the peak forces, the snapshot series and the debris metrics measured on it)",
           6: "the metric series keys of this fsph (momentum_z_N_s, contact_overlap_max_mm), "
-             "which the run's series would mix with its own"}
+             "which the run's series would mix with its own",
+          7: "the wall time, phase times and cycles by thread count of the run before it, "
+             "which the restarted run's summary adds to its own"}
 
 #: What a restart may change in the deck: these keys of &control, and the
 #: whole of &output, &metrics and the &gauge groups (gauges only read the

@@ -274,7 +274,9 @@ class _Setup:
     folder and its lock, the simulation (at the checkpoint's state on a
     restart), its writer and the digests of the deck and the reference
     (references.run_inputs); on a restart, the snapshot series of the run
-    before the checkpoint (_carry_on; None where none carries on)."""
+    before the checkpoint (_carry_on; None where none carries on) and
+    what the run took before it (the books' timing; None without a
+    restart: _run_timing)."""
 
     deck_path: Path
     deck: dict
@@ -286,6 +288,7 @@ class _Setup:
     writer: RunWriter
     inputs: dict
     series: list = None
+    timing_before: dict = None
 
 
 def _restart(sim, deck, restart, outdir):
@@ -314,7 +317,25 @@ def _metrics_identity(deck):
     return json.loads(json.dumps(deck["metrics"], default=repr))
 
 
-def _books_to_carry(writer, series, sim):
+def _run_timing(sim, process_wall, before):
+    """The whole run's wall time [s], the time of each phase of the cycle
+    [s] and the cycles run at each thread count: this process's
+    (process_wall [s], the phases and cycles since set-up) added to
+    `before`, what the run took before the checkpoint it restarted from
+    (the books' timing; None: no restart)."""
+    phases = sim.phase_times()
+    cycles = {str(n): c for n, c in sim.thread_use().items()}
+    wall = process_wall
+    if before:
+        wall += before["wall_time_s"]
+        phases = {name: t + before["phase_times_s"].get(name, 0.0) for name, t in phases.items()}
+        for n, c in before["cycles_by_threads"].items():
+            cycles[n] = cycles.get(n, 0) + c
+        cycles = dict(sorted(cycles.items(), key=lambda item: int(item[0])))
+    return {"wall_time_s": wall, "phase_times_s": phases, "cycles_by_threads": cycles}
+
+
+def _books_to_carry(writer, series, sim, timing):
     """What a restart carries on from the run before its checkpoint (the
     checkpoint's books, JSON): the largest energy error and its time, the
     peak axial forces of the rigid planes and of each body with their
@@ -325,7 +346,8 @@ def _books_to_carry(writer, series, sim):
     momentum [N s], at the time of its half-step velocities,
     velocity_time [s]) and the snapshot series
     (metrics.snapshot_series records) with the &metrics group it was
-    recorded under, so that summary.json covers the whole run."""
+    recorded under, and the run's timing so far (_run_timing), so that
+    summary.json covers the whole run."""
     plane, bodies = writer.last_rates_row()
     states = sim.gauge_state()
     return {
@@ -342,7 +364,8 @@ def _books_to_carry(writer, series, sim):
         "last_row": None if plane is None else {
             "velocity_time": float(plane[0]), "plane_impulse_z": float(plane[1]),
             "body_momentum_z": None if bodies is None else [float(v) for v in bodies[1]]},
-        "series": series}
+        "series": series,
+        "timing": timing}
 
 
 #: What a checkpoint's books keep of each gauge's state (Simulation.gauge_state).
@@ -354,7 +377,8 @@ _CARRIED = {"metrics": "the &metrics group", "max_energy_error": "a number",
             "plane_force_peak": "[force, time]", "body_force_peaks": "{body: [force, time]}",
             "gauges": "{gauge: {kind, point, peak_pressure, on, index, switch_time, lost_time}}",
             "last_row": "null or {velocity_time, plane_impulse_z, body_momentum_z}",
-            "series": "a list of snapshot records with the same keys"}
+            "series": "a list of snapshot records with the same keys",
+            "timing": "{wall_time_s, phase_times_s: {phase: s}, cycles_by_threads: {threads: cycles}}"}
 
 
 def _carried_books_fit(books, body_names):
@@ -368,6 +392,7 @@ def _carried_books_fit(books, body_names):
 
     gauges = books.get("gauges")
     row = books.get("last_row")
+    timing = books.get("timing")
     fits = {
         "metrics": isinstance(books.get("metrics"), dict),
         "max_energy_error": number(books.get("max_energy_error")),
@@ -392,6 +417,13 @@ def _carried_books_fit(books, body_names):
         "series": isinstance(books.get("series"), list)
         and all(isinstance(r, dict) for r in books["series"])
         and len({tuple(sorted(r)) for r in books["series"]}) <= 1,
+        "timing": isinstance(timing, dict) and number(timing.get("wall_time_s"))
+        and timing["wall_time_s"] >= 0.0
+        and isinstance(timing.get("phase_times_s"), dict)
+        and all(number(t) and t >= 0.0 for t in timing["phase_times_s"].values())
+        and isinstance(timing.get("cycles_by_threads"), dict)
+        and all(n.isdigit() and int(n) > 0 and isinstance(c, int) and not isinstance(c, bool) and c >= 0
+                for n, c in timing["cycles_by_threads"].items()),
     }
     return next((key for key, ok in fits.items() if not ok), None)
 
@@ -481,7 +513,7 @@ def _set_up(deck_path, outdir, restart):
     writer.energy0 = sim.initial_energy
     series = _carry_on(writer, books, sim) if books else None
     return _Setup(deck_path, deck, reference, why, outdir, lock, sim, writer,
-                  references.run_inputs(deck_text, reference), series)
+                  references.run_inputs(deck_text, reference), series, books.get("timing"))
 
 
 #: Column heads of the progress lines.
@@ -567,7 +599,10 @@ class _Checkpoints:
     """Where and when the run writes its checkpoint: path, on or off
     (&output checkpoint), every `cycles` cycles (0: off) and every
     `minutes` of wall time (0: off); `last` the wall clock of the last one
-    (or of the start) [s]."""
+    (or of the start) [s]; what a restart carries on (_books_to_carry):
+    the writer's and the run's books, the wall clock of this process's
+    start t_wall0 [s] and the timing of the run before its own restart
+    (None: _run_timing)."""
 
     path: Path
     enabled: bool
@@ -576,13 +611,16 @@ class _Checkpoints:
     last: float
     writer: RunWriter
     books: _Books
+    t_wall0: float
+    timing_before: dict
 
     @classmethod
-    def from_output(cls, path, out, writer, books):
-        """From the deck's &output, the clock started now; `writer` and
-        `books` keep what a restart carries on (_books_to_carry)."""
+    def from_output(cls, path, setup, books, t_wall0):
+        """From the deck's &output of `setup`, the clock started now."""
+        out = setup.deck["output"]
         return cls(path, out["checkpoint"], out["checkpoint_cycles"] if out["checkpoint"] else 0,
-                   out["checkpoint_minutes"], wallclock.perf_counter(), writer, books)
+                   out["checkpoint_minutes"], wallclock.perf_counter(), setup.writer, books,
+                   t_wall0, setup.timing_before)
 
     def due(self, cycle0, cycle):
         """Whether a call that went from cycle0 to cycle ends on a multiple
@@ -594,7 +632,8 @@ class _Checkpoints:
     def save(self, sim):
         # the writer's books first take the history up to this cycle
         _drain_history(sim, self.writer)
-        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series, sim))
+        timing = _run_timing(sim, wallclock.perf_counter() - self.t_wall0, self.timing_before)
+        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series, sim, timing))
         self.last = wallclock.perf_counter()
 
 
@@ -828,6 +867,8 @@ def _summary(setup, books, t_wall0):
     peaks = _peaks(books.last_good, deck)
     warnings = [{"kind": "deck", "message": text} for text in deck.get("warnings", [])]
     warnings += _warnings(ctrl, energies, writer)
+    process_wall = wallclock.perf_counter() - t_wall0
+    timing = _run_timing(sim, process_wall, setup.timing_before)
     summary = {
         "case": setup.deck_path.stem,
         "title": ctrl["title"],
@@ -837,13 +878,16 @@ def _summary(setup, books, t_wall0):
         "requested_end_time_s": ctrl["end_time"],
         "metrics_time_s": books.last_good["time"],
         "cycles": sim.cycle,
-        "wall_time_s": wallclock.perf_counter() - t_wall0,
+        # the whole run's: a restart adds what the run took before its checkpoint
+        "wall_time_s": timing["wall_time_s"],
+        # this process's, from its start
+        "wall_time_process_s": process_wall,
         "threads": threads(),
         # the adaptive policy may run cycles on fewer threads (fsph_threads)
         "thread_policy": sim.thread_policy,
-        "cycles_by_threads": {str(n): c for n, c in sim.thread_use().items()},
+        "cycles_by_threads": timing["cycles_by_threads"],
         # wall time of each phase of the cycle (benchmarks' cost split)
-        "phase_times_s": sim.phase_times(),
+        "phase_times_s": timing["phase_times_s"],
         "neighbour_list_builds": sim.list_rebuilds,
         "n_elements": sim.n_elements,
         "n_nodes": sim.n_nodes,
@@ -894,6 +938,14 @@ def _format_thread_use(summary):
             f"{parts or 'no cycles'} of the cycles")
 
 
+def _process_share(summary):
+    """', X s of them in this process' for a restarted run (its wall time
+    is the whole run's), else ''."""
+    if summary["wall_time_s"] == summary["wall_time_process_s"]:
+        return ""
+    return f" ({summary['wall_time_process_s']:.2f} s of it since the restart)"
+
+
 def _print_summary(say, summary, outdir):
     """The closing lines: status, time, cycles, wall time and energy error;
     the warnings; the metrics against their references; the peaks; where
@@ -903,7 +955,7 @@ def _print_summary(say, summary, outdir):
     if warnings:
         status += f" with {len(warnings)} warning{'s' if len(warnings) > 1 else ''}"
     say(f"fsph: {status} at t = {summary['end_time_s'] * 1e6:.4g} us after {summary['cycles']} "
-        f"cycles, {summary['wall_time_s']:.2f} s wall; energy error "
+        f"cycles, {summary['wall_time_s']:.2f} s wall{_process_share(summary)}; energy error "
         f"{energy['relative_error']:+.3e} (largest {energy['max_relative_error']:+.3e} at "
         f"{energy['max_relative_error_time_s'] * 1e6:.4g} us)")
     if summary["threads"] > 1:
@@ -959,8 +1011,7 @@ def _run(say, setup, restart, kind, stream, t_wall0):
     advance to the end, the summary."""
     _print_banner(say, setup, restart, kind == "lines")
     books = _Books(series=list(setup.series or []))
-    checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup.deck["output"],
-                                           setup.writer, books)
+    checkpoints = _Checkpoints.from_output(setup.outdir / "checkpoint.h5", setup, books, t_wall0)
     _drain_history(setup.sim, setup.writer)
     # a restart's first snapshot is the checkpoint's state, not an output
     # time of the run whose series it continues

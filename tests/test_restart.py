@@ -234,6 +234,18 @@ def test_a_restarted_run_reports_what_the_whole_run_does(tmp_path):
             if "peak" in key or key.startswith("max_"):
                 assert b[key] == a[key], (part, key)
     assert resumed["neighbour_list_builds"] == full["neighbour_list_builds"]
+    # the whole run's cycles by thread count and phase times: the
+    # continuation's added to those of the run before the checkpoint
+    assert sum(resumed["cycles_by_threads"].values()) == resumed["cycles"] == full["cycles"]
+    assert resumed["phase_times_s"].keys() == full["phase_times_s"].keys()
+    before = _books(tmp_path / "ckpt_100.h5")["timing"]
+    assert sum(before["cycles_by_threads"].values()) == 100
+    assert resumed["wall_time_s"] == pytest.approx(resumed["wall_time_process_s"] + before["wall_time_s"],
+                                                   abs=0.05)
+    assert before["wall_time_s"] > 0.0 and resumed["wall_time_process_s"] > 0.0
+    for name, t in before["phase_times_s"].items():
+        assert resumed["phase_times_s"][name] >= t
+    assert full["wall_time_s"] == full["wall_time_process_s"]
 
     whole, after = _history(tmp_path / "full"), _history(tmp_path / "resumed")
     assert whole.keys() == after.keys() and "history/plane_force_z" in whole
@@ -504,7 +516,8 @@ def _books_with(h5, **changes):
     body = json.loads(h5.attrs["deck"])["body"][0]["name"]
     books = {"metrics": {}, "max_energy_error": 0.0, "max_energy_error_time": 0.0,
              "plane_force_peak": [0.0, 0.0], "body_force_peaks": {body: [0.0, 0.0]},
-             "gauges": {}, "last_row": None, "series": []}
+             "gauges": {}, "last_row": None, "series": [],
+             "timing": {"wall_time_s": 0.0, "phase_times_s": {}, "cycles_by_threads": {}}}
     books.update(changes)
     return json.dumps(books)
 
@@ -533,10 +546,16 @@ MALFORMED = {
     "books_incomplete": (lambda h5: _replace(h5, "books", '{"max_energy_error": 0.0}'),
                          ["dataset /books", "the books of the run before the checkpoint, 'metrics'"]),
     "format_5": (lambda h5: h5.attrs.__setitem__("format", 5),
-                 ["of format 7 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
+                 ["of format 8 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
     "format_6": (lambda h5: h5.attrs.__setitem__("format", 6),
-                 ["of format 7 (format 6 was written by an earlier fsph and lacks the metric series keys",
+                 ["of format 8 (format 6 was written by an earlier fsph and lacks the metric series keys",
                   "got 6"]),
+    "format_7": (lambda h5: h5.attrs.__setitem__("format", 7),
+                 ["of format 8 (format 7 was written by an earlier fsph and lacks the wall time, phase "
+                  "times and cycles by thread count", "got 7"]),
+    "books_timing_negative": (lambda h5: _replace(h5, "books", _books_with(
+        h5, timing={"wall_time_s": -1.0, "phase_times_s": {}, "cycles_by_threads": {}})),
+                              ["dataset /books", "'timing' {wall_time_s, phase_times_s"]),
     "books_nan": (lambda h5: _replace(h5, "books", _books_with(h5, max_energy_error=float("nan"))),
                   ["dataset /books", "'max_energy_error' a number"]),
     "books_series_mixed": (lambda h5: _replace(h5, "books", _books_with(
