@@ -51,7 +51,7 @@ def test_checkpoint_holds_named_datasets_and_scalars(write_deck, tmp_path):
     sim.advance(1.0e-6, land=False)
     path = checkpoint.save(sim, tmp_path / "ckpt.h5")
     with h5py.File(path) as h5:
-        assert h5.attrs["format"] == checkpoint.FORMAT == 7
+        assert h5.attrs["format"] == checkpoint.FORMAT == 8
         assert set(h5["scalars"].attrs) == set(layouts.CHECKPOINT_REAL_SCALARS
                                               + layouts.CHECKPOINT_INT_SCALARS)
         assert h5["scalars"].attrs["cycle"] == sim.cycle
