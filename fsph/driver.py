@@ -390,6 +390,9 @@ def _carried_books_fit(books, body_names):
     def pair(v):
         return isinstance(v, list) and len(v) == 2 and all(number(x) for x in v)
 
+    def integer(v):
+        return isinstance(v, int) and not isinstance(v, bool)
+
     gauges = books.get("gauges")
     row = books.get("last_row")
     timing = books.get("timing")
@@ -403,7 +406,7 @@ def _carried_books_fit(books, body_names):
         "gauges": isinstance(gauges, dict) and all(
             isinstance(g, dict) and isinstance(g.get("peak_pressure"), list)
             and len(g["peak_pressure"]) == 2 and g.get("on") in layouts.GAUGE_SOURCES
-            and isinstance(g.get("index"), int) and not isinstance(g["index"], bool)
+            and integer(g.get("index"))
             and all(g.get(key) is None or number(g[key]) for key in ("switch_time", "lost_time"))
             for g in gauges.values()),
         "last_row": row is None or (
@@ -422,7 +425,7 @@ def _carried_books_fit(books, body_names):
         and isinstance(timing.get("phase_times_s"), dict)
         and all(number(t) and t >= 0.0 for t in timing["phase_times_s"].values())
         and isinstance(timing.get("cycles_by_threads"), dict)
-        and all(n.isdigit() and int(n) > 0 and isinstance(c, int) and not isinstance(c, bool) and c >= 0
+        and all(n.isdigit() and int(n) > 0 and integer(c) and c >= 0
                 for n, c in timing["cycles_by_threads"].items()),
     }
     return next((key for key, ok in fits.items() if not ok), None)
@@ -600,27 +603,25 @@ class _Checkpoints:
     (&output checkpoint), every `cycles` cycles (0: off) and every
     `minutes` of wall time (0: off); `last` the wall clock of the last one
     (or of the start) [s]; what a restart carries on (_books_to_carry):
-    the writer's and the run's books, the wall clock of this process's
-    start t_wall0 [s] and the timing of the run before its own restart
-    (None: _run_timing)."""
+    the run's set-up (its writer's books, the timing of the run before its
+    own restart), the run's books and the wall clock of this process's
+    start t_wall0 [s]."""
 
     path: Path
     enabled: bool
     cycles: int
     minutes: float
     last: float
-    writer: RunWriter
+    setup: _Setup
     books: _Books
     t_wall0: float
-    timing_before: dict
 
     @classmethod
     def from_output(cls, path, setup, books, t_wall0):
         """From the deck's &output of `setup`, the clock started now."""
         out = setup.deck["output"]
         return cls(path, out["checkpoint"], out["checkpoint_cycles"] if out["checkpoint"] else 0,
-                   out["checkpoint_minutes"], wallclock.perf_counter(), setup.writer, books,
-                   t_wall0, setup.timing_before)
+                   out["checkpoint_minutes"], wallclock.perf_counter(), setup, books, t_wall0)
 
     def due(self, cycle0, cycle):
         """Whether a call that went from cycle0 to cycle ends on a multiple
@@ -631,9 +632,10 @@ class _Checkpoints:
 
     def save(self, sim):
         # the writer's books first take the history up to this cycle
-        _drain_history(sim, self.writer)
-        timing = _run_timing(sim, wallclock.perf_counter() - self.t_wall0, self.timing_before)
-        checkpoint_module.save(sim, self.path, _books_to_carry(self.writer, self.books.series, sim, timing))
+        writer = self.setup.writer
+        _drain_history(sim, writer)
+        timing = _run_timing(sim, wallclock.perf_counter() - self.t_wall0, self.setup.timing_before)
+        checkpoint_module.save(sim, self.path, _books_to_carry(writer, self.books.series, sim, timing))
         self.last = wallclock.perf_counter()
 
 
