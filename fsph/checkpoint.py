@@ -32,8 +32,10 @@ from .simulation import STATUS_OK, _api
 #: (momentum_z_N_s, contact_overlap_max_mm), and the gauges' states in
 #: the books (a material gauge's particle and switch time); 8: the run's
 #: wall time, phase times and cycles by thread count in the books, so that
-#: a restarted run's summary gives the whole run's
-FORMAT = 8
+#: a restarted run's summary gives the whole run's; 9: the internal energy
+#: at the start of the last cycle (the real scalar energy_full_before),
+#: for the time-centred energy total
+FORMAT = 9
 
 #: What each format before FORMAT lacks: a restart from it is refused
 #: rather than continued with a summary of the continuation alone.
@@ -42,7 +44,9 @@ _LACKS = {5: "the books a restarted run reports for the whole run (the neighbour
           6: "the metric series keys of this fsph (momentum_z_N_s, contact_overlap_max_mm), "
              "which the run's series would mix with its own",
           7: "the wall time, phase times and cycles by thread count of the run before it, "
-             "which the restarted run's summary adds to its own"}
+             "which the restarted run's summary adds to its own",
+          8: "the internal energy at the start of its last cycle, which the time-centred "
+             "energy total pairs with the half-step kinetic energy"}
 
 #: What a restart may change in the deck: these keys of &control, and the
 #: whole of &output, &metrics and the &gauge groups (gauges only read the
@@ -538,9 +542,15 @@ def state_digest(sim):
     they differ from the particles' numbers (the particles were renumbered
     in spatial order): a run that never renumbers hashes as it did before
     the ids were kept, so the digests stored on hosts of other kinds stay
-    valid."""
+    valid. The internal energy at the start of the last cycle
+    (`energy_full_before`, for the time-centred energy total) is left
+    out: the next cycle sums it again from the state, so it does not
+    decide how the run continues, and without it the digests are those
+    of the runs before it was kept."""
     digest = hashlib.sha256()
-    for scalars in _scalars(sim):
+    real, integer = _scalars(sim)
+    real = np.delete(real, layouts.CHECKPOINT_REAL_SCALARS.index("energy_full_before"))
+    for scalars in (real, integer):
         digest.update(np.ascontiguousarray(scalars).tobytes())
     for name, values in _state_arrays(sim):
         if name == "particles/id" and np.array_equal(values.ravel(), np.arange(1, values.size + 1)):

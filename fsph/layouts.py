@@ -69,7 +69,8 @@ HISTORY_COLUMNS = (
     ("contact", "J", "kinetic energy removed by the contact corrections"),
     ("eroded", "J", "internal and kinetic energy removed by erosion"),
     ("plane", "J", "kinetic energy removed by the rigid planes and the particles' axis wall"),
-    ("total", "J", "kinetic + internal + contact + eroded + plane"),
+    ("total", "J", "kinetic + internal + contact + eroded + plane, centred in time: the internal energy "
+     "(with the eroded elements') as the mean of the last step's two ends, at the half step of the rest"),
 )
 ENERGY_COLUMNS = tuple(name for name, _, _ in HISTORY_COLUMNS[4:])
 #: Each body's books at every history record (fsph_solver body_budget).
@@ -139,6 +140,7 @@ CHECKPOINT_REAL_SCALARS = (
     "time", "dt", "dt_last", "dt_initial", "conversion_heat", "contact_dissipated",
     "eroded_element_mass", "eroded_internal", "eroded_node_mass", "eroded_kinetic",
     "eroded_momentum_r", "eroded_momentum_z", "plane_dissipated", "plane_impulse_z",
+    "energy_full_before",
 )
 CHECKPOINT_INT_SCALARS = (
     "cycle", "dt_element", "dt_particle", "n_converted", "n_events", "n_groups", "n_edges",

@@ -85,6 +85,7 @@ contains
     case (csr_eroded_momentum_z); p => sim%erosion%momentum(2)
     case (csr_plane_dissipated); p => sim%plane_dissipated
     case (csr_plane_impulse_z); p => sim%plane_impulse_z
+    case (csr_energy_full_before); p => sim%energy_full_before
     end select
   end function real_scalar
 

@@ -271,6 +271,9 @@ module fsph_state
     type(rigid_plane_t), allocatable :: planes(:)
     real(wp) :: plane_dissipated = 0.0_wp !< kinetic energy removed by the rigid planes and the axis wall [J]
     real(wp) :: plane_impulse_z = 0.0_wp  !< axial impulse of the rigid planes on the bodies since t = 0 [N s]
+    !> internal energy of the elements and particles and that erosion removed, at the start of the
+    !> last cycle, with the heat of that cycle's conversions [J] (fsph_solver energy_budget)
+    real(wp) :: energy_full_before = 0.0_wp
     type(control_t) :: control
     logical :: ready = .false.
     real(wp) :: time = 0.0_wp             !< [s]

@@ -91,3 +91,27 @@ def test_bar_outputs(bar_run):
         (["particles"] if summary["n_particles"] else [])
     assert (out / "fsph.pvd").is_file()
     assert len(list((out / "vtu").glob("*.vtu"))) == 7 * len(kinds)
+
+
+def test_energy_total_does_not_move_with_the_landing_steps(tmp_path):
+    """The last one or two steps are shortened to land on the end time. The
+    energy total pairs the half-step velocities with the mean of the
+    internal energies at the step's two ends (docs/method.md, "The energy
+    balance"), so it does not follow the step's length: the FEM bar's
+    error at the end is within 0.01 % of its error three cycles before,
+    ahead of the landing steps (measured 0.004 %, 0.035 → 0.031 %; with
+    the internal energy of the step's end alone, an error of first order
+    in the step, it moved by 0.053 %, 0.153 → 0.100 %)."""
+    deck = (CASES / "elastic_bar.nml").read_text()
+    deck = deck.replace("  reference = 'references/elastic_bar.json'\n", "  history_every = 1\n")
+    assert "history_every = 1" in deck
+    (tmp_path / "bar.nml").write_text(deck)
+    summary = run(tmp_path / "bar.nml", tmp_path / "out", quiet=True)
+    with h5py.File(tmp_path / "out" / "fsph.h5") as h5:
+        total = h5["history"]["total"][:]
+        dt = h5["history"]["dt"][:]
+    assert summary["status"] == "completed"
+    # the landing: the last step (or two) shorter than the stable ones
+    assert dt[-1] < 0.9 * dt[-4]
+    error = (total - total[0]) / total[0]
+    assert abs(error[-1] - error[-4]) < 1e-4

@@ -546,13 +546,16 @@ MALFORMED = {
     "books_incomplete": (lambda h5: _replace(h5, "books", '{"max_energy_error": 0.0}'),
                          ["dataset /books", "the books of the run before the checkpoint, 'metrics'"]),
     "format_5": (lambda h5: h5.attrs.__setitem__("format", 5),
-                 ["of format 8 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
+                 ["of format 9 (format 5 was written by an earlier fsph and lacks the books", "got 5"]),
     "format_6": (lambda h5: h5.attrs.__setitem__("format", 6),
-                 ["of format 8 (format 6 was written by an earlier fsph and lacks the metric series keys",
+                 ["of format 9 (format 6 was written by an earlier fsph and lacks the metric series keys",
                   "got 6"]),
     "format_7": (lambda h5: h5.attrs.__setitem__("format", 7),
-                 ["of format 8 (format 7 was written by an earlier fsph and lacks the wall time, phase "
+                 ["of format 9 (format 7 was written by an earlier fsph and lacks the wall time, phase "
                   "times and cycles by thread count", "got 7"]),
+    "format_8": (lambda h5: h5.attrs.__setitem__("format", 8),
+                 ["of format 9 (format 8 was written by an earlier fsph and lacks the internal energy at "
+                  "the start of its last cycle", "got 8"]),
     "books_timing_negative": (lambda h5: _replace(h5, "books", _books_with(
         h5, timing={"wall_time_s": -1.0, "phase_times_s": {}, "cycles_by_threads": {}})),
                               ["dataset /books", "'timing' {wall_time_s, phase_times_s"]),
