@@ -52,7 +52,7 @@ PHASES = (
     ("contact", "slide lines and particle-element contact"),
     ("integrate", "kick, boundaries, drift"),
     ("conversion", "erosion, conversion, surfaces and ties"),
-    ("time_step", "stable step, history"),
+    ("time_step", "stable step, history and the energy books"),
 )
 
 # ---- a time-history record (fsph_solver record_history) --------------------

@@ -621,7 +621,11 @@ class Simulation:
         initial energy. Contact corrections and the kinematic condition of
         rigid planes (and of the particles' axis wall) remove kinetic energy
         as perfectly inelastic collisions of what strikes them; both are
-        booked, so the total is conserved by the method."""
+        booked, so the total is conserved by the method. The total is
+        centred in time: the internal energy in it is the mean of its
+        values at the last step's two ends, beside the kinetic energy of
+        the half-step velocities (docs/method.md, "The energy balance"),
+        so it is not the sum of the other entries."""
         energies = self.energy_budget()
         energies["relative_error"] = ((energies["total"] - self.initial_energy) / self.initial_energy
                                       if self.initial_energy else 0.0)

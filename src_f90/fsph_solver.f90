@@ -378,7 +378,10 @@ contains
     real(wp) :: heat_before
 
     ! 0. the full-step energy books at t^n, for the time-centred total
+    !    (timed with the history records)
+    call timer_start(sim%timers, phase_time_step)
     sim%energy_full_before = energy_full_step(sim)
+    call timer_stop(sim%timers, phase_time_step)
     ! 1. forces at t^n: element nodal forces; imaginary particles,
     !    particle neighbours, SPH accelerations, particle contact; coupling
     !    tractions on interface edges; tied particles' forces to their edges
