@@ -33,8 +33,9 @@ from .simulation import STATUS_OK, _api
 #: the books (a material gauge's particle and switch time); 8: the run's
 #: wall time, phase times and cycles by thread count in the books, so that
 #: a restarted run's summary gives the whole run's; 9: the internal energy
-#: at the start of the last cycle (the real scalar energy_full_before),
-#: for the time-centred energy total
+#: summed at the start of a recent cycle and that cycle (the scalars
+#: energy_full_before and energy_full_cycle), for the time-centred energy
+#: total
 FORMAT = 9
 
 #: What each format before FORMAT lacks: a restart from it is refused
@@ -542,14 +543,16 @@ def state_digest(sim):
     they differ from the particles' numbers (the particles were renumbered
     in spatial order): a run that never renumbers hashes as it did before
     the ids were kept, so the digests stored on hosts of other kinds stay
-    valid. The internal energy at the start of the last cycle
-    (`energy_full_before`, for the time-centred energy total) is left
-    out: the next cycle sums it again from the state, so it does not
-    decide how the run continues, and without it the digests are those
-    of the runs before it was kept."""
+    valid. The internal energy summed at the start of a recent cycle and
+    that cycle (`energy_full_before`, `energy_full_cycle`, for the
+    time-centred energy total) are left out: the cycles before a record
+    sum it again from the state, so it does not decide how the run
+    continues, and without it the digests are those of the runs before
+    it was kept."""
     digest = hashlib.sha256()
     real, integer = _scalars(sim)
     real = np.delete(real, layouts.CHECKPOINT_REAL_SCALARS.index("energy_full_before"))
+    integer = np.delete(integer, layouts.CHECKPOINT_INT_SCALARS.index("energy_full_cycle"))
     for scalars in (real, integer):
         digest.update(np.ascontiguousarray(scalars).tobytes())
     for name, values in _state_arrays(sim):

@@ -144,7 +144,7 @@ CHECKPOINT_REAL_SCALARS = (
 )
 CHECKPOINT_INT_SCALARS = (
     "cycle", "dt_element", "dt_particle", "n_converted", "n_events", "n_groups", "n_edges",
-    "n_imag", "n_eroded",
+    "n_imag", "n_eroded", "energy_full_cycle",
 )
 
 # ---- material property table props(n_props) (fsph_material) --------------

@@ -105,6 +105,7 @@ contains
     case (csi_n_edges); p => sim%coupling%n_edges
     case (csi_n_imag); p => sim%particles%n_imag
     case (csi_n_eroded); p => sim%erosion%n_eroded
+    case (csi_energy_full_cycle); p => sim%energy_full_cycle
     end select
   end function int_scalar
 

@@ -271,9 +271,11 @@ module fsph_state
     type(rigid_plane_t), allocatable :: planes(:)
     real(wp) :: plane_dissipated = 0.0_wp !< kinetic energy removed by the rigid planes and the axis wall [J]
     real(wp) :: plane_impulse_z = 0.0_wp  !< axial impulse of the rigid planes on the bodies since t = 0 [N s]
-    !> internal energy of the elements and particles and that erosion removed, at the start of the
-    !> last cycle, with the heat of that cycle's conversions [J] (fsph_solver energy_budget)
+    !> internal energy of the elements and particles and that erosion removed, at the start of
+    !> cycle energy_full_cycle + 1, with the heat of that cycle's conversions [J] (fsph_solver
+    !> energy_budget; summed only before the cycles a history record may follow)
     real(wp) :: energy_full_before = 0.0_wp
+    integer :: energy_full_cycle = 0      !< the cycle count when energy_full_before was summed
     type(control_t) :: control
     logical :: ready = .false.
     real(wp) :: time = 0.0_wp             !< [s]
