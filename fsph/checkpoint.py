@@ -46,7 +46,7 @@ _LACKS = {5: "the books a restarted run reports for the whole run (the neighbour
              "which the run's series would mix with its own",
           7: "the wall time, phase times and cycles by thread count of the run before it, "
              "which the restarted run's summary adds to its own",
-          8: "the internal energy at the start of its last cycle, which the time-centred "
+          8: "the internal energy summed at the start of a recent cycle, which the time-centred "
              "energy total pairs with the half-step kinetic energy"}
 
 #: What a restart may change in the deck: these keys of &control, and the

@@ -554,8 +554,8 @@ MALFORMED = {
                  ["of format 9 (format 7 was written by an earlier fsph and lacks the wall time, phase "
                   "times and cycles by thread count", "got 7"]),
     "format_8": (lambda h5: h5.attrs.__setitem__("format", 8),
-                 ["of format 9 (format 8 was written by an earlier fsph and lacks the internal energy at "
-                  "the start of its last cycle", "got 8"]),
+                 ["of format 9 (format 8 was written by an earlier fsph and lacks the internal energy summed "
+                  "at the start of a recent cycle", "got 8"]),
     "books_timing_negative": (lambda h5: _replace(h5, "books", _books_with(
         h5, timing={"wall_time_s": -1.0, "phase_times_s": {}, "cycles_by_threads": {}})),
                               ["dataset /books", "'timing' {wall_time_s, phase_times_s"]),
