@@ -941,8 +941,8 @@ def _format_thread_use(summary):
 
 
 def _process_share(summary):
-    """', X s of them in this process' for a restarted run (its wall time
-    is the whole run's), else ''."""
+    """' (X s of it since the restart)' for a restarted run (its wall time
+    is the whole run's, X this process's), else ''."""
     if summary["wall_time_s"] == summary["wall_time_process_s"]:
         return ""
     return f" ({summary['wall_time_process_s']:.2f} s of it since the restart)"

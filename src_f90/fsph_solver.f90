@@ -396,6 +396,8 @@ contains
       sim%energy_full_before = energy_full_step(sim)
       sim%energy_full_cycle = sim%cycle
       call timer_stop(sim%timers, phase_time_step)
+    else
+      sim%energy_full_cycle = -1
     end if
     ! 1. forces at t^n: element nodal forces; imaginary particles,
     !    particle neighbours, SPH accelerations, particle contact; coupling
@@ -1116,13 +1118,13 @@ contains
   !> ends, sim%energy_full_before and now (docs/method.md, "The energy balance"): for
   !> the central difference the error is then of second order in dt. The
   !> books at the start are summed before the cycles a record may follow
-  !> (solver_advance); where they are older than the last cycle (a run that
-  !> stopped in an unforeseen cycle: a fault), the total takes the books of
-  !> now at both ends.
+  !> (solver_advance); where the latest cycle started without them (a run
+  !> that stopped in an unforeseen cycle: a fault), the total takes the
+  !> books of now at both ends.
   function energy_budget(sim) result(budget)
     type(simulation_t), intent(in) :: sim
     real(wp) :: budget(history_columns - energy_first + 1)
-    real(wp) :: kinetic, internal, eroded, half_step, full_step, full_before
+    real(wp) :: kinetic, internal, eroded, half_step, full_now, full_before
     kinetic = 0.0_wp
     associate (nd => sim%nodes, pt => sim%particles)
       if (nd%n > 0) kinetic = kinetic + 0.5_wp*sum(nd%mass*(nd%v(1, :)**2 + nd%v(2, :)**2))
@@ -1131,10 +1133,11 @@ contains
     internal = internal_energy(sim)
     eroded = sim%erosion%internal + sim%erosion%kinetic
     half_step = kinetic + sim%contact%dissipated + sim%erosion%kinetic + sim%plane_dissipated
+    full_now = internal + sim%erosion%internal
     full_before = sim%energy_full_before
-    if (sim%energy_full_cycle < sim%cycle - 1) full_before = internal + sim%erosion%internal
-    full_step = 0.5_wp*(full_before + (internal + sim%erosion%internal))
-    budget = [kinetic, internal, sim%contact%dissipated, eroded, sim%plane_dissipated, half_step + full_step]
+    if (sim%energy_full_cycle < 0) full_before = full_now
+    budget = [kinetic, internal, sim%contact%dissipated, eroded, sim%plane_dissipated, &
+              half_step + 0.5_wp*(full_before + full_now)]
   end function energy_budget
 
   !> Internal energy of the elements and particles [J].

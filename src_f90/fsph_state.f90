@@ -275,7 +275,9 @@ module fsph_state
     !> cycle energy_full_cycle + 1, with the heat of that cycle's conversions [J] (fsph_solver
     !> energy_budget; summed only before the cycles a history record may follow)
     real(wp) :: energy_full_before = 0.0_wp
-    integer :: energy_full_cycle = 0      !< the cycle count when energy_full_before was summed
+    !> the cycle count at whose start energy_full_before was summed; -1 when the latest cycle
+    !> started without summing it (a record after it takes the books of now at both ends)
+    integer :: energy_full_cycle = 0
     type(control_t) :: control
     logical :: ready = .false.
     real(wp) :: time = 0.0_wp             !< [s]
