@@ -27,12 +27,13 @@ module fsph_coupling
   use fsph_kernel, only: kernel_support
   use fsph_neighbours, only: build_neighbours
   use fsph_topology, only: elements_with_edge
+  use fsph_sph, only: imag_work_pair, imag_work_none, imag_work_edges
   implicit none
   private
 
   public :: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, update_tie_masses
   public :: coupled_body, element_mean, element_smoothing_length
-  public :: associate_particles, tie_new_particles
+  public :: associate_particles, tie_new_particles, reaction_velocities
 
   !> A particle is associated with a surface edge of the element region when
   !> its centre lies within this many smoothing lengths of the edge, on its
@@ -240,6 +241,55 @@ contains
     end do
     end associate
   end subroutine coupling_tractions
+
+  !> How each particle's pairs with imaginary particles do work in the
+  !> energy equation (fsph_sph sph_energy_rate), and the velocity of the
+  !> point that takes its reaction: a tied particle none (imag_work_none);
+  !> a particle with coupling edges (imag_work_edges) the mean of their
+  !> nodes' velocities with the weights coupling_tractions gives them its
+  !> reaction, v_now in v_react(1:2, i) and (v_before + v_now)/2 times
+  !> scale in v_react(3:4, i) (the velocities at which the particles'
+  !> stress and viscous work are charged); any other particle
+  !> (imag_work_pair) its own share of each pair, as before the edges.
+  !> With the reaction and the pair work at the same velocities, the
+  !> kinetic energy the pair force and its reaction give is the heat the
+  !> particle takes.
+  subroutine reaction_velocities(cp, pt, v_now, v_before, scale)
+    type(coupling_t), intent(inout) :: cp
+    type(particle_set_t), intent(in) :: pt
+    real(wp), intent(in) :: v_now(:, :)    !< nodal velocities after the kick [m/s]
+    real(wp), intent(in) :: v_before(:, :) !< nodal velocities before the kick [m/s]
+    real(wp), intent(in) :: scale          !< kick length over step length [-]
+    integer :: i, slot, k, a, b, n_assoc
+    real(wp) :: w
+    if (allocated(cp%imag_work)) then
+      if (size(cp%imag_work) < pt%n) deallocate (cp%imag_work, cp%v_react)
+    end if
+    if (.not. allocated(cp%imag_work)) allocate (cp%imag_work(max(pt%n, 1) + 64), cp%v_react(4, max(pt%n, 1) + 64))
+    do i = 1, pt%n
+      cp%v_react(:, i) = 0.0_wp
+      if (pt%tie_a(i) /= 0) then
+        cp%imag_work(i) = imag_work_none
+        cycle
+      end if
+      n_assoc = count(pt%assoc(:, i) /= 0)
+      if (n_assoc == 0 .or. size(v_now, 2) == 0) then
+        cp%imag_work(i) = imag_work_pair
+        cycle
+      end if
+      cp%imag_work(i) = imag_work_edges
+      w = 0.5_wp/n_assoc
+      do slot = 1, 2
+        k = pt%assoc(slot, i)
+        if (k == 0) cycle
+        a = cp%edge(1, k)
+        b = cp%edge(2, k)
+        cp%v_react(1:2, i) = cp%v_react(1:2, i) + w*(v_now(:, a) + v_now(:, b))
+        cp%v_react(3:4, i) = cp%v_react(3:4, i) + w*0.5_wp*scale*(v_before(:, a) + v_now(:, a) + v_before(:, b) &
+                                                                   + v_now(:, b))
+      end do
+    end do
+  end subroutine reaction_velocities
 
   !> Nodal masses of tied particles: (1 - xi) m_p to node a, xi m_p to b.
   subroutine update_tie_masses(pt, nd)

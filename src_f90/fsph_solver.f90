@@ -34,7 +34,7 @@ module fsph_solver
                             riemann_contact_density_rate, contact_normals, contact_pairs_in
   use fsph_eigenerosion, only: eigenerosion_failure
   use fsph_total, only: total_setup, total_forces, total_rates, total_energy_rate, total_time_step, total_active
-  use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, &
+  use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, reaction_velocities, &
                            update_tie_masses, stage_select, stage_start, stage_mid, associate_particles, &
                            association_reach
   use fsph_verlet, only: lists_still_valid, record_lists, list_skin, adapt_skin, restored_skin
@@ -788,12 +788,20 @@ contains
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_v, dt_step
     integer :: n
+    real(wp) :: no_nodes(2, 0)
     n = sim%particles%n
     if (n == 0) return
     if (sim%nodes%n > 0) call tie_velocities(sim%particles, sim%nodes)
     associate (pt => sim%particles)
       pt%v_bar(:, 1:n) = 0.5_wp*(pt%v_bar(:, 1:n) + pt%v(:, 1:n))*(dt_v/dt_step)
     end associate
+    ! the velocities at which the pairs with imaginary particles do work
+    if (sim%nodes%n > 0) then
+      call reaction_velocities(sim%coupling, sim%particles, sim%nodes%v(:, 1:sim%nodes%n), &
+                               sim%nodes%v_start(:, 1:sim%nodes%n), dt_v/dt_step)
+    else
+      call reaction_velocities(sim%coupling, sim%particles, no_nodes, no_nodes, 1.0_wp)
+    end if
   end subroutine finish_particle_kick
 
   subroutine update_positions(sim, dt_step, ierr, ifault)
@@ -916,7 +924,8 @@ contains
         if (sim%control%sph_artificial_stress > 0.0_wp) &
           call artificial_stress(n, ntot, pt%n_imag, pt%sig_mid, sim%control%sph_artificial_stress, pt%art_stress)
         call sph_energy_rate(n, ntot, pt%n_imag, pt%x_mid, pt%v, pt%v_bar, pt%mass, pt%rho_mid, pt%h, pt%sig_mid, &
-                             pt%wgt, pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, &
+                             pt%wgt, pt%intact, sim%coupling%imag_work, sim%coupling%v_react, pt%nbr_ptr, &
+                             pt%nbr_list, pt%low_ptr, pt%low_pair, &
                              pt%low_other, &
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, sim%control%sph_artificial_stress, &
                              pt%art_stress, artificial_reference(sim%conversion%alpha_h), pt%pair_work, pt%de, &

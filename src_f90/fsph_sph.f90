@@ -39,7 +39,9 @@
 !> whole hoop work, which drained its energy in tension until it flew
 !> apart. A ghost is not a particle of its own: the heat of a ghost entry
 !> is minus the work of its force on the particle, so ghosts neither make
-!> nor lose energy.
+!> nor lose energy. For a particle whose reaction goes to its coupling
+!> edges the pairs with the imaginary particles of the elements are
+!> charged whole, at the edges' velocity (sph_energy_rate).
 !>
 !> Artificial viscosity: the continuum (FEM) form q = rho (C_Q h eps)^2 +
 !> C_L rho c h |eps| evaluated pairwise with the normal strain rate
@@ -120,7 +122,15 @@ module fsph_sph
   private
 
   public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
+  public :: imag_work_pair, imag_work_none, imag_work_edges
   public :: compression_switch, ghost_work, entry_sign, axis_resultant, artificial_stress, artificial_reference
+
+  !> How the pairs of a particle with imaginary particles (elements) do
+  !> work in the energy equation (sph_energy_rate): as a pair with a real
+  !> partner, the particle's own share at the imaginary particle's
+  !> velocity; none (a tied particle); the whole pair at the velocity of
+  !> the coupling edges that take the particle's reaction.
+  integer, parameter :: imag_work_pair = 0, imag_work_none = 1, imag_work_edges = 2
 
   !> Softening of the pairwise strain rate, times h^2 [-].
   real(wp), parameter :: visc_softening = 0.01_wp
@@ -665,8 +675,8 @@ contains
   !> passes mid-step values, so the stress work matches the time-centred
   !> force), the velocities v at which the rates were taken and the kernel
   !> gradients grad of each entry (sph_rates at the same positions):
-  !>  - a pair with a real particle, an imaginary particle or a mirror
-  !>    image: the particle's own stress work 2 pi m_j w_i sig_i :
+  !>  - a pair with a real particle or a mirror image: the particle's own
+  !>    stress work 2 pi m_j w_i sig_i :
   !>    (v_j - v_i) grad_i W, and its share w_i/(w_i + w_j) of the work of
   !>    the viscous pressure pair_q and the hourglass term pair_hg, charged
   !>    at the velocities v_visc (the cycle passes the mean of the
@@ -674,16 +684,32 @@ contains
   !>    energy those forces removed); the partner of a half entry takes
   !>    the same with its own stress and weight (kept per unit mass of the
   !>    particle in pair_work_k and added in a second loop over the low
-  !>    lists). An element's share of its imaginary particle's pair work
-  !>    is the element's own (its stress work on the nodes the reaction
-  !>    moves). A particle tied to an edge (tie /= 0) takes no work from
-  !>    its imaginary neighbours: their forces on it and its reaction act
-  !>    on the same edge nodes and cancel (fsph_coupling tie_forces), so
-  !>    they do no work, and heat booked for them would be energy made
-  !>    from nothing (measured: +4.1 J of the +5.0 J the coarse adaptive
-  !>    Armco rod gained);
+  !>    lists);
+  !>  - a pair with an imaginary particle, by the particle's imag_work:
+  !>    imag_work_edges (a free particle whose reaction goes to its
+  !>    coupling edges, fsph_coupling coupling_tractions): the whole work
+  !>    of the pair force, both stresses and the viscous pressure, at the
+  !>    velocity of the point that takes the reaction, v_react(1:2, i) for
+  !>    the stress and v_react(3:4, i) for the viscous part (as v and
+  !>    v_visc): the pair force and its reaction then do work only on the
+  !>    particle's motion relative to its edges, and that work is the
+  !>    particle's heat, so the coupling neither makes nor loses energy.
+  !>    (Until 2026-11-29 the particle took its own stress's share at the
+  !>    imaginary particle's velocity, the mean of the element's nodes, and
+  !>    the element's share was left to the element's own work, which does
+  !>    not see the reaction: the coupled bar lost 0.34 % of its energy as
+  !>    the wave crossed the interface, the adaptive Taylor rods 0.3-0.4 %.)
+  !>    imag_work_none (a particle tied to an edge): no work: the forces
+  !>    on it and its reaction act on the same edge nodes and cancel
+  !>    (fsph_coupling tie_forces), and heat booked for them would be
+  !>    energy made from nothing (measured: +4.1 J of the +5.0 J the
+  !>    coarse adaptive Armco rod gained). imag_work_pair (a particle with
+  !>    no coupling edge, whose axial reaction is spread over the
+  !>    continuum's edges): its own share, as with a real partner, at the
+  !>    imaginary particle's velocity;
   !>  - a ghost: minus the work m_j pair_force . v_visc,i its force does on
-  !>    the particle;
+  !>    the particle, axially at half the velocity relative to the image
+  !>    (ghost_work);
   !>  - the hoop work sig_tt v_r/(rho r).
   !> With eps_art > 0 the artificial stress is part of each particle's own
   !> stress in its pairs with particles (real ones and images across
@@ -694,16 +720,20 @@ contains
   !> share of its pairs' work, a ghost's at its force's viscous and
   !> hourglass parts with the weights given; de itself is summed as
   !> without them).
-  subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, h, sig, wgt, intact, tie, nbr_ptr, &
-                             nbr_list, low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, eps_art, art, &
-                             w_ref, pair_work_k, de, de_parts)
+  subroutine sph_energy_rate(n, ntot, n_imag, x, v, v_visc, mass, rho, h, sig, wgt, intact, imag_work, v_react, &
+                             nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_q, pair_hg, pair_force, grad, &
+                             eps_art, art, w_ref, pair_work_k, de, de_parts)
     integer, intent(in) :: n, ntot
     integer, intent(in) :: n_imag        !< imaginary entries n+1 .. n+n_imag (elements)
     real(wp), intent(in) :: x(2, ntot), v(2, ntot), v_visc(2, ntot), mass(ntot), rho(ntot)
     real(wp), intent(in) :: h(ntot)      !< smoothing lengths [m]
     real(wp), intent(in) :: sig(4, ntot), wgt(ntot)
     real(wp), intent(in) :: intact(ntot) !< 1 intact, 0 failed: whose stress acts on whom (acts_on) [-]
-    integer, intent(in) :: tie(n)        !< first node of the edge a particle is tied to (0: free)
+    !> how a particle's pairs with imaginary particles do work (imag_work_pair, _none, _edges)
+    integer, intent(in) :: imag_work(n)
+    !> with imag_work_edges: the velocity of the point that takes the
+    !> particle's reaction, as v (1:2) and as v_visc (3:4) [m/s]
+    real(wp), intent(in) :: v_react(4, n)
     integer, intent(in) :: nbr_ptr(n + 1), nbr_list(*), low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: pair_q(*), pair_hg(2, *), pair_force(2, *), grad(2, *)
     real(wp), intent(in) :: eps_art      !< artificial stress coefficient (0: off) [-]
@@ -721,7 +751,8 @@ contains
     logical :: with_art, tense_i, tense_j
     with_art = eps_art > 0.0_wp
     !$omp parallel default(none) &
-    !$omp shared(n, n_imag, x, v, v_visc, mass, rho, h, sig, wgt, intact, tie, nbr_ptr, nbr_list, low_ptr) &
+    !$omp shared(n, n_imag, x, v, v_visc, mass, rho, h, sig, wgt, intact, imag_work, v_react, nbr_ptr) &
+    !$omp shared(nbr_list, low_ptr) &
     !$omp shared(low_pair, low_other, with_art, art, w_ref) &
     !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de, de_parts) &
     !$omp private(i, k, j, m, o, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work) &
@@ -747,8 +778,18 @@ contains
           sum_hg = sum_hg - mass(j)*ghost_work(f_part, v_visc(:, i), v_visc(2, j))
           cycle
         end if
-        if (tie(i) /= 0 .and. j > n .and. j <= n + n_imag) then
+        if (j > n .and. j <= n + n_imag .and. imag_work(i) /= imag_work_pair) then
           pair_work_k(:, k) = 0.0_wp
+          if (imag_work(i) == imag_work_none) cycle
+          ! the whole pair, at the velocity of the edges that take the reaction
+          dvji = v_react(1:2, i) - v(:, i)
+          vq = v_react(3:4, i) - v_visc(:, i)
+          visc_work = -pair_q(k)*(vq(1)*grad(1, k) + vq(2)*grad(2, k))
+          wj = wgt(j)
+          sum_visc = sum_visc + two_pi*mass(j)*(wi + wj)*visc_work
+          sum_e = sum_e + two_pi*mass(j)*(pair_work(pair_stress(acts_on(intact(i), intact(j))*wi, sig(:, i), &
+                                                                acts_on(intact(j), intact(i))*wj, sig(:, j), &
+                                                                1.0_wp), dvji, grad(:, k)) + (wi + wj)*visc_work)
           cycle
         end if
         wj = wgt(j)

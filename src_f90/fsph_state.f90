@@ -158,6 +158,12 @@ module fsph_state
     integer, allocatable :: edge(:, :)    !< (2, n_edges) node pairs
     integer, allocatable :: edge_cont(:)  !< work: continuum loading each edge this cycle
     real(wp), allocatable :: loose_z(:), ring(:) !< work: per continuum, unassociated axial force, edge ring area
+    !> work, per particle, set at each kick (fsph_coupling reaction_velocities):
+    !> how its pairs with imaginary particles do work (fsph_sph imag_work_*)
+    integer, allocatable :: imag_work(:)
+    !> work, per particle: the velocity of the point of its coupling edges
+    !> that takes its reaction, at the half step (1:2) and over the kick (3:4) [m/s]
+    real(wp), allocatable :: v_react(:, :)
   end type coupling_t
 
   !> Conversion of elements to particles (Xiao et al. 2012 section 2.3).

@@ -31,6 +31,7 @@ contains
                         axis_resultant, artificial_stress, artificial_reference
     use fsph_solver, only: prepare_particle_sums
     use fsph_layouts, only: hist_contact_corrected
+    use fsph_coupling, only: reaction_velocities
     integer, intent(in) :: run             !< handle of the run (fsph_runs)
     type(simulation_t), pointer :: sim
     integer, intent(in) :: np
@@ -38,6 +39,7 @@ contains
     integer, intent(out) :: ierr
     integer :: ntot
     real(wp), allocatable :: grad_v(:, :), switch(:)
+    real(wp) :: no_nodes(2, 0)
     sim => run_state(run)
     ierr = status_bad_input
     acc = 0.0_wp; drho = 0.0_wp; de = 0.0_wp; d = 0.0_wp; spin = 0.0_wp
@@ -70,8 +72,15 @@ contains
                              pt%pair_force, pt%pair_hg, pt%pair_in, pt%acc_imag, pt%acc_axis)
       call axis_resultant(np, pt%mass, pt%nbr_ptr, pt%half_end, pt%nbr_list, pt%pair_in, pt%acc_axis, acc)
       ! the energy equation with the stress, viscosity and velocities of this state
+      if (sim%nodes%n > 0) then
+        call reaction_velocities(sim%coupling, pt, sim%nodes%v(:, 1:sim%nodes%n), sim%nodes%v(:, 1:sim%nodes%n), &
+                                 1.0_wp)
+      else
+        call reaction_velocities(sim%coupling, pt, no_nodes, no_nodes, 1.0_wp)
+      end if
       call sph_energy_rate(np, ntot, pt%n_imag, pt%x, pt%v, pt%v, pt%mass, pt%rho, pt%h, pt%sig, pt%wgt, &
-                           pt%intact, pt%tie_a, pt%nbr_ptr, pt%nbr_list, pt%low_ptr, pt%low_pair, pt%low_other, &
+                           pt%intact, sim%coupling%imag_work, sim%coupling%v_react, pt%nbr_ptr, pt%nbr_list, &
+                           pt%low_ptr, pt%low_pair, pt%low_other, &
                            pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, sim%control%sph_artificial_stress, &
                            pt%art_stress, artificial_reference(sim%conversion%alpha_h), pt%pair_work, de, pt%de_parts)
     end associate

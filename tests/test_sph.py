@@ -426,6 +426,58 @@ def test_elastic_rod_rebounds_from_the_anvil(write_deck):
     assert gaps[-1] > 0.0 and gaps[-1] > gaps[-3]
 
 
+def _tube_on_anvil(write_deck, receding):
+    """A tube of particles (r = 2-3 mm, 8 x 24 lattice, no axis images)
+    standing on the anvil, moved off the lattice, under a small uniform
+    compression (0.03 GPa), moving at random and towards the anvil, or
+    with every other particle moving away from it (receding): the images
+    of the approaching ones act with their particle's whole mass, those
+    of the receding ones with about a fifth of it (fsph_mirror). Returns
+    the kinetic power and heating of every particle, m a.v and m de."""
+    path = write_deck(particle_deck(body="inner_radius = 2.0e-3\n radius = 3.0e-3\n n_radial = 8\n n_axial = 24",
+                                    boundary=True), name=f"tube_on_anvil{int(receding)}.nml")
+    sim = fsph.Simulation(deck_module.load(path))
+    part = sim.snapshot()["particles"]
+    rng = np.random.default_rng(5)
+    spacing = 0.125e-3
+    x = part["x"] + rng.uniform(-0.1, 0.1, part["x"].shape) * spacing
+    v = rng.normal(0.0, 5.0, x.shape)
+    if receding:
+        v[:, 1] += np.where(np.arange(len(v)) % 2 == 0, -10.0, 10.0)
+        first_row = x[:, 1] < 0.17e-3                  # 24 rows over 4 mm
+        assert (v[first_row, 1] < 0.0).sum() >= 2 and (v[first_row, 1] > 0.0).sum() >= 2
+    else:
+        v[:, 1] = -np.abs(v[:, 1]) - 1.0
+    verify.set_particle_motion(sim, x, v)
+    verify.set_stress_state(sim, [0.0, 0.0, 0.0, 0.0], 0.03e9)
+    rates = verify.particle_rates(sim)
+    m = part["mass"]
+    return m * np.sum(rates["acc"] * v, axis=1), m * rates["de"]
+
+
+def test_images_at_a_plane_make_no_energy(write_deck):
+    """Every particle approaching the anvil, so every image weighs its
+    particle's mass: the pairs (i, j') and (j, i') are mirror twins, the
+    particles' own-stress shares add up to their forces' work, and the
+    kinetic power sum m a.v and the heating sum m de cancel to round-off,
+    as in a body without a wall (the plane takes the reaction and does
+    not move)."""
+    power, heat = _tube_on_anvil(write_deck, receding=False)
+    assert abs(power.sum() + heat.sum()) < 1e-11 * np.abs(power).sum()
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "measured 8.5e-4 of the power sum: where a particle leaving the anvil meets one pressing on it, "
+    "i takes j's image at j's weight and j takes i's at i's, the pairs are no longer mirror twins and "
+    "the own-stress shares do not add up to the forces' work (docs/method.md, 'The axis and the anvil', "
+    "still open; +0.26 % of the default Taylor rod's energy by 6 us)"))
+def test_images_of_unequal_weight_make_no_energy(write_deck):
+    """Every other particle leaving the anvil: the kinetic power sum and
+    the heating sum cancel to round-off as with equal weights."""
+    power, heat = _tube_on_anvil(write_deck, receding=True)
+    assert abs(power.sum() + heat.sum()) < 1e-11 * np.abs(power).sum()
+
+
 # ---- artificial stress --------------------------------------------------------
 def disordered_tube(write_deck, eps, deviator, pressure, seed=11):
     """A free tube (r = 2-3 mm, 8 x 24 lattice, no axis images, no plane)

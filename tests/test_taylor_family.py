@@ -157,14 +157,15 @@ def test_energy_balance(material, mode, resolution, tmp_path_factory):
 #: Adaptive runs whose hottest particle exceeds ten times the largest
 #: element energy: what was measured, and FEM's own hottest element on
 #: the same mesh over the run's largest element (the bar is out of reach of
-#: a run whose face particles are as hot as FEM's face where that is above
-#: 10).
+#: a run whose face particles are as hot as FEM's face where that is at or
+#: above 10; measured again 2026-11-29, latest, after the coupling's pairs
+#: came to book their whole work, which moved the run's largest element).
 HEAT_SHORT = {
-    ("armco", "adaptive", "coarse"): "measured 13.7; FEM's own: 11.7",
-    ("copper", "adaptive", "coarse"): "measured 13.0; FEM's own: 10.9",
-    ("copper", "adaptive", "medium"): "measured 10.2; FEM's own: 10.8",
+    ("armco", "adaptive", "coarse"): "measured 13.7; FEM's own: 11.9",
+    ("copper", "adaptive", "coarse"): "measured 13.0; FEM's own: 11.0",
+    ("copper", "adaptive", "medium"): "measured 10.2; FEM's own: 10.0",
     ("armco", "adaptive", "fine"): "measured 12.8; FEM's own: 10.1",
-    ("copper", "adaptive", "fine"): "measured 17.2; FEM's own: 16.9",
+    ("copper", "adaptive", "fine"): "measured 17.3; FEM's own: 16.9",
 }
 HEAT_REASON = ("{} times the largest element's energy: the converted particles carry the "
                "impact face's plastic work and the remaining elements are the shank's; docs/validation.md")
