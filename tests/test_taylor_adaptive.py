@@ -66,4 +66,3 @@ def test_adaptive_energy_throughout(adaptive):
     """The energy error stays within the band during the whole run, not
     only at its end."""
     assert abs(adaptive["energy"]["max_relative_error"]) * 100.0 < BANDS["energy_percent"]
-
