@@ -39,7 +39,9 @@
 !> whole hoop work, which drained its energy in tension until it flew
 !> apart. A ghost is not a particle of its own: the heat of a ghost entry
 !> is minus the work of its force on the particle, so ghosts neither make
-!> nor lose energy. For a particle whose reaction goes to its coupling
+!> nor lose energy radially (their axial stress forces, less each
+!> fragment's resultant, work on the motion relative to the fragment
+!> unbooked: axis_resultant, docs/method.md). For a particle whose reaction goes to its coupling
 !> edges the pairs with the imaginary particles of the elements are
 !> charged whole, at the edges' velocity (sph_energy_rate).
 !>
