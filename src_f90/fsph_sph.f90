@@ -120,6 +120,7 @@ module fsph_sph
   use fsph_kernel, only: kernel_gradient_factor, in_support, kernel_shape
   use fsph_ordered, only: merge_minimum
   use fsph_groups, only: root
+  use fsph_threads, only: thread_rows
   implicit none
   private
 
@@ -425,7 +426,7 @@ contains
     !> the axial part of acc from the stress terms of the mirror images
     !> across the axis (axis_resultant) [m/s^2]
     real(wp), intent(out) :: acc_axis(n)
-    integer :: i, k, j, src
+    integer :: i, k, j, src, first, last
     real(wp) :: sg, dx(2), dv(2), dist2, hij, grad(2), wi, q, stot(4), f(2), a(2), a_imag(2), da(2), a_axis
     real(wp) :: factor, p_hg(2), dv_hg(2), gi(2, 2), xi(2), vi(2), hi, rhoi, ci, sigi(4), inti, switch_i
     real(wp) :: corrected_i
@@ -437,9 +438,9 @@ contains
     !$omp shared(low_ptr, low_pair, low_other, c_q, c_l, c_hg, acc, pair_q, pair_force, pair_hg, pair_in) &
     !$omp shared(acc_imag, acc_axis, with_art, art, w_ref) &
     !$omp private(i, k, j, sg, dx, dv, dist2, hij, grad, wi, q, stot, f, a, a_imag, da, factor, p_hg, dv_hg, gi) &
-    !$omp private(a_axis, src, xi, vi, hi, rhoi, ci, sigi, inti, switch_i, corrected_i, tense_i)
-    !$omp do schedule(dynamic, 64)
-    do i = 1, n
+    !$omp private(a_axis, src, xi, vi, hi, rhoi, ci, sigi, inti, switch_i, corrected_i, tense_i, first, last)
+    call thread_rows(n, nbr_ptr, low_ptr, first, last)
+    do i = first, last
       ! the row's own values in locals: the stores to the pair arrays
       ! below would otherwise make the compiler read them again for every
       ! entry
@@ -524,30 +525,29 @@ contains
       acc_imag(:, i) = a_imag
       acc_axis(i) = a_axis
     end do
-    !$omp end do
-    call add_partner_forces(n, mass, low_ptr, low_pair, low_other, pair_force, acc)
+    ! the partners' forces of other rows
+    !$omp barrier
+    call add_partner_forces(n, first, last, mass, low_ptr, low_pair, low_other, pair_force, acc)
     !$omp end parallel
   end subroutine sph_accelerations
 
   !> The partners' side of the half entries: each particle takes minus the
   !> force its lower-index partners computed for their pair, in list order.
-  !> Called inside the parallel region of sph_accelerations (an orphaned
-  !> worksharing loop: its threads share the rows).
-  subroutine add_partner_forces(n, mass, low_ptr, low_pair, low_other, pair_force, acc)
-    integer, intent(in) :: n, low_ptr(n + 1), low_pair(*), low_other(*)
+  !> Called by each thread of the parallel region of sph_accelerations for
+  !> its rows first..last (thread_rows).
+  subroutine add_partner_forces(n, first, last, mass, low_ptr, low_pair, low_other, pair_force, acc)
+    integer, intent(in) :: n, first, last, low_ptr(n + 1), low_pair(*), low_other(*)
     real(wp), intent(in) :: mass(*), pair_force(2, *)
     real(wp), intent(inout) :: acc(2, n)
     integer :: i, m
     real(wp) :: a(2)
-    !$omp do schedule(dynamic, 64)
-    do i = 1, n
+    do i = first, last
       a = acc(:, i)
       do m = low_ptr(i), low_ptr(i + 1) - 1
         a = a - mass(low_other(m))*pair_force(:, low_pair(m))
       end do
       acc(:, i) = a
     end do
-    !$omp end do
   end subroutine add_partner_forces
 
   !> The terms of one neighbour in the rate sums of a particle: planar
@@ -599,15 +599,15 @@ contains
     real(wp), intent(out) :: drho(n)     !< [kg/(m^3 s)]
     real(wp), intent(out) :: d(4, n), spin(n) !< [1/s]
     real(wp), intent(out) :: grad_v(4, n) !< [1/s]
-    integer :: i, k, j, m
+    integer :: i, k, j, m, first, last
     real(wp) :: sg, dx(2), dvji(2), dist2, g_ij(2), acc9(9), gv(2, 2), lm(2, 2), inv(2, 2), det, g(2, 2)
     real(wp) :: seen
     !$omp parallel default(none) &
     !$omp shared(n, x, v, mass, rho, h, area, intact, nbr_ptr, nbr_list, low_ptr, low_pair, low_other, pair_in) &
     !$omp shared(grad, sums, drho, d, spin, grad_v) &
-    !$omp private(i, k, j, m, sg, dx, dvji, dist2, g_ij, acc9, gv, lm, inv, det, g, seen)
-    !$omp do schedule(dynamic, 64)
-    do i = 1, n
+    !$omp private(i, k, j, m, sg, dx, dvji, dist2, g_ij, acc9, gv, lm, inv, det, g, seen, first, last)
+    call thread_rows(n, nbr_ptr, low_ptr, first, last)
+    do i = first, last
       acc9 = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1
         ! a listed pair outside the support at the start of the cycle adds
@@ -637,10 +637,10 @@ contains
       end do
       sums(:, i) = acc9
     end do
-    !$omp end do
+    ! the kernel gradients of other rows
+    !$omp barrier
     ! the partners' side of the half entries, then the rates
-    !$omp do schedule(dynamic, 64)
-    do i = 1, n
+    do i = first, last
       acc9 = sums(:, i)
       do m = low_ptr(i), low_ptr(i + 1) - 1
         j = low_other(m)
@@ -668,7 +668,6 @@ contains
       spin(i) = 0.5_wp*(g(1, 2) - g(2, 1))
       grad_v(:, i) = [g(1, 1), g(2, 1), g(1, 2), g(2, 2)]
     end do
-    !$omp end do
     !$omp end parallel
   end subroutine sph_rates
 
@@ -746,7 +745,7 @@ contains
     real(wp), intent(out) :: pair_work_k(3, *)
     real(wp), intent(out) :: de(n)
     real(wp), intent(inout) :: de_parts(3, n) !< rows 1, 2 out: the viscous and hourglass parts of de [J/(kg s)]
-    integer :: i, k, j, m, o
+    integer :: i, k, j, m, o, first, last
     real(wp) :: dvji(2), vq(2), wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work, sum_visc, sum_hg, &
                 f_part(2), fn, a_ij, a_ji
     real(wp), parameter :: zero3(3) = 0.0_wp, zero4(4) = 0.0_wp
@@ -758,9 +757,9 @@ contains
     !$omp shared(low_pair, low_other, with_art, art, w_ref) &
     !$omp shared(pair_q, pair_hg, pair_force, grad, pair_work_k, de, de_parts) &
     !$omp private(i, k, j, m, o, dvji, vq, wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work) &
-    !$omp private(sum_visc, sum_hg, f_part, fn, a_ij, a_ji, tense_i, tense_j)
-    !$omp do schedule(dynamic, 64)
-    do i = 1, n
+    !$omp private(sum_visc, sum_hg, f_part, fn, a_ij, a_ji, tense_i, tense_j, first, last)
+    call thread_rows(n, nbr_ptr, low_ptr, first, last)
+    do i = first, last
       wi = wgt(i)
       sum_e = 0.0_wp
       sum_visc = 0.0_wp
@@ -826,10 +825,10 @@ contains
       de_parts(1, i) = sum_visc
       de_parts(2, i) = sum_hg
     end do
-    !$omp end do
+    ! the partners' work of other rows
+    !$omp barrier
     ! the partners' side of the half entries, then the rates
-    !$omp do schedule(dynamic, 64)
-    do i = 1, n
+    do i = first, last
       sum_e = de(i)
       sum_visc = de_parts(1, i)
       sum_hg = de_parts(2, i)
@@ -844,7 +843,6 @@ contains
       de_parts(2, i) = sum_hg
       de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + sum_e
     end do
-    !$omp end do
     !$omp end parallel
   end subroutine sph_energy_rate
 
