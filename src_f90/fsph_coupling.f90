@@ -266,6 +266,8 @@ contains
       if (size(cp%imag_work) < pt%n) deallocate (cp%imag_work, cp%v_react)
     end if
     if (.not. allocated(cp%imag_work)) allocate (cp%imag_work(max(pt%n, 1) + 64), cp%v_react(4, max(pt%n, 1) + 64))
+    ! in the static blocks of the other particle loops (fsph_integrate)
+    !$omp parallel do default(none) shared(cp, pt, v_now, v_before, scale) private(i, slot, k, a, b, n_assoc, w)
     do i = 1, pt%n
       cp%v_react(:, i) = 0.0_wp
       if (pt%tie_a(i) /= 0) then
@@ -289,6 +291,7 @@ contains
                                                                    + v_now(:, b))
       end do
     end do
+    !$omp end parallel do
   end subroutine reaction_velocities
 
   !> Nodal masses of tied particles: (1 - xi) m_p to node a, xi m_p to b.

@@ -92,7 +92,7 @@ contains
                    shear_modulus(props(:, im), istrength(im), rho(i), p(i), temp(i)), props(prop_bulk, im))
     end do
     !$omp end do
-    !$omp do schedule(dynamic, 64)
+    !$omp do schedule(static)
     do i = 1, n
       work(3, i) = 0.0_wp
       im = mat(i)

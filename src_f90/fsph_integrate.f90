@@ -1,4 +1,8 @@
-!> Central-difference time integration of nodal velocities and positions.
+!> Central-difference time integration of nodal velocities and positions,
+!> and the particles' kick. Loops over points are split between threads
+!> in the static blocks of every other particle loop, so that a point's
+!> data stay with one core from phase to phase (docs/performance.md,
+!> "Which core holds a particle").
 module fsph_integrate
   use fsph_kinds, only: wp
   use fsph_status, only: status_ok, status_nonfinite_node
@@ -7,7 +11,7 @@ module fsph_integrate
   implicit none
   private
 
-  public :: integrate_velocities, integrate_positions
+  public :: integrate_velocities, integrate_positions, kick_particles, mean_kick_velocity
 
 contains
 
@@ -25,6 +29,37 @@ contains
     end do
     !$omp end parallel do
   end subroutine integrate_velocities
+
+  !> The particles' kick: v_before <- v, v <- v + dt_v acc.
+  subroutine kick_particles(n, dt_v, acc, v, v_before)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: dt_v             !< velocity step [s]
+    real(wp), intent(in) :: acc(2, n)        !< [m/s^2]
+    real(wp), intent(inout) :: v(2, n)       !< [m/s]
+    real(wp), intent(out) :: v_before(2, n)  !< [m/s]
+    integer :: i
+    !$omp parallel do default(none) shared(n, dt_v, acc, v, v_before) private(i)
+    do i = 1, n
+      v_before(:, i) = v(:, i)
+      v(:, i) = v(:, i) + dt_v*acc(:, i)
+    end do
+    !$omp end parallel do
+  end subroutine kick_particles
+
+  !> v_bar <- (v_bar + v)/2 scale: from the velocity before the kick, the
+  !> mean over the kick times scale [-].
+  subroutine mean_kick_velocity(n, scale, v, v_bar)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: scale
+    real(wp), intent(in) :: v(2, n)          !< [m/s]
+    real(wp), intent(inout) :: v_bar(2, n)   !< [m/s]
+    integer :: i
+    !$omp parallel do default(none) shared(n, scale, v, v_bar) private(i)
+    do i = 1, n
+      v_bar(:, i) = 0.5_wp*(v_bar(:, i) + v(:, i))*scale
+    end do
+    !$omp end parallel do
+  end subroutine mean_kick_velocity
 
   !> x <- x_old + dt v, x_mid = (x_old + x)/2; ierr = status_nonfinite_node
   !> with ifault the first node whose position or velocity is not finite.

@@ -207,7 +207,7 @@ contains
     integer :: i, k, j
     allocate (f_i(n))
     !$omp parallel do default(none) private(i, k, j) shared(n, first, nbr_ptr, nbr_list, mass, pair_force, f_i) &
-    !$omp schedule(dynamic, 256)
+    !$omp schedule(static)
     do i = 1, n
       f_i(i) = 0.0_wp
       do k = nbr_ptr(i), nbr_ptr(i + 1) - 1

@@ -185,7 +185,7 @@ contains
     ! of every sum, depends only on which particles are listed, not on the
     ! cells or on when the lists were built (entries beyond the support
     ! that a skin adds contribute exact zeros)
-    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp parallel do default(none) schedule(static) &
     !$omp shared(nq, work, nbr_ptr, half_end, cnt_ptr, nbr_list, cnt_list) private(i)
     do i = 1, nq
       call sort_ascending(work%half_row(1:work%n_half(i), i))
@@ -317,7 +317,7 @@ contains
     ! width + 1, and a count above width makes the caller widen and rescan
     width = work%width
     cwidth = work%contact_width
-    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp parallel do default(none) schedule(static) &
     !$omp shared(nq, x, h, body, skin, work, width, cwidth) &
     !$omp private(ii, l, jz, n_half, n_one, n_cnt, bi, ri, zi, reach_i, big, cell) &
     !$omp private(jr_lo, jr_hi, jz_lo, jz_hi, row)

@@ -8,7 +8,7 @@ module fsph_particles
   use fsph_layouts, only: n_props, n_hist, prop_pmin, prop_shear, prop_rho0, eos_hjc, hist_viscous_work, &
                           hist_hourglass_work, hist_contact_work
   use fsph_material, only: material_update, eos_pressure, sound_speed, cut_pressure, state_temperature, &
-                           melt_update, shear_modulus
+                           melt_update, shear_modulus, point_failed
   use fsph_ordered, only: first_fault
   use fsph_sph, only: ghost_work, entry_sign
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -23,8 +23,75 @@ module fsph_particles
 
   public :: riemann_contact_accelerations, riemann_contact_heat, riemann_contact_density_rate, contact_normals, &
             contact_pairs_in, riemann_pair
+  public :: total_stress, keep_start_state, mid_step_state, point_intact
 
 contains
+
+  ! The particles' per-point steps of a cycle below run in the static
+  ! blocks of every other particle loop (docs/performance.md, "Which core
+  ! holds a particle"): written serially, each pulled every particle's
+  ! data to the first thread's core and the next parallel loop pulled half
+  ! of them back.
+
+  !> Total stress sig = s - p I (rr, zz, rz, tt) [Pa] of the deviator s
+  !> and the pressure p [Pa].
+  subroutine total_stress(n, s, p, sig)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: s(4, n), p(n)
+    real(wp), intent(out) :: sig(4, n)
+    integer :: i
+    !$omp parallel do default(none) shared(n, s, p, sig) private(i)
+    do i = 1, n
+      sig(:, i) = s(:, i)
+      sig([1, 2, 4], i) = sig([1, 2, 4], i) - p(i)
+    end do
+    !$omp end parallel do
+  end subroutine total_stress
+
+  !> The internal energy [J/kg] and density [kg/m^3] at the start of the
+  !> step, kept before the particle update.
+  subroutine keep_start_state(n, e, rho, e_old, rho_old)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: e(n), rho(n)
+    real(wp), intent(out) :: e_old(n), rho_old(n)
+    integer :: i
+    !$omp parallel do default(none) shared(n, e, rho, e_old, rho_old) private(i)
+    do i = 1, n
+      e_old(i) = e(i)
+      rho_old(i) = rho(i)
+    end do
+    !$omp end parallel do
+  end subroutine keep_start_state
+
+  !> Mid-step total stress (the mean of the stress sig at the start of the
+  !> step and of the end-of-step deviator s and pressure p) [Pa] and
+  !> density (the mean of rho_old and rho) [kg/m^3].
+  subroutine mid_step_state(n, sig, s, p, rho_old, rho, sig_mid, rho_mid)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: sig(4, n), s(4, n), p(n), rho_old(n), rho(n)
+    real(wp), intent(out) :: sig_mid(4, n), rho_mid(n)
+    integer :: i
+    !$omp parallel do default(none) shared(n, sig, s, p, rho_old, rho, sig_mid, rho_mid) private(i)
+    do i = 1, n
+      sig_mid(:, i) = 0.5_wp*(sig(:, i) + s(:, i))
+      sig_mid([1, 2, 4], i) = sig_mid([1, 2, 4], i) - 0.5_wp*p(i)
+      rho_mid(i) = 0.5_wp*(rho_old(i) + rho(i))
+    end do
+    !$omp end parallel do
+  end subroutine mid_step_state
+
+  !> 1 for an intact point, 0 for a failed one, by its history [-].
+  subroutine point_intact(n, hist, intact)
+    integer, intent(in) :: n
+    real(wp), intent(in) :: hist(n_hist, n)
+    real(wp), intent(out) :: intact(n)
+    integer :: i
+    !$omp parallel do default(none) shared(n, hist, intact) private(i)
+    do i = 1, n
+      intact(i) = merge(0.0_wp, 1.0_wp, point_failed(hist(:, i)))
+    end do
+    !$omp end parallel do
+  end subroutine point_intact
 
   !> rho <- rho + dt drho, then the constitutive step of fsph_material
   !> (shared with elements): deviator, and the end-of-step pressure with a
@@ -272,7 +339,7 @@ contains
     real(wp), intent(inout) :: acc_axis(n)
     integer :: i, k, j
     real(wp) :: sg, dx(2), dist2, nij(2), p_eq, p_star, us, f(2), a(2), ui, uj, rho2, gn, a_axis
-    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp parallel do default(none) schedule(static) &
     !$omp shared(n, x, v, mass, rho, c, sig, h, normal, cnt_ptr, cnt_list, cnt_in, acc, force, v_star) &
     !$omp shared(acc_axis) &
     !$omp private(i, k, j, sg, dx, dist2, nij, p_eq, p_star, us, f, a, ui, uj, rho2, gn, a_axis)
@@ -323,7 +390,7 @@ contains
     logical, intent(out) :: cnt_in(*)
     integer :: i, k, j
     real(wp) :: sg, dist2
-    !$omp parallel do default(none) schedule(dynamic, 64) shared(n, x, h, cnt_ptr, cnt_list, cnt_in) &
+    !$omp parallel do default(none) schedule(static) shared(n, x, h, cnt_ptr, cnt_list, cnt_in) &
     !$omp private(i, k, j, sg, dist2)
     do i = 1, n
       do k = cnt_ptr(i), cnt_ptr(i + 1) - 1
@@ -349,7 +416,7 @@ contains
     real(wp), intent(out) :: normal(2, n)
     integer :: i, k, j
     real(wp) :: sg, dx(2), dist2, g(2)
-    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp parallel do default(none) schedule(static) &
     !$omp shared(n, x, mass, rho, h, cnt_ptr, cnt_list, cnt_in, normal) private(i, k, j, sg, dx, dist2, g)
     do i = 1, n
       g = 0.0_wp
@@ -454,7 +521,7 @@ contains
     real(wp), intent(inout) :: de_parts(3, n) !< row 3 out: energy the contact gives the particle, for the books [W/kg]
     integer :: i, k, j
     real(wp) :: heat, given
-    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp parallel do default(none) schedule(static) &
     !$omp shared(n, v_bar, mass, cnt_ptr, cnt_list, force, v_star, de, de_parts) private(i, k, j, heat, given)
     do i = 1, n
       heat = 0.0_wp
@@ -508,7 +575,7 @@ contains
     real(wp), intent(inout) :: drho(n)   !< [kg/(m^3 s)]
     integer :: i, k, j
     real(wp) :: sg, dx(2), dist2, nij(2), p_eq, p_star, us, gn, deta
-    !$omp parallel do default(none) schedule(dynamic, 64) &
+    !$omp parallel do default(none) schedule(static) &
     !$omp shared(n, x, v, mass, rho, c, sig, h, normal, cnt_ptr, cnt_list, cnt_in, drho) &
     !$omp private(i, k, j, sg, dx, dist2, nij, p_eq, p_star, us, gn, deta)
     do i = 1, n

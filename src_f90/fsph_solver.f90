@@ -18,20 +18,21 @@ module fsph_solver
                           phase_element_forces, phase_element_update, phase_neighbours, phase_sph_sums, &
                           phase_particle_update, phase_particle_contact, phase_coupling, phase_contact, &
                           phase_integrate, phase_conversion, phase_time_step, particle_contact_riemann
-  use fsph_material, only: eos_pressure, sound_speed, point_failed
+  use fsph_material, only: eos_pressure, sound_speed
   use fsph_element, only: element_geometry, element_corner_forces, gather_corner_forces, &
                           element_update, element_time_step
   use fsph_boundary, only: apply_axis, apply_rigid_plane
-  use fsph_integrate, only: integrate_velocities, integrate_positions
+  use fsph_integrate, only: integrate_velocities, integrate_positions, kick_particles, mean_kick_velocity
   use fsph_neighbours, only: build_neighbours
-  use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, &
-                      axis_resultant, &
+  use fsph_sph, only: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, &
+                      axis_resultant, particle_radii, &
                       pair_weights, compression_switch, artificial_stress, artificial_reference
   use fsph_mirror, only: mirror_plane_normal_to_axis, mirror_select, mirror_fill_start, mirror_fill_mid, &
                          mirror_fill_stress, mirror_reaction_z
   use fsph_particles, only: particle_state_update, particle_energy_update, &
                             particle_contact_accelerations, riemann_contact_accelerations, riemann_contact_heat, &
-                            riemann_contact_density_rate, contact_normals, contact_pairs_in
+                            riemann_contact_density_rate, contact_normals, contact_pairs_in, total_stress, &
+                            keep_start_state, mid_step_state, point_intact
   use fsph_eigenerosion, only: eigenerosion_failure
   use fsph_total, only: total_setup, total_forces, total_rates, total_energy_rate, total_time_step, total_active
   use fsph_coupling, only: fill_imaginary, coupling_tractions, tie_forces, tie_velocities, reaction_velocities, &
@@ -228,12 +229,10 @@ contains
   !> reached 7 mm on a concrete debris particle and drew contact kicks.
   subroutine update_particle_radius(sim)
     type(simulation_t), intent(inout) :: sim
-    integer :: i, n
+    integer :: n
     n = sim%particles%n
     associate (pt => sim%particles)
-      do i = 1, n
-        pt%radius(i) = particle_radius(pt%mass(i), pt%x(1, i), max(pt%rho(i), sim%props(prop_rho0, pt%mat(i))))
-      end do
+      call particle_radii(n, sim%props(prop_rho0, :), pt%mat, pt%mass, pt%x, pt%rho, pt%radius)
     end associate
   end subroutine update_particle_radius
 
@@ -577,10 +576,7 @@ contains
         pt%list_uses = pt%list_uses + 1
       end if
       ntot = n + pt%n_imag + pt%n_mirror
-      do i = 1, n
-        pt%sig(:, i) = pt%s(:, i)
-        pt%sig([1, 2, 4], i) = pt%sig([1, 2, 4], i) - pt%p(i)
-      end do
+      call total_stress(n, pt%s, pt%p, pt%sig)
       call reserve(pt%intact, ntot)
       call fill_intact(sim%particles)
       call reserve(pt%pair_q, size(pt%nbr_list))
@@ -648,9 +644,7 @@ contains
     type(particle_set_t), intent(inout) :: pt
     integer :: i, n
     n = pt%n
-    do i = 1, n
-      pt%intact(i) = merge(0.0_wp, 1.0_wp, point_failed(pt%hist(:, i)))
-    end do
+    call point_intact(n, pt%hist, pt%intact)
     pt%intact(n + 1:n + pt%n_imag) = 1.0_wp
     do i = 1, pt%n_mirror
       pt%intact(n + pt%n_imag + i) = pt%intact(pt%mirror_of(i))
@@ -737,8 +731,8 @@ contains
       end if
       n = pt%n
       if (n > 0) then
-        pt%v_bar(:, 1:n) = pt%v(:, 1:n)   ! velocity before the kick
-        pt%v(:, 1:n) = pt%v(:, 1:n) + dt_v*pt%acc(:, 1:n)
+        ! v_bar: the velocity before the kick
+        call kick_particles(n, dt_v, pt%acc, pt%v, pt%v_bar)
       end if
     end associate
   end subroutine update_velocities
@@ -793,7 +787,7 @@ contains
     if (n == 0) return
     if (sim%nodes%n > 0) call tie_velocities(sim%particles, sim%nodes)
     associate (pt => sim%particles)
-      pt%v_bar(:, 1:n) = 0.5_wp*(pt%v_bar(:, 1:n) + pt%v(:, 1:n))*(dt_v/dt_step)
+      call mean_kick_velocity(n, dt_v/dt_step, pt%v, pt%v_bar)
     end associate
     ! the velocities at which the pairs with imaginary particles do work
     if (sim%nodes%n > 0) then
@@ -891,8 +885,7 @@ contains
       end if
       call timer_stop(sim%timers, phase_sph_sums)
       call timer_start(sim%timers, phase_particle_update)
-      pt%e_old(1:n) = pt%e(1:n)
-      pt%rho_old(1:n) = pt%rho(1:n)
+      call keep_start_state(n, pt%e, pt%rho, pt%e_old, pt%rho_old)
       call particle_state_update(n, sim%n_materials, sim%props, sim%istrength, sim%ieos, pt%mat, dt_step, &
                                  sim%control%debris_ratio, pt%x, pt%drho, pt%d, pt%spin, pt%e, pt%rho, &
                                  pt%s, pt%p, pt%eps_p, pt%temp, pt%hist, pt%c, pt%n_debris, ierr, ifault)
@@ -911,11 +904,7 @@ contains
       call timer_stop(sim%timers, phase_particle_update)
       if (ierr == status_ok) then
         call timer_start(sim%timers, phase_sph_sums)
-        do i = 1, n
-          pt%sig_mid(:, i) = 0.5_wp*(pt%sig(:, i) + pt%s(:, i))
-          pt%sig_mid([1, 2, 4], i) = pt%sig_mid([1, 2, 4], i) - 0.5_wp*pt%p(i)
-          pt%rho_mid(i) = 0.5_wp*(pt%rho_old(i) + pt%rho(i))
-        end do
+        call mid_step_state(n, pt%sig, pt%s, pt%p, pt%rho_old, pt%rho, pt%sig_mid, pt%rho_mid)
         if (pt%n_mirror > 0) call mirror_fill_stress(n + pt%n_imag, pt%n_mirror, pt%mirror_of, pt%rho_mid, &
                                                      pt%sig_mid)
         call pair_weights(ntot, pt%x_mid, pt%mass, pt%rho_mid, pt%wgt, pt%planar_area)
@@ -930,7 +919,6 @@ contains
                              pt%pair_q, pt%pair_hg, pt%pair_force, pt%nbr_grad, sim%control%sph_artificial_stress, &
                              pt%art_stress, artificial_reference(sim%conversion%alpha_h), pt%pair_work, pt%de, &
                              pt%de_parts)
-        pt%de_parts(3, 1:n) = 0.0_wp
         if (total_active(sim%total)) &
           call total_energy_rate(sim%total, n, pt%sig_mid, pt%d, pt%rho, pt%rho_mid, pt%c, pt%v_bar, pt%mass, &
                                  sim%control%c_q, sim%control%c_l, pt%de, pt%de_parts)

@@ -124,7 +124,7 @@ module fsph_sph
   implicit none
   private
 
-  public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights
+  public :: sph_accelerations, sph_rates, sph_energy_rate, sph_time_step, particle_radius, pair_weights, particle_radii
   public :: imag_work_pair, imag_work_none, imag_work_edges
   public :: compression_switch, ghost_work, entry_sign, axis_resultant, artificial_stress, artificial_reference
 
@@ -159,6 +159,21 @@ contains
     ! in this cycle) keeps the radius of its mirror ring
     radius = 0.5_wp*sqrt(mass/(two_pi*abs(r)*rho))
   end function particle_radius
+
+  !> Radius of every particle (particle_radius) [m] at its density, but
+  !> never above the radius at its material's reference density rho0(mat)
+  !> [kg/m^3] (fsph_solver update_particle_radius says why).
+  subroutine particle_radii(n, rho0, mat, mass, x, rho, radius)
+    integer, intent(in) :: n, mat(n)
+    real(wp), intent(in) :: rho0(:), mass(n), x(2, n), rho(n)
+    real(wp), intent(out) :: radius(n)
+    integer :: i
+    !$omp parallel do default(none) shared(n, rho0, mat, mass, x, rho, radius) private(i)
+    do i = 1, n
+      radius(i) = particle_radius(mass(i), x(1, i), max(rho(i), rho0(mat(i))))
+    end do
+    !$omp end parallel do
+  end subroutine particle_radii
 
   !> Per-entry factors of the pair sums, for entries 1..ntot (real and
   !> imaginary particles): the stress weight w = r/eta^2 =
@@ -744,7 +759,9 @@ contains
     !> hourglass parts [m^2/(kg s^3)]
     real(wp), intent(out) :: pair_work_k(3, *)
     real(wp), intent(out) :: de(n)
-    real(wp), intent(inout) :: de_parts(3, n) !< rows 1, 2 out: the viscous and hourglass parts of de [J/(kg s)]
+    !> the viscous and hourglass parts of de (rows 1, 2) [J/(kg s)]; row 3,
+    !> the contact's, set to 0 (riemann_contact_heat adds it)
+    real(wp), intent(out) :: de_parts(3, n)
     integer :: i, k, j, m, o, first, last
     real(wp) :: dvji(2), vq(2), wi, wj, sum_e, w_own, w_partner, q_work, visc_work, hg_work, sum_visc, sum_hg, &
                 f_part(2), fn, a_ij, a_ji
@@ -841,6 +858,7 @@ contains
       end do
       de_parts(1, i) = sum_visc
       de_parts(2, i) = sum_hg
+      de_parts(3, i) = 0.0_wp
       de(i) = sig(4, i)*v(1, i)/(rho(i)*x(1, i)) + sum_e
     end do
     !$omp end parallel

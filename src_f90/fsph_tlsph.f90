@@ -91,6 +91,7 @@ module fsph_tlsph
   use fsph_kernel, only: kernel_gradient_factor, in_support, kernel_w
   use fsph_spatial, only: make_grid
   use fsph_status, only: status_ok, status_bad_input, status_inverted_element
+  use fsph_threads, only: thread_rows
   implicit none
   private
 
@@ -332,11 +333,11 @@ contains
     real(wp), intent(in) :: grad_w(2, *) !< [1/m^3]
     real(wp), intent(in) :: bmat(2, 2, n), f(n)
     real(wp), intent(out) :: grad_f(2, n)
-    integer :: i, k, j
+    integer :: i, k, j, first, last
     real(wp) :: s(2)
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, area, ptr, list, grad_w, bmat, f, grad_f) private(i, k, j, s)
-    do i = 1, n
+    !$omp parallel default(none) shared(n, area, ptr, list, grad_w, bmat, f, grad_f) private(i, k, j, s, first, last)
+    call thread_rows(n, ptr, ptr, first, last)
+    do i = first, last
       s = 0.0_wp
       do k = ptr(i), ptr(i + 1) - 1
         j = abs(list(k))
@@ -344,7 +345,7 @@ contains
       end do
       grad_f(:, i) = matmul(bmat(:, :, i), s)
     end do
-    !$omp end parallel do
+    !$omp end parallel
   end subroutine corrected_gradient
 
   !> Deformation gradients at the current positions x: the in-plane block
@@ -364,11 +365,13 @@ contains
     real(wp), intent(in) :: bmat(2, 2, n)
     real(wp), intent(out) :: fmat(2, 2, n), f_tt(n), jac(n) !< [-]
     integer, intent(out) :: ierr, ifault
-    integer :: i, k, j
+    integer :: i, k, j, first, last
     real(wp) :: s(2, 2), du(2), ui(2), sg, det
-    !$omp parallel do default(none) schedule(dynamic, 64) &
-    !$omp shared(n, x0, x, h, area, ptr, list, grad_w, bmat, fmat, f_tt, jac) private(i, k, j, s, du, ui, sg, det)
-    do i = 1, n
+    !$omp parallel default(none) &
+    !$omp shared(n, x0, x, h, area, ptr, list, grad_w, bmat, fmat, f_tt, jac) &
+    !$omp private(i, k, j, s, du, ui, sg, det, first, last)
+    call thread_rows(n, ptr, ptr, first, last)
+    do i = first, last
       ui = x(:, i) - x0(:, i)
       s = 0.0_wp
       do k = ptr(i), ptr(i + 1) - 1
@@ -393,7 +396,7 @@ contains
       det = fmat(1, 1, i)*fmat(2, 2, i) - fmat(1, 2, i)*fmat(2, 1, i)
       jac(i) = merge(det*f_tt(i), -abs(det*f_tt(i)), det > 0.0_wp .and. f_tt(i) > 0.0_wp)
     end do
-    !$omp end parallel do
+    !$omp end parallel
     ifault = 0
     ierr = status_ok
     do i = 1, n
@@ -472,19 +475,19 @@ contains
     real(wp), intent(out) :: work(2, 2, n)          !< Q [Pa m]
     real(wp), intent(out) :: hg_pair(2, *)          !< [N]
     real(wp), intent(out) :: force(2, n)            !< [N]
-    integer :: i, k, j
+    integer :: i, k, j, first, last
     real(wp) :: qs(2, 2), f(2), sg
     !$omp parallel default(none) &
     !$omp shared(n, x0, x, area, ptr, list, grad_w, pair_area, hg_coef, bmat, fmat, hg_on, p, p_tt, work, hg_pair) &
     !$omp shared(force) &
-    !$omp private(i, k, j, qs, f, sg)
-    !$omp do schedule(static)
-    do i = 1, n
+    !$omp private(i, k, j, qs, f, sg, first, last)
+    call thread_rows(n, ptr, ptr, first, last)
+    do i = first, last
       work(:, :, i) = x0(1, i)*matmul(p(:, :, i), bmat(:, :, i))
     end do
-    !$omp end do
-    !$omp do schedule(dynamic, 64)
-    do i = 1, n
+    ! the neighbours' Q of other rows
+    !$omp barrier
+    do i = first, last
       f = 0.0_wp
       do k = ptr(i), ptr(i + 1) - 1
         j = abs(list(k))
@@ -503,7 +506,6 @@ contains
       force(1, i) = f(1) + hoop_force(area(i), p_tt(i))
       force(2, i) = f(2)
     end do
-    !$omp end do
     !$omp end parallel
   end subroutine tlsph_forces
 
