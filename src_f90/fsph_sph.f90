@@ -118,9 +118,8 @@
 module fsph_sph
   use fsph_kinds, only: wp, pi, two_pi
   use fsph_kernel, only: kernel_gradient_factor, in_support, kernel_shape
-  use fsph_ordered, only: merge_minimum
+  use fsph_ordered, only: merge_minimum, thread_rows
   use fsph_groups, only: root
-  use fsph_threads, only: thread_rows
   implicit none
   private
 

@@ -91,7 +91,7 @@ module fsph_tlsph
   use fsph_kernel, only: kernel_gradient_factor, in_support, kernel_w
   use fsph_spatial, only: make_grid
   use fsph_status, only: status_ok, status_bad_input, status_inverted_element
-  use fsph_threads, only: thread_rows
+  use fsph_ordered, only: thread_rows
   implicit none
   private
 
