@@ -545,7 +545,7 @@ contains
   subroutine prepare_particle_sums(sim, ntot)
     type(simulation_t), intent(inout) :: sim
     integer, intent(out) :: ntot
-    integer :: i, n
+    integer :: n
     real(wp) :: skin
     logical :: expired
     associate (pt => sim%particles)
@@ -844,7 +844,7 @@ contains
     type(simulation_t), intent(inout) :: sim
     real(wp), intent(in) :: dt_step
     integer, intent(out) :: ierr, ifault
-    integer :: i, n, ntot
+    integer :: n, ntot
     real(wp) :: point(2, max(sim%n_planes, 1)), normal(2, max(sim%n_planes, 1))
     ierr = status_ok
     ifault = 0

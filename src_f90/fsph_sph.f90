@@ -41,9 +41,10 @@
 !> is minus the work of its force on the particle, so ghosts neither make
 !> nor lose energy radially (their axial stress forces, less each
 !> fragment's resultant, work on the motion relative to the fragment
-!> unbooked: axis_resultant, docs/method.md). For a particle whose reaction goes to its coupling
-!> edges the pairs with the imaginary particles of the elements are
-!> charged whole, at the edges' velocity (sph_energy_rate).
+!> unbooked: axis_resultant, docs/method.md). For a particle whose
+!> reaction goes to its coupling edges the pairs with the imaginary
+!> particles of the elements are charged whole, at the edges' velocity
+!> (sph_energy_rate).
 !>
 !> Artificial viscosity: the continuum (FEM) form q = rho (C_Q h eps)^2 +
 !> C_L rho c h |eps| evaluated pairwise with the normal strain rate
